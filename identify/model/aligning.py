@@ -1,0 +1,83 @@
+"""Aligning moment Mz (magic-formula.md 4.3 and 5.3: 4.E31-4.E47, 4.E71-4.E78, paper A54-A60).
+
+MFeval exports only the combined form: Mz = -t*F'y + Mzr + s*Fx, even at kappa = 0.
+Pure vectorised functions; no I/O.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+import numpy as np
+
+from identify.model.lateral import CombinedLateral, PureLateral
+from identify.model.state import EPS, OperatingState, sgn1
+
+
+@dataclass(frozen=True)
+class AligningMoment:
+    """Combined aligning moment and its exported pieces.
+
+    Attributes
+    ----------
+    mz : ndarray [N m]
+    t : ndarray [m]       pneumatic trail
+    mzr : ndarray [N m]   residual moment
+    """
+
+    mz: np.ndarray
+    t: np.ndarray
+    mzr: np.ndarray
+
+
+def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
+       fy_pure_zero_camber: PureLateral, fy: CombinedLateral, fx: np.ndarray,
+       kxk: np.ndarray) -> AligningMoment:
+    """Combined aligning moment Mz [N m].
+
+    Parameters
+    ----------
+    fy_pure : PureLateral          Fy0 with the actual camber (shifts, Kya, By, Cy)
+    fy_pure_zero_camber : PureLateral  Fy0 at gamma = 0 (the force the trail acts on)
+    fy : CombinedLateral           combined Fy and Gyk
+    fx : ndarray [N]               combined Fx
+    kxk : ndarray [N]              longitudinal slip stiffness
+    """
+    dfz, dpi, g, a, gamma = s.dfz, s.dpi, s.gamma_star, s.alpha_star, s.gamma
+    r0, fz0p = P["UNLOADED_RADIUS"], s.fz0p
+    if s.mode.limits:
+        fz_m = np.where(s.fz <= 0, 0.0, s.fz_low)
+    else:
+        fz_m = s.fz
+    kya = fy_pure.kya
+    kya_p = kya + EPS * sgn1(kya)
+    sht = P["QHZ1"] + P["QHZ2"] * dfz + (P["QHZ3"] + P["QHZ4"] * dfz) * g
+    alpha_r = a + fy_pure.shy + fy_pure.svy / kya_p
+    alpha_t = a + sht
+    dt = ((P["QDZ1"] + P["QDZ2"] * dfz) * (1 - P["PPZ1"] * dpi)
+          * (1 + P["QDZ3"] * gamma + P["QDZ4"] * gamma ** 2)
+          * fz_m * (r0 / fz0p) * P["LTR"])
+    bt = ((P["QBZ1"] + P["QBZ2"] * dfz + P["QBZ3"] * dfz ** 2)
+          * (1 + P["QBZ4"] * gamma + P["QBZ5"] * np.abs(gamma)) * P["LKY"] / P["LMUY"])
+    ct = P["QCZ1"]
+    et = ((P["QEZ1"] + P["QEZ2"] * dfz + P["QEZ3"] * dfz ** 2)
+          * (1 + (P["QEZ4"] + P["QEZ5"] * g) * (2 / np.pi) * np.arctan(bt * ct * alpha_t)))
+    if s.mode.limits:
+        et = np.minimum(et, 1.0)
+    dr = (fz_m * r0 * ((P["QDZ6"] + P["QDZ7"] * dfz) * P["LRES"]
+                       + ((P["QDZ8"] + P["QDZ9"] * dfz) * (1 + P["PPZ2"] * dpi)
+                          + (P["QDZ10"] + P["QDZ11"] * dfz) * np.abs(g)) * g * P["LKZC"])
+          * P["LMUY"] * np.sign(s.vx_u) * np.cos(a))
+    br = P["QBZ9"] * P["LKY"] / P["LMUY"] + P["QBZ10"] * fy_pure.by * fy_pure.cy
+
+    r2 = (kxk / kya_p) ** 2 * s.kappa ** 2
+    alpha_r_eq = np.arctan(np.sqrt(np.tan(alpha_r) ** 2 + r2)) * np.sign(alpha_r)
+    alpha_t_eq = np.arctan(np.sqrt(np.tan(alpha_t) ** 2 + r2)) * np.sign(alpha_t)
+    arm = r0 * (P["SSZ1"] + P["SSZ2"] * (fy.fy / P["FNOMIN"])
+                + (P["SSZ3"] + P["SSZ4"] * dfz) * gamma) * P["LS"]
+    mzr = dr * np.cos(np.arctan(br * alpha_r_eq)) * s.ws
+    fy_prime = fy.gyk * fy_pure_zero_camber.fy0
+    bta = bt * alpha_t_eq
+    t = (dt * np.cos(ct * np.arctan(bta - et * (bta - np.arctan(bta)))) * s.cos_alpha_p
+         * P["LFZO"] * s.ws)
+    return AligningMoment(mz=-t * fy_prime + mzr + arm * fx, t=t, mzr=mzr)
