@@ -1,0 +1,64 @@
+"""Operating-point tables for ``mfid eval`` (CSV: Fz, kappa, alpha, gamma, Vx, p [, phit, omega]).
+
+Every problem is reported as one line naming the file, the line and the column.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from identify.errors import InputError
+
+REQUIRED = ("Fz", "kappa", "alpha", "gamma", "Vx", "p")
+OPTIONAL = ("phit", "omega")
+
+
+def read_points(path: str | Path) -> pd.DataFrame:
+    """Read operating points [SI units, radians] from a CSV file with a header line.
+
+    Returns
+    -------
+    DataFrame
+        The file's columns, the model inputs as float64; other columns are kept as they are.
+
+    Raises
+    ------
+    InputError
+        Unreadable file, empty file, missing column, a cell that is not a number, NaN or inf.
+        Line numbers count the header as line 1.
+    """
+    path = Path(path)
+    try:
+        frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
+    except FileNotFoundError:
+        raise InputError(path, "cannot read file: no such file") from None
+    except IsADirectoryError:
+        raise InputError(path, "cannot read file: is a directory") from None
+    except pd.errors.EmptyDataError:
+        raise InputError(path, "empty file: expected a header line "
+                               f"with columns {', '.join(REQUIRED)}") from None
+    except (pd.errors.ParserError, UnicodeDecodeError, OSError) as exc:
+        raise InputError(path, f"cannot read file: {str(exc).splitlines()[0]}") from None
+    frame.columns = [str(c).strip() for c in frame.columns]
+    missing = [c for c in REQUIRED if c not in frame.columns]
+    if missing:
+        raise InputError(path, f"missing column(s) {', '.join(missing)} "
+                               f"(found: {', '.join(frame.columns)})", line=1)
+    if frame.empty:
+        raise InputError(path, "no operating points below the header", line=1)
+    out = frame.copy()
+    for col in REQUIRED + tuple(c for c in OPTIONAL if c in frame.columns):
+        text = frame[col].str.strip()
+        values = pd.to_numeric(text, errors="coerce").to_numpy(float)
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            row = int(bad[0])
+            cell = text.iloc[row]
+            what = "empty cell" if cell == "" else (
+                f"{cell} is not allowed" if cell.lower().lstrip("+-") in
+                ("nan", "inf", "infinity") else f"not a number: '{cell}'")
+            raise InputError(path, what, line=row + 2, key=col)
+        out[col] = values
+    return out
