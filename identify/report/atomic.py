@@ -1,0 +1,108 @@
+"""Atomic file output: write a temporary file in the target's directory, fsync, rename.
+
+A reader (or ``make``) never sees a half-written output: the target either keeps its old
+content or gets the complete new one. A failed write leaves no temporary file behind.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from identify.errors import InputError
+
+if TYPE_CHECKING:  # pragma: no cover
+    import pandas as pd
+
+__all__ = ["atomic_write_text", "atomic_write_csv"]
+
+
+def _umask() -> int:
+    mask = os.umask(0o022)
+    os.umask(mask)
+    return mask
+
+
+_MODE = 0o666 & ~_umask()
+
+
+def atomic_write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (temp file + fsync + ``os.replace``).
+
+    Line ends are written as given (no newline translation).
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file; its directory must exist.
+    text : str
+        Complete file content.
+    encoding : str
+        Text encoding.
+
+    Returns
+    -------
+    Path
+        The target path.
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written (missing directory, permission ...).
+    """
+    target = Path(path)
+    directory = target.parent
+    try:
+        mode = target.stat().st_mode & 0o777 if target.exists() else _MODE
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=directory)
+    except OSError as exc:
+        raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
+    try:
+        with os.fdopen(fd, "w", encoding=encoding, newline="") as fh:
+            fh.write(text)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, target)
+    except BaseException as exc:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        if isinstance(exc, OSError):
+            raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
+        raise
+    try:  # make the rename itself durable; not possible on every platform
+        dir_fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return target
+    try:
+        os.fsync(dir_fd)
+    except OSError:
+        pass
+    finally:
+        os.close(dir_fd)
+    return target
+
+
+def atomic_write_csv(df: "pd.DataFrame", path: str | Path, **to_csv: Any) -> Path:
+    """Write a DataFrame as CSV atomically, floats in shortest round-trip form.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Table to write.
+    path : str or Path
+        Target file.
+    **to_csv
+        Extra arguments for :meth:`pandas.DataFrame.to_csv` (default ``index=False``).
+
+    Returns
+    -------
+    Path
+        The target path.
+    """
+    options = {"index": False, "float_format": None, "lineterminator": "\n"}
+    options.update(to_csv)
+    return atomic_write_text(path, df.to_csv(**options))

@@ -1,0 +1,177 @@
+"""Write complete MF 6.1 / 6.2 tyre property files (.tir) from the parameter table.
+
+Layout (magic-formula.md 7.4): the 21 sections in the standard order, each after its
+``$----name`` comment line, ``KEY = value $meaning [unit]`` in aligned columns, SI ``[UNITS]``,
+a ``!``-comment header after the ``[MDI_HEADER]`` keys (tool, provenance, the NOMPRES warning),
+unknown keys and tabular sections carried over from an input file, and last mfid's own
+``[MFID_EXTENSIONS]``. Numbers use the shortest round-trip form (``repr``), integers are written
+as integers, so that read -> write -> read is exact. Output is LF, written atomically.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+from identify import __version__
+from identify.model.parameters import PARAMETERS, SECTIONS, defaults, spec
+from identify.report.atomic import atomic_write_text
+
+__all__ = ["write_tir", "format_tir", "format_value"]
+
+_SI_UNITS = {"LENGTH": ("meter", {"meter", "meters", "metre", "metres", "m"}),
+             "FORCE": ("newton", {"newton", "newtons", "n"}),
+             "ANGLE": ("radians", {"radian", "radians", "rad"}),
+             "MASS": ("kg", {"kg", "kilogram", "kilograms"}),
+             "TIME": ("second", {"second", "seconds", "sec", "s"})}
+_KEY_WIDTH = 26
+_VALUE_WIDTH = 24
+_RULE_WIDTH = 70
+
+_EXTENSION_NOTE = (
+    "$ mfid extensions: coefficients the Magic Formula has no key for (mfid, "
+    "identify.model.parameters).",
+    "$ Other tools (MFeval, MF-Tyre/MF-Swift, ADAMS) ignore this section; all defaults are",
+    "$ neutral. Sidewall stiffness scaling with pressure: c_b = c_b0*(1 + F_*dpi);",
+    "$ yaw stiffness form CMZ_FORM 1 = T1 (PCMZ1), 2 = T2 (PCMZ1, PCMZ2, PCMZ3).",
+)
+
+
+def format_value(value: float | str) -> str:
+    """Format one value: integers as integers, other floats as ``repr``, strings quoted.
+
+    Raises
+    ------
+    ValueError
+        For NaN/inf, or a string that cannot be quoted (both quote kinds, a line break).
+    """
+    if isinstance(value, str):
+        if "\n" in value or "\r" in value:
+            raise ValueError(f"string value with a line break: {value!r}")
+        if "'" not in value:
+            return f"'{value}'"
+        if '"' not in value:
+            return f'"{value}"'
+        raise ValueError(f"string value with both quote characters: {value!r}")
+    number = float(value)
+    if not math.isfinite(number):
+        raise ValueError(f"cannot write a non-finite number: {value!r}")
+    if number.is_integer() and abs(number) < 1e15:
+        return str(int(number))
+    return repr(number)
+
+
+def _line(key: str, value: float | str, comment: str) -> str:
+    text = format_value(value)
+    return f"{key:<{_KEY_WIDTH}}= {text:<{_VALUE_WIDTH}}$ {comment}".rstrip()
+
+
+def _rule(section: str) -> str:
+    name = section.lower()
+    return "$" + "-" * max(4, _RULE_WIDTH - 1 - len(name)) + name
+
+
+def _header_comments(comment_lines: Sequence[str]) -> list[str]:
+    out = ["! : FILE_FORMAT : ASCII",
+           f"! : TOOL : mfid {__version__} (Magic Formula identification workbench)"]
+    for entry in comment_lines:
+        for part in str(entry).splitlines() or [""]:
+            out.append(f"! : COMMENT : {part}".rstrip())
+    out.append("! : COMMENT : NOMPRES is the reference pressure of every pressure term: "
+               "NEVER MODIFY NOMPRES (change INFLPRES instead)")
+    return out
+
+
+def _unit_value(name: str, value: float | str) -> str:
+    canonical, spellings = _SI_UNITS[name]
+    return value if isinstance(value, str) and value.strip().lower() in spellings else canonical
+
+
+def format_tir(values: Mapping[str, float | str], *, fittyp: int,
+               comment_lines: Sequence[str] = (),
+               unknown: Mapping[str, float | str] | None = None,
+               tables: Mapping[str, Sequence[str]] | None = None) -> str:
+    """Return the text of a .tir file; see :func:`write_tir` for the parameters."""
+    if fittyp not in (61, 62):
+        raise ValueError(f"fittyp must be 61 (MF 6.1) or 62 (MF 6.2), not {fittyp!r}")
+    full = defaults()
+    for name, value in values.items():
+        spec(name)  # KeyError for a name that is not in the table
+        full[name] = value
+    full["FITTYP"] = fittyp
+    extra: dict[str, list[tuple[str, float | str]]] = {}
+    for dotted, value in (unknown or {}).items():
+        section, _, key = dotted.rpartition(".")
+        if not section or not key:
+            raise ValueError(f"unknown keys are named 'SECTION.KEY', not {dotted!r}")
+        extra.setdefault(section.upper(), []).append((key, value))
+
+    lines: list[str] = []
+
+    def emit_section(section: str) -> None:
+        lines.extend([_rule(section), f"[{section}]"])
+        if section == "MFID_EXTENSIONS":
+            lines.extend(_EXTENSION_NOTE)
+        for p in (q for q in PARAMETERS if q.section == section):
+            value = full[p.name]
+            if p.name in _SI_UNITS:
+                value = _unit_value(p.name, value)
+            elif fittyp not in p.write_for and value == p.default:
+                continue
+            lines.append(_line(p.tir_key, value, p.meaning))
+        for key, value in extra.pop(section, []):
+            lines.append(_line(key, value, "(not an MFeval key: kept from the input file)"))
+        if section == "MDI_HEADER":
+            lines.extend(_header_comments(comment_lines))
+
+    for section in SECTIONS[:-1]:
+        emit_section(section)
+    for section in [s for s in extra if s not in SECTIONS]:
+        emit_section(section)
+    for section, rows in (tables or {}).items():
+        lines.extend([_rule(section), f"[{section.upper()}]"])
+        lines.extend(str(r).rstrip("\r\n") for r in rows)
+    emit_section(SECTIONS[-1])
+    return "\n".join(lines) + "\n"
+
+
+def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: int,
+              comment_lines: Sequence[str] = (),
+              unknown: Mapping[str, float | str] | None = None,
+              tables: Mapping[str, Sequence[str]] | None = None) -> Path:
+    """Write a complete MF 6.1 or 6.2 .tir file atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        Target file (its directory must exist).
+    values : mapping
+        Parameter-table names -> values in SI (floats) or strings without quotes; keys not
+        given take the MFeval default. ``FITTYP`` is taken from ``fittyp``.
+    fittyp : int
+        61 (MF 6.1) or 62 (MF 6.2). The MF 6.2-only keys (Q_FCY2, Q_CAM1..3, Q_FYS1..3,
+        ENV_C1/2) are written for 62, and for 61 only when they differ from the default; the
+        MF 5.2-only keys, FUNCTION_NAME and SWITCH_INTEG only when they differ from the default.
+    comment_lines : sequence of str
+        Provenance lines for the ``!`` header (inputs, checksums, fit settings ...).
+    unknown : mapping, optional
+        Keys outside the table, ``"SECTION.KEY"`` -> value, written back in their sections
+        (see :attr:`identify.load.tir.TirFile.unknown`).
+    tables : mapping, optional
+        Raw lines of tabular sections (``[SHAPE]`` ...), written before ``[MFID_EXTENSIONS]``.
+
+    Returns
+    -------
+    Path
+        The written file.
+
+    Raises
+    ------
+    KeyError
+        For a name in ``values`` that is not in the parameter table.
+    ValueError
+        For an unsupported ``fittyp`` or a value that cannot be written (NaN, inf ...).
+    """
+    text = format_tir(values, fittyp=fittyp, comment_lines=comment_lines, unknown=unknown,
+                      tables=tables)
+    return atomic_write_text(path, text)
