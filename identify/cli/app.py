@@ -17,7 +17,7 @@ from identify.errors import MfidError
 app = typer.Typer(no_args_is_help=True, add_completion=False,
                   help="mfid: Magic Formula tyre-model identification workbench.")
 err_console = Console(stderr=True, highlight=False, soft_wrap=True)
-out_console = Console(highlight=False)
+out_console = Console(highlight=False, soft_wrap=True)
 
 _STATE = {"debug": False}
 

@@ -72,7 +72,8 @@ def evaluate(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, omega=
     -------
     dict[str, ndarray]
         One array per name in :data:`OUTPUT_COLUMNS` (ISO-W axes, SI units), plus the
-        exported inputs ``kappa_out``, ``alpha_out``, ``p_used`` and ``phit_out``.
+        exported inputs ``kappa_out``, ``alpha_out``, ``p_used`` and ``phit_out``, and
+        ``Rl_converged`` (bool; False where the MF 6.2 loaded-radius solve found no root).
     """
     fittyp = int(P["FITTYP"])
     if fittyp not in SUPPORTED_FITTYP:
@@ -105,7 +106,7 @@ def evaluate(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, omega=
         "omega": omega_used, "Rl": dfl.rl, "2b": 2 * b, "Mzr": mzr.mzr, "Cx": st.cx,
         "Cy": st.cy, "Cz": dfl.cz, "Kya": lat.kya, "sigmax": st.sigmax, "sigmay": st.sigmay,
         "Kxk": lon.kxk, "kappa_out": s.kappa_out, "alpha_out": s.alpha_out, "p_used": s.p,
-        "phit_out": s.phit,
+        "phit_out": s.phit, "Rl_converged": dfl.converged,
     }
 
 
@@ -119,15 +120,25 @@ def evaluate_frame(P: Mapping[str, float], points: pd.DataFrame,
     points : DataFrame
         Columns ``Fz, kappa, alpha, gamma, Vx, p`` (SI, rad), optional ``phit``, ``omega``.
     """
+    out = evaluate(P, **frame_inputs(points), mode=mode, solver=solver)
+    return output_frame(points, out)
+
+
+def frame_inputs(points: pd.DataFrame) -> dict[str, np.ndarray | None]:
+    """The model's keyword inputs from a table with columns Fz, kappa, alpha, gamma, Vx, p
+    [, phit, omega]."""
     missing = [c for c in INPUT_COLUMNS if c not in points.columns]
     if missing:
         raise InputError(None, f"missing input column(s): {', '.join(missing)}")
-    out = evaluate(P, points["Fz"].to_numpy(float), points["kappa"].to_numpy(float),
-                   points["alpha"].to_numpy(float), points["gamma"].to_numpy(float),
-                   points["Vx"].to_numpy(float), p=points["p"].to_numpy(float),
-                   omega=points["omega"].to_numpy(float) if "omega" in points else None,
-                   phit=points["phit"].to_numpy(float) if "phit" in points else None,
-                   mode=mode, solver=solver)
+    col = {c: points[c].to_numpy(float) for c in INPUT_COLUMNS + OPTIONAL_INPUT_COLUMNS
+           if c in points.columns}
+    return {"fz": col["Fz"], "kappa": col["kappa"], "alpha": col["alpha"],
+            "gamma": col["gamma"], "vx": col["Vx"], "p": col["p"], "omega": col.get("omega"),
+            "phit": col.get("phit")}
+
+
+def output_frame(points: pd.DataFrame, out: dict[str, np.ndarray]) -> pd.DataFrame:
+    """The input table followed by one column per model output (OUTPUT_COLUMNS order)."""
     # Inputs keep their names and order; outputs follow. Where an output shares an input's name
     # (Fz, omega) the column holds the model's value: Fz after the negative-load clip, omega as
     # used (given + machine eps, or estimated with Re), as MFeval's columns 3 and 19 do.

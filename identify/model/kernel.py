@@ -49,7 +49,7 @@ KernelParams = namedtuple("KernelParams", KERNEL_KEYS)
 # Column order of the kernel's output matrix.
 KERNEL_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "Re", "rho", "2a", "t", "mux", "muy",
                   "omega", "Rl", "2b", "Mzr", "Cx", "Cy", "Cz", "Kya", "sigmax", "sigmay", "Kxk",
-                  "kappa_out", "alpha_out", "p_used", "phit_out")
+                  "kappa_out", "alpha_out", "p_used", "phit_out", "Rl_converged")
 
 EPS = 1e-6
 
@@ -333,6 +333,7 @@ def _point(c, fz_in, kappa_in, alpha_in, gamma_in, vx_u, p_in, phit_in, omega_in
 
     # --- deflection, loaded radius, vertical stiffness ---
     qfz1 = math.sqrt((c.VERTICAL_STIFFNESS * r0 / fz0) ** 2 - 4 * c.Q_FZ2)
+    converged = True
     if c.FITTYP == 62.0:
         tol = 1e-12 * fz0
         x0, x1 = 0.95 * r0, r0
@@ -348,6 +349,7 @@ def _point(c, fz_in, kappa_in, alpha_in, gamma_in, vx_u, p_in, phit_in, omega_in
                 if not abs(y) > tol:
                     break
         rl = x1
+        converged = abs(y1) <= tol
         rho = _load62(c, qfz1, fx, fy, omega, dpi, gamma, r_omega, rl)[1]
         if fz == 0.0:
             rho = 1e-6
@@ -384,6 +386,7 @@ def _point(c, fz_in, kappa_in, alpha_in, gamma_in, vx_u, p_in, phit_in, omega_in
     out[12], out[13], out[14], out[15], out[16], out[17] = omega, rl, 2 * b, mzr, cxs, cys
     out[18], out[19], out[20], out[21], out[22] = cz, kya, abs(kxk / cxs), abs(kya / cys), kxk
     out[23], out[24], out[25], out[26] = kappa_out, alpha_out, p, phit
+    out[27] = 1.0 if converged else 0.0
 
 
 def _evaluate_all(c, fz, kappa, alpha, gamma, vx, p, phit, omega, has_omega, limits, alpha_star,
@@ -426,4 +429,13 @@ def evaluate_fused(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, 
     _evaluate_all(kernel_params(P), fz, col(kappa, 0.0), col(alpha, 0.0), col(gamma, 0.0),
                   col(vx, 0.0), p_arr, col(phit, 0.0), om, has_omega, um.limits, um.alpha_star,
                   out)
-    return {name: out[:, j] for j, name in enumerate(KERNEL_COLUMNS)}
+    result = {name: out[:, j] for j, name in enumerate(KERNEL_COLUMNS)}
+    result["Rl_converged"] = result["Rl_converged"] == 1.0
+    return result
+
+
+def evaluate_fused_frame(P: Mapping[str, float], points, mode: int = 111):
+    """Fused-kernel twin of :func:`identify.model.evaluate.evaluate_frame`."""
+    from identify.model.evaluate import frame_inputs, output_frame
+
+    return output_frame(points, evaluate_fused(P, **frame_inputs(points), mode=mode))

@@ -75,11 +75,16 @@ def rolling_radius(P: Mapping[str, float], s: OperatingState, omega: np.ndarray 
 
 @dataclass(frozen=True)
 class Deflection:
-    """Vertical deflection rho [m], loaded radius Rl [m] and vertical stiffness Cz [N/m]."""
+    """Vertical deflection rho [m], loaded radius Rl [m] and vertical stiffness Cz [N/m].
+
+    ``converged`` is False where the MF 6.2 solve found no root of Fz(Rl) = Fz within its
+    update limit (always True for the closed-form MF 6.1).
+    """
 
     rho: np.ndarray
     rl: np.ndarray
     cz: np.ndarray
+    converged: np.ndarray
 
 
 def _qfz1(P) -> float:
@@ -101,7 +106,7 @@ def deflection_61(P: Mapping[str, float], s: OperatingState, fx: np.ndarray, fy:
     rho = np.where(s.fz_low == 0, 1e-6, rho)
     with np.errstate(divide="ignore"):
         cz = s.fz_low / rho
-    return Deflection(rho=rho, rl=rl, cz=cz)
+    return Deflection(rho=rho, rl=rl, cz=cz, converged=np.ones(rho.shape, bool))
 
 
 def _load_62(P, s: OperatingState, fx, fy, omega, r_omega, rl):
@@ -166,7 +171,7 @@ def deflection_62(P: Mapping[str, float], s: OperatingState, fx: np.ndarray, fy:
     rho = np.where(s.fz == 0, 1e-6, rho)
     with np.errstate(divide="ignore"):
         cz = target / rho
-    return Deflection(rho=rho, rl=rl, cz=cz)
+    return Deflection(rho=rho, rl=rl, cz=cz, converged=np.abs(y1) <= tol)
 
 
 def contact_patch(P: Mapping[str, float], s: OperatingState) -> tuple[np.ndarray, np.ndarray]:
