@@ -1,0 +1,140 @@
+"""A fit problem: parameters (lmfit.Parameters), a vectorised model, data, objective, constraints.
+
+Every relation and MF stage is expressed as a :class:`FitProblem` and solved by
+:func:`identify.fit.optimize.fit`. Nothing here loops over data points.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Mapping
+
+import lmfit
+import numpy as np
+
+from identify.fit.metric import group_weights, thesis_error_by_group
+
+ModelFn = Callable[[Mapping[str, float | np.ndarray]], np.ndarray]
+"""model(values) -> predictions [unit of the data], one per data point; values maps every
+parameter name (free and fixed) to a float (or, for MCMC, to an array of shape (walkers, 1))."""
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """A general inequality constraint g(values) >= 0 (elementwise).
+
+    Attributes
+    ----------
+    name : str
+        Short name shown in results (``"CMz >= 0 for Fz in [500, 8000] N"``).
+    fun : callable
+        values -> array; every element must be >= 0.
+    """
+
+    name: str
+    fun: Callable[[Mapping[str, float]], np.ndarray]
+
+
+@dataclass(frozen=True)
+class FitProblem:
+    """What to fit.
+
+    Attributes
+    ----------
+    relation, form : str
+        Names for results (``"CFy"``, ``"linear_load"``).
+    parameters : lmfit.Parameters
+        Initial values, bounds, and which vary; never modified by the fit.
+    model : ModelFn
+        Vectorised model of the data.
+    measured : ndarray
+        The data [unit of the characteristic].
+    pressure_bar : ndarray
+        Inflation pressure of each point [bar]: the groups of the thesis metric.
+    objective : str
+        ``"thesis"`` minimises the total thesis error (mean over pressures);
+        ``"wls"`` minimises weighted least squares (weights below).
+    sigma : ndarray or None
+        Standard deviation of each point for ``"wls"`` [unit of the data]; None weights each
+        pressure by 1/sqrt(sum A_meas^2) (the least-squares companion of the thesis metric).
+    constraints : tuple of Constraint
+    sweeps : ndarray or None
+        Sweep id of each point (for AR(1) noise in MCMC and for diagnostics).
+    unit : str
+        Unit of the data, for reports.
+    """
+
+    relation: str
+    form: str
+    parameters: lmfit.Parameters
+    model: ModelFn
+    measured: np.ndarray
+    pressure_bar: np.ndarray
+    objective: str = "thesis"
+    sigma: np.ndarray | None = None
+    constraints: tuple[Constraint, ...] = ()
+    sweeps: np.ndarray | None = None
+    unit: str = ""
+    extra: Mapping[str, object] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        if self.objective not in ("thesis", "wls"):
+            raise ValueError(f"objective must be 'thesis' or 'wls', not {self.objective!r}")
+        object.__setattr__(self, "measured", np.asarray(self.measured, dtype=float))
+        object.__setattr__(self, "pressure_bar", np.asarray(self.pressure_bar, dtype=float))
+
+    # ----- parameter vectors -------------------------------------------------------------
+    @property
+    def free(self) -> tuple[str, ...]:
+        """Names of the varying parameters, in declaration order."""
+        return tuple(n for n, p in self.parameters.items() if p.vary)
+
+    def values(self, x: np.ndarray | None = None) -> dict[str, float]:
+        """All parameter values, with the free ones taken from ``x`` when given."""
+        vals = {n: float(p.value) for n, p in self.parameters.items()}
+        if x is not None:
+            vals.update(zip(self.free, (float(v) for v in x)))
+        return vals
+
+    def x0(self) -> np.ndarray:
+        return np.array([self.parameters[n].value for n in self.free], dtype=float)
+
+    def bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        lo = np.array([self.parameters[n].min for n in self.free], dtype=float)
+        hi = np.array([self.parameters[n].max for n in self.free], dtype=float)
+        return lo, hi
+
+    # ----- objective -----------------------------------------------------------------------
+    def predict(self, x: np.ndarray | None = None) -> np.ndarray:
+        return np.asarray(self.model(self.values(x)), dtype=float)
+
+    def weights(self) -> np.ndarray:
+        if self.sigma is not None:
+            return 1.0 / np.asarray(self.sigma, dtype=float)
+        return group_weights(self.measured, self.pressure_bar)
+
+    def residuals(self, x: np.ndarray | None = None) -> np.ndarray:
+        """Weighted residuals w*(model - measured); non-finite model values are penalised."""
+        r = (self.predict(x) - self.measured) * self.weights()
+        return np.where(np.isfinite(r), r, 1e6)
+
+    def thesis_by_pressure(self, x: np.ndarray | None = None) -> dict[float, float]:
+        return thesis_error_by_group(self.predict(x), self.measured, self.pressure_bar)
+
+    def objective_value(self, x: np.ndarray) -> float:
+        """The scalar the optimiser minimises."""
+        if self.objective == "wls":
+            r = self.residuals(x)
+            return float(0.5 * r @ r)
+        pred = self.predict(x)
+        if not np.all(np.isfinite(pred)):
+            return 1e12
+        return float(np.mean(list(
+            thesis_error_by_group(pred, self.measured, self.pressure_bar).values())))
+
+    def constraint_values(self, x: np.ndarray) -> np.ndarray:
+        """All constraint values concatenated (each must be >= 0)."""
+        if not self.constraints:
+            return np.zeros(0)
+        vals = self.values(x)
+        return np.concatenate([np.atleast_1d(np.asarray(c.fun(vals), dtype=float))
+                               for c in self.constraints])
