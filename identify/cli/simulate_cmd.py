@@ -1,0 +1,87 @@
+"""``mfid simulate``: write a simulated measurement folder (Flatplank, trailer, truth)."""
+from __future__ import annotations
+
+from enum import Enum
+from pathlib import Path
+
+import typer
+
+from identify.cli.app import app, fail, out_console
+from identify.errors import InputError, MfidError
+
+
+class GridChoice(str, Enum):
+    full = "full"
+    small = "small"
+
+
+def parse_hide(items: list[str]) -> dict[str, float]:
+    """``["PPY5=-0.15", "QSY8=-0.4,CFy.p2=-0.05"]`` -> {name: value}.
+
+    Raises
+    ------
+    InputError
+        For an item that is not NAME=VALUE with a finite number.
+    """
+    out: dict[str, float] = {}
+    for item in items:
+        for part in (p.strip() for p in item.split(",")):
+            name, sep, value = part.partition("=")
+            name = name.strip()
+            try:
+                number = float(value)
+            except ValueError:
+                number = None
+            if not sep or not name or number is None or number != number:
+                raise InputError(None, f"expected NAME=VALUE with a number, not {part!r}",
+                                 key="--hide")
+            out[name] = number
+    return out
+
+
+@app.command("simulate")
+def simulate_command(
+    tir: str = typer.Argument(..., help="Tyre property file (.tir), or 'default' for the "
+                                        "bundled 225/50 R17 tyre."),
+    outdir: Path = typer.Argument(..., help="Folder to create (absent or empty)."),
+    seed: int = typer.Option(0, "--seed", help="Noise seed; equal seeds give equal folders."),
+    noise: float = typer.Option(0.01, "--noise", help="Noise std as a fraction of each "
+                                                      "channel's RMS."),
+    ar1: float = typer.Option(0.0, "--ar1", help="Lag-one correlation of the noise (AR(1))."),
+    transients: bool = typer.Option(True, "--transients/--no-transients",
+                                    help="Start-up transients in stiffness runs."),
+    stick_slip: bool = typer.Option(True, "--stick-slip/--no-stick-slip",
+                                    help="Stick-slip after saturation."),
+    asymmetry: float = typer.Option(0.0, "--asymmetry", help="Camber forces at negative "
+                                                             "camber scaled by (1 + value)."),
+    short_relaxation: bool = typer.Option(True, "--short-relaxation/--no-short-relaxation",
+                                          help="Relaxation runs of the longest-sigma cell too "
+                                               "short for steady state."),
+    hide: list[str] = typer.Option([], "--hide", metavar="NAME=VALUE",
+                                   help="Give the data an effect the recorded base model "
+                                        "lacks (.tir key or CFy.p2-style relation "
+                                        "coefficient); repeat or separate with commas."),
+    grid: GridChoice = typer.Option(GridChoice.full, "--grid", help="Test grid."),
+    digits: int = typer.Option(0, "--digits", help="Significant digits of the channel files "
+                                                   "(0 = exact round trip)."),
+    overwrite: bool = typer.Option(False, "--overwrite", help="Replace a non-empty OUTDIR."),
+) -> None:
+    """Simulate every Flatplank and trailer test of a tyre into a measurement folder."""
+    from identify.load.tir import read_tir
+    from identify.simulate import default_tir_path, simulate_folder
+
+    try:
+        hidden = parse_hide(hide)
+        path = default_tir_path() if tir == "default" else Path(tir)
+        if not path.is_file():
+            raise InputError(path, "no such .tir file")
+        result = simulate_folder(read_tir(path).params(), outdir, seed=seed, noise=noise,
+                                 ar1_rho=ar1, transients=transients, stick_slip=stick_slip,
+                                 asymmetry=asymmetry, short_relaxation=short_relaxation,
+                                 hide=hidden, grid=grid.value, overwrite=overwrite,
+                                 digits=digits or None)
+    except MfidError as exc:
+        fail(exc)
+    out_console.print(f"wrote {result.path} ({len(result.run_ids)} runs, "
+                      f"{len(result.truth['characteristics'])} true characteristics, "
+                      f"seed {seed})")

@@ -1,0 +1,87 @@
+"""Default pressure-relation coefficients of the simulator, in the style of the thesis tyre.
+
+The numbers of CFz, CFx, CFy (with PKY1/PKY2/PPY1/PPY2 of the default .tir) and the Re keys come
+from ``python -m identify.simulate.calibrate``: a relative least-squares fit to the real
+Flatplank characteristics of the 225/50 R17 tyre of op het Veld (2007, chapter 4;
+``shared/spec/data/thesis_characteristics.csv``). CMz and the rigid ring have no thesis table:
+CMz uses the T1 form with pCMz1 = -0.55 (the thesis saw CMz fall ~12 % per +0.5 bar); the
+ring stiffnesses give MF-Swift-typical eigenfrequencies (80/42/80 Hz, 70 Hz wind-up, 50 Hz
+camber/yaw) with the pressure scalings f_x .. f_psi the thesis fitted (0.65, 0.74, 0.65, 0.69,
+0.49, 0.49).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+from identify.model.relations import (LoadPressureStiffness, SidewallRing, VerticalQFz, YawT1,
+                                      YawT2)
+
+__all__ = ["Relations", "DEFAULT_RELATIONS", "RELATION_NAMES"]
+
+
+@dataclass(frozen=True)
+class Relations:
+    """The structural relations a simulated tyre obeys on the Flatplank.
+
+    Attributes
+    ----------
+    p0 : float
+        Reference pressure of every dpi [Pa] (the .tir NOMPRES).
+    vertical : VerticalQFz
+        Fz(rho, dpi) [N].
+    cfx, cfy : LoadPressureStiffness
+        Locked-hub longitudinal and lateral stiffness [N/m].
+    cmz : YawT1 or YawT2
+        Parking (yaw) stiffness [N m/rad].
+    ring : SidewallRing
+        Rigid-ring sidewall stiffnesses and inertias (free-hanging eigenfrequencies).
+    """
+
+    p0: float
+    vertical: VerticalQFz
+    cfx: LoadPressureStiffness
+    cfy: LoadPressureStiffness
+    cmz: YawT1 | YawT2
+    ring: SidewallRing
+
+    def to_dict(self) -> dict:
+        """JSON-safe dict, one entry per relation."""
+        return {"p0": self.p0, "CFz": {"form": "qFz", **self.vertical.to_dict()},
+                "CFx": {"form": "load_pressure", **self.cfx.to_dict()},
+                "CFy": {"form": "load_pressure", **self.cfy.to_dict()},
+                "CMz": self.cmz.to_dict(), "ring": self.ring.to_dict()}
+
+    def with_value(self, dotted: str, value: float) -> "Relations":
+        """A copy with one coefficient changed, named ``"CFy.p2"``, ``"CMz.p1"``, ``"CFz.qfz3"``.
+
+        Raises
+        ------
+        KeyError
+            For an unknown relation or coefficient.
+        """
+        relation, _, name = dotted.partition(".")
+        attr = RELATION_NAMES.get(relation)
+        if attr is None or attr == "ring":
+            raise KeyError(dotted)
+        current = getattr(self, attr)
+        if name not in {f.name for f in fields(current)}:
+            raise KeyError(dotted)
+        return replace(self, **{attr: replace(current, **{name: float(value)})})
+
+
+#: Relation names (as in the characteristic table) -> attribute.
+RELATION_NAMES = {"CFz": "vertical", "CFx": "cfx", "CFy": "cfy", "CMz": "cmz", "ring": "ring"}
+
+DEFAULT_RELATIONS = Relations(
+    p0=250000.0,
+    # calibrate.py fit to the thesis CFz (worst cell 1.5 %)
+    vertical=VerticalQFz(qfz1=217608.0, qfz2=827108.0, qfz3=0.787517),
+    # quadratic-load form, Fz0 = 4 kN as in the thesis test (worst cell 1.2 %)
+    cfx=LoadPressureStiffness(nominal=225408.0, p1=0.230132, p2=-0.280917, p3=0.206717,
+                              fz0=4000.0),
+    # fitted together with Kya to CFy and sigma_y (worst cells 6.6 % and 7.0 %)
+    cfy=LoadPressureStiffness(nominal=139348.0, p1=0.104703, p2=0.0, p3=0.458703, fz0=5000.0),
+    cmz=YawT1(nominal=5200.0, p1=-0.55, fz0=5000.0),
+    ring=SidewallRing(c0=(1.97e6, 5.43e5, 1.97e6, 1.354e5, 3.75e4, 3.75e4),
+                      f=(0.65, 0.74, 0.65, 0.69, 0.49, 0.49), m_b=7.8, i_bx=0.38, i_by=0.70),
+)
