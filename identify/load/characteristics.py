@@ -1,0 +1,146 @@
+"""Characteristic tables (CSV) -> tidy SI tables.
+
+Schema (docs/contracts-issue3.md): ``quantity, pi_bar, Fz_N, value, unit`` and optional
+``Vx_mps, gamma_deg, mode``; one row per quantity, pressure and load (and speed, camber or
+mode). Values are converted to the SI unit of their quantity; ``pi_bar`` is kept and ``p_Pa``
+added. The files are small, so every row is checked and each bad cell is reported with its line.
+"""
+from __future__ import annotations
+
+import csv
+import math
+from pathlib import Path
+
+import pandas as pd
+
+from identify.load.common import Problems
+from identify.load.units import SI_UNITS, to_si, unit_problem
+
+__all__ = ["QUANTITIES", "MODES", "CHARACTERISTICS_COLUMNS", "read_characteristics"]
+
+#: Quantity -> dimension of its value.
+QUANTITIES: dict[str, str] = {
+    "CFz": "stiffness", "CFx": "stiffness", "CFy": "stiffness",
+    "CMz": "torsional_stiffness", "sigma_y": "length", "sigma_x": "length", "Re": "length",
+    "FxRR": "force", "Fy_gamma": "force", "Mz_gamma": "moment", "Mx_gamma": "moment",
+    "f_nat": "frequency"}
+#: Eigenmodes named in the ``mode`` column of ``f_nat`` rows.
+MODES = ("x", "y", "z", "theta", "gamma", "psi")
+_REQUIRED = ("quantity", "pi_bar", "Fz_N", "value", "unit")
+_OPTIONAL = ("Vx_mps", "gamma_deg", "mode")
+#: Columns of the tidy characteristics table.
+CHARACTERISTICS_COLUMNS = ("run", "quantity", "pi_bar", "p_Pa", "Fz_N", "value", "unit",
+                           "Vx_mps", "gamma_deg", "mode")
+
+
+def _number(problems: Problems, path: Path, line: int, key: str, text: str, *,
+            optional: bool = False, check: str | None = None) -> float | None:
+    text = text.strip()
+    if text == "" and optional:
+        return math.nan
+    try:
+        value = float(text)
+    except ValueError:
+        problems.add(path, "empty cell" if text == "" else f"not a number: '{text}'",
+                     line=line, key=key, kind="bad-cell")
+        return None
+    if not math.isfinite(value):
+        problems.add(path, f"{text} is not allowed (NaN/inf)", line=line, key=key,
+                     kind="bad-cell")
+        return None
+    if (check == "pos" and value <= 0) or (check == "nonneg" and value < 0):
+        problems.add(path, f"must be {'positive' if check == 'pos' else '>= 0'}, got {text}",
+                     line=line, key=key, kind="bad-cell")
+        return None
+    return value
+
+
+def read_characteristics(path: str | Path, *, run: str | None = None,
+                         problems: Problems | None = None) -> pd.DataFrame | None:
+    """Read a characteristic table into :data:`CHARACTERISTICS_COLUMNS` (SI values).
+
+    Parameters
+    ----------
+    path : str or Path
+        CSV with a header line (line 1).
+    run : str, optional
+        Run id written into the ``run`` column (default: the file stem).
+    problems : Problems, optional
+        Collector; strict by default.
+
+    Returns
+    -------
+    pandas.DataFrame or None
+        None when problems were found (non-strict collector).
+    """
+    problems = problems if problems is not None else Problems(strict=True)
+    path = Path(path)
+    start = problems.total
+    try:
+        with path.open("r", encoding="utf-8-sig", newline="") as fh:
+            rows = list(csv.reader(fh))
+    except FileNotFoundError:
+        problems.add(path, "file not found")
+        return None
+    except (OSError, UnicodeDecodeError) as exc:
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
+    if not rows or not any(c.strip() for c in rows[0]):
+        problems.add(path, "empty file: expected a header line "
+                           f"({', '.join(_REQUIRED)})", line=1)
+        return None
+    header = [c.strip() for c in rows[0]]
+    for name in header:
+        if name not in _REQUIRED + _OPTIONAL:
+            problems.add(path, f"unknown column (expected: {', '.join(_REQUIRED + _OPTIONAL)})",
+                         line=1, key=name)
+    for name in _REQUIRED:
+        if name not in header:
+            problems.add(path, "missing required column", line=1, key=name)
+    if problems.total > start:
+        return None
+    records = []
+    for line, row in enumerate(rows[1:], 2):
+        if not any(c.strip() for c in row):
+            continue
+        if len(row) != len(header):
+            problems.add(path, f"ragged row: {len(row)} fields, the header has {len(header)}",
+                         line=line, kind="ragged-row")
+            continue
+        record = _row(problems, path, line, dict(zip(header, row, strict=False)))
+        if record is not None:
+            records.append(record)
+    if not records and problems.total == start:
+        problems.add(path, "no data rows below the header", line=1)
+    if problems.total > start:
+        return None
+    out = pd.DataFrame.from_records(records, columns=CHARACTERISTICS_COLUMNS[1:])
+    out.insert(0, "run", run or path.stem)
+    return out
+
+
+def _row(problems: Problems, path: Path, line: int, cells: dict[str, str]) -> dict | None:
+    start = problems.total
+    quantity = cells["quantity"].strip()
+    dim = QUANTITIES.get(quantity)
+    if dim is None:
+        problems.add(path, f"unknown quantity '{quantity}' (expected one of: "
+                           f"{', '.join(QUANTITIES)})", line=line, key="quantity")
+    pi_bar = _number(problems, path, line, "pi_bar", cells["pi_bar"], check="pos")
+    fz = _number(problems, path, line, "Fz_N", cells["Fz_N"], check="nonneg")
+    value = _number(problems, path, line, "value", cells["value"])
+    vx = _number(problems, path, line, "Vx_mps", cells.get("Vx_mps", ""), optional=True)
+    gamma = _number(problems, path, line, "gamma_deg", cells.get("gamma_deg", ""), optional=True)
+    mode = cells.get("mode", "").strip()
+    if mode and mode not in MODES:
+        problems.add(path, f"unknown mode '{mode}' (expected one of: {', '.join(MODES)})",
+                     line=line, key="mode")
+    unit = cells["unit"].strip()
+    why = unit_problem(unit, dim) if dim else None
+    if why:
+        problems.add(path, f"{why} for {quantity}", line=line, key="unit")
+    if problems.total > start:
+        return None
+    return {"quantity": quantity, "pi_bar": pi_bar, "p_Pa": pi_bar * 1e5, "Fz_N": fz,
+            "value": to_si(value, unit, dimension=dim), "unit": SI_UNITS[dim],
+            "Vx_mps": vx, "gamma_deg": gamma, "mode": mode}

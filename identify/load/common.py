@@ -1,0 +1,238 @@
+"""Shared pieces of the measurement loaders: problems, numeric CSV tables, sanity checks.
+
+Every loader reports what is wrong through a :class:`Problems` collector. In strict mode (what
+``load_*`` functions use) the first problem is raised as :class:`~identify.errors.InputError`;
+otherwise (``mfid check``) every problem is collected, so one pass lists them all.
+"""
+from __future__ import annotations
+
+import csv
+import hashlib
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Iterable
+
+import numpy as np
+import pandas as pd
+
+from identify.errors import InputError
+
+__all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
+           "check_increasing", "check_declared", "sha256_file"]
+
+#: Relative distance between a measured median and the manifest's declared value that is flagged.
+TOLERANCE = 0.15
+
+
+@dataclass(frozen=True)
+class Problem:
+    """One thing wrong with a measurement input; ``str()`` is ``file:line: key: message``."""
+
+    file: str | None
+    message: str
+    line: int | None = None
+    key: str | None = None
+
+    def __str__(self) -> str:
+        return str(self.to_error())
+
+    def to_error(self) -> InputError:
+        """The same problem as an exception."""
+        return InputError(self.file, self.message, line=self.line, key=self.key)
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-safe dict."""
+        return {"file": self.file, "line": self.line, "key": self.key, "message": self.message,
+                "text": str(self)}
+
+
+class Problems:
+    """Collects problems; in strict mode the first one is raised as InputError.
+
+    Parameters
+    ----------
+    strict : bool
+        Raise on the first problem instead of collecting.
+    limit : int
+        At most this many problems of one ``kind`` per file are listed; the rest are counted
+        and summarised in one line by :meth:`finish` (a file with a million NaNs stays readable).
+    """
+
+    def __init__(self, *, strict: bool = False, limit: int = 10) -> None:
+        self.strict = strict
+        self.limit = limit
+        self.total = 0
+        self._items: list[Problem] = []
+        self._counts: dict[tuple[str | None, str], int] = {}
+
+    def add(self, file: str | Path | None, message: str, *, line: int | None = None,
+            key: str | None = None, kind: str | None = None) -> None:
+        """Record (or, when strict, raise) one problem."""
+        problem = Problem(None if file is None else str(file), message, line, key)
+        if self.strict:
+            raise problem.to_error()
+        self.total += 1
+        if kind is not None:
+            count = self._counts.get((problem.file, kind), 0) + 1
+            self._counts[(problem.file, kind)] = count
+            if count > self.limit:
+                return
+        self._items.append(problem)
+
+    def finish(self) -> list[Problem]:
+        """The problems in the order found, plus one summary line per truncated kind."""
+        out = list(self._items)
+        for (file, kind), count in self._counts.items():
+            if count > self.limit:
+                out.append(Problem(file, f"{count - self.limit} more {kind} problems not listed"))
+        return out
+
+
+def split_header_name(text: str) -> tuple[str, str | None]:
+    """``"SLIPANGL [deg]"`` -> ``("SLIPANGL", "deg")``; a plain name has unit None."""
+    text = text.strip()
+    if text.endswith("]") and "[" in text:
+        name, unit = text[:-1].split("[", 1)
+        return name.strip(), unit.strip() or None
+    return text, None
+
+
+def _header(path: Path, problems: Problems) -> list[str] | None:
+    try:
+        with path.open("r", encoding="utf-8-sig", newline="") as fh:
+            first = fh.readline()
+    except FileNotFoundError:
+        problems.add(path, "file not found")
+        return None
+    except IsADirectoryError:
+        problems.add(path, "is a directory, expected a CSV file")
+        return None
+    except UnicodeDecodeError:
+        problems.add(path, "not a UTF-8 text file", line=1)
+        return None
+    except OSError as exc:
+        problems.add(path, f"cannot read file: {exc.strerror or exc}")
+        return None
+    if "\x00" in first:
+        problems.add(path, "binary data (NUL bytes), not a CSV text file", line=1)
+        return None
+    if first.strip() == "":
+        problems.add(path, "empty file: expected a header line with the column names"
+                     if first == "" else "blank first line: expected the header line", line=1)
+        return None
+    return next(csv.reader([first]))
+
+
+def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
+                     what: str = "channel") -> tuple[pd.DataFrame, dict[str, str]] | None:
+    """Read a CSV of numbers with a header line (``NAME`` or ``NAME [unit]`` per column).
+
+    Fast path: pandas' C parser straight into float64. Only when that fails, or a value is
+    NaN/inf, is the file walked row by row to name each bad line (header = line 1).
+
+    Returns
+    -------
+    (DataFrame, dict) or None
+        The columns as float64 under their names, and the units given in the header; None when
+        a problem was found (in non-strict mode).
+    """
+    path = Path(path)
+    start = problems.total
+    cells = _header(path, problems)
+    if cells is None:
+        return None
+    names, header_units = [], {}
+    for i, cell in enumerate(cells, 1):
+        name, unit = split_header_name(cell)
+        if name == "":
+            problems.add(path, f"empty column name (column {i})", line=1)
+        elif name in names:
+            problems.add(path, "duplicate column", line=1, key=name)
+        if unit is not None:
+            header_units[name] = unit
+        names.append(name)
+    for name in required:
+        if name not in names:
+            problems.add(path, f"missing required {what} (found: {', '.join(names)})",
+                         line=1, key=name)
+    frame = None
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", pd.errors.ParserWarning)
+            frame = pd.read_csv(path, header=0, dtype=np.float64, index_col=False,
+                                skipinitialspace=True, encoding="utf-8-sig")
+    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError):
+        frame = None
+    if frame is not None and frame.shape[1] == len(names) and np.isfinite(frame.to_numpy()).all():
+        if len(frame) == 0:
+            problems.add(path, "no data rows below the header", line=1)
+            return None
+        frame.columns = names
+        return (frame, header_units) if problems.total == start else None
+    _diagnose(path, len(names), names, problems)
+    if problems.total == start:  # pandas refused something the row walk accepts
+        problems.add(path, "cannot parse the file as a numeric CSV table")
+    return None
+
+
+def _diagnose(path: Path, width: int, names: list[str], problems: Problems) -> None:
+    """Walk the rows and report ragged rows, empty, non-numeric and non-finite cells."""
+    rows = 0
+    with path.open("r", encoding="utf-8-sig", newline="", errors="replace") as fh:
+        reader = csv.reader(fh)
+        next(reader, None)
+        for row in reader:
+            if not row:
+                continue
+            rows += 1
+            line = reader.line_num
+            if len(row) != width:
+                problems.add(path, f"ragged row: {len(row)} fields, the header has {width}",
+                             line=line, kind="ragged-row")
+            for name, cell in zip(names, row, strict=False):
+                text = cell.strip()
+                try:
+                    value = float(text)
+                except ValueError:
+                    why = "empty cell" if text == "" else f"not a number: '{text}'"
+                    problems.add(path, why, line=line, key=name, kind="bad-cell")
+                    continue
+                if not np.isfinite(value):
+                    problems.add(path, f"{text} is not allowed (NaN/inf)", line=line, key=name,
+                                 kind="bad-cell")
+    if rows == 0:
+        problems.add(path, "no data rows below the header", line=1)
+
+
+def check_increasing(problems: Problems, file: str | Path, name: str, t: np.ndarray,
+                     first_line: int | None) -> None:
+    """Report a time channel that does not strictly increase (first bad sample and count)."""
+    bad = np.flatnonzero(np.diff(t) <= 0)
+    if bad.size == 0:
+        return
+    i = int(bad[0]) + 1
+    where = {"line": first_line + i} if first_line is not None else {}
+    at = "" if first_line is not None else f" at sample {i}"
+    problems.add(file, f"time is not increasing{at}: {float(t[i])!r} after "
+                       f"{float(t[i - 1])!r} ({bad.size} such sample(s))", key=name, **where)
+
+
+def check_declared(problems: Problems, file: str | Path, key: str, values: np.ndarray,
+                   declared: float | None, what: str, unit: str) -> None:
+    """Report a channel whose median is more than :data:`TOLERANCE` from the declared value."""
+    if declared is None or values.size == 0:
+        return
+    median = float(np.median(values))
+    if abs(median - declared) > TOLERANCE * abs(declared):
+        problems.add(file, f"median {what} {median:.6g} {unit} is more than "
+                           f"{TOLERANCE:.0%} from the declared {declared:.6g} {unit}", key=key)
+
+
+def sha256_file(path: str | Path) -> str:
+    """SHA-256 hex digest of a file's bytes."""
+    digest = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for block in iter(lambda: fh.read(1 << 20), b""):
+            digest.update(block)
+    return digest.hexdigest()

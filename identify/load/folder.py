@@ -1,0 +1,205 @@
+"""A measurement folder (``tyre.toml`` + data files) -> one :class:`MeasurementSet`.
+
+:func:`check_folder` lists every problem of a folder (``mfid check``); :func:`load_folder`
+raises :class:`~identify.errors.InputError` on the first. Both only read: no command ever
+writes into a measurement folder. A single characteristics CSV also counts as a folder (no
+manifest; the nominal pressure and load come from the options or from the table).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import MappingProxyType
+from typing import Any, Mapping
+
+import numpy as np
+import pandas as pd
+
+from identify.load.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
+from identify.load.common import Problem, Problems, sha256_file
+from identify.load.flatplank import FLATPLANK_COLUMNS, read_flatplank
+from identify.load.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
+from identify.load.trailer import TRAILER_COLUMNS, channels_to_tidy, read_channels
+
+__all__ = ["MeasurementSet", "load_folder", "check_folder", "scan_folder", "IMPLICIT_TABLE"]
+
+#: A characteristic table at the folder's root that is loaded even when no run names it.
+IMPLICIT_TABLE = "characteristics.csv"
+
+
+@dataclass(frozen=True, eq=False)
+class MeasurementSet:
+    """Everything a measurement folder holds, in SI units and ISO-W axes.
+
+    Attributes
+    ----------
+    path : str
+        The folder (or the single CSV file) as given.
+    manifest : Manifest
+        The parsed ``tyre.toml`` (synthesised for a single CSV).
+    trailer, flatplank, characteristics : pandas.DataFrame
+        Tidy tables of all runs of each kind (empty with the right columns when none).
+    checksums : mapping
+        SHA-256 of every input file read, by path relative to the folder.
+    """
+
+    path: str
+    manifest: Manifest
+    trailer: pd.DataFrame
+    flatplank: pd.DataFrame
+    characteristics: pd.DataFrame
+    checksums: Mapping[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "checksums", MappingProxyType(dict(self.checksums)))
+
+    def summary(self) -> str:
+        """One line: tyre id, runs per kind and samples."""
+        kinds = {}
+        for run in self.manifest.runs:
+            kinds[run.kind] = kinds.get(run.kind, 0) + 1
+        parts = ", ".join(f"{n} {k}" for k, n in kinds.items())
+        return (f"{self.manifest.tyre.id}: {len(self.manifest.runs)} runs ({parts}); "
+                f"{len(self.trailer)} trailer samples, {len(self.flatplank)} flatplank samples, "
+                f"{len(self.characteristics)} characteristic values")
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-safe summary (manifest, row counts, checksums; not the tables)."""
+        return {"path": self.path, "manifest": self.manifest.to_dict(),
+                "rows": {"trailer": len(self.trailer), "flatplank": len(self.flatplank),
+                         "characteristics": len(self.characteristics)},
+                "checksums": dict(self.checksums)}
+
+
+def load_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
+                nominal_load_N: float | None = None) -> MeasurementSet:
+    """Load a measurement folder (or a single characteristics CSV).
+
+    Parameters
+    ----------
+    path : str or Path
+        The folder (with ``tyre.toml``), its ``tyre.toml``, or a characteristics CSV.
+    nominal_pressure_Pa, nominal_load_N : float, optional
+        Nominal pressure [Pa] and load [N] for a single CSV (default: the median of the
+        table's distinct pressures and loads). Ignored for a folder with a manifest.
+
+    Raises
+    ------
+    InputError
+        On the first problem found.
+    """
+    return _scan(Path(path), Problems(strict=True), nominal_pressure_Pa, nominal_load_N)
+
+
+def check_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
+                 nominal_load_N: float | None = None) -> list[Problem]:
+    """Every problem of a measurement folder, one :class:`Problem` each (empty when clean)."""
+    return scan_folder(path, nominal_pressure_Pa=nominal_pressure_Pa,
+                       nominal_load_N=nominal_load_N)[1]
+
+
+def scan_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
+                nominal_load_N: float | None = None
+                ) -> tuple[MeasurementSet | None, list[Problem]]:
+    """Check and load in one pass: the set (None if anything is wrong) and every problem."""
+    problems = Problems()
+    found = _scan(Path(path), problems, nominal_pressure_Pa, nominal_load_N)
+    listed = problems.finish()
+    return (None if listed else found), listed
+
+
+def _scan(path: Path, problems: Problems, pressure: float | None,
+          load: float | None) -> MeasurementSet | None:
+    start = problems.total
+    if path.is_dir() or path.name == MANIFEST_NAME:
+        toml = path / MANIFEST_NAME if path.is_dir() else path
+        manifest = read_manifest(toml, problems, partial=True)
+        if manifest is None:
+            return None
+        folder = toml.parent
+        checksums = {MANIFEST_NAME: sha256_file(toml)}
+    elif path.is_file():
+        manifest, folder, checksums = None, path.parent, {}
+    else:
+        problems.add(path, "no such file or directory")
+        return None
+    runs = list(manifest.runs) if manifest else [RunSpec(path.stem, path.name, "characteristics")]
+    notes = []
+    implicit = folder / IMPLICIT_TABLE
+    if manifest and implicit.is_file() and not any(
+            (folder / r.file).resolve() == implicit.resolve() for r in runs):
+        run_id = "characteristics" if all(r.id != "characteristics" for r in runs) \
+            else IMPLICIT_TABLE
+        runs.append(RunSpec(run_id, IMPLICIT_TABLE, "characteristics"))
+        notes.append(f"{IMPLICIT_TABLE} is not listed in {MANIFEST_NAME}; loaded as run "
+                     f"'{run_id}'")
+    tables: dict[str, list[pd.DataFrame]] = {"trailer": [], "flatplank": [],
+                                             "characteristics": []}
+    where = manifest.path if manifest else str(path)
+    for i, run in enumerate(runs):
+        file = folder / run.file
+        if not file.is_file():
+            problems.add(where, f"file not found: {file}" if not file.is_dir()
+                         else f"is a directory, expected a file: {file}", key=f"runs[{i}].file")
+            continue
+        checksums[Path(run.file).as_posix()] = sha256_file(file)
+        tables[run.kind] += _load_run(run, file, manifest, problems, where, i)
+    if problems.total > start:
+        return None
+    frames = {kind: _concat(tables[kind], columns) for kind, columns in (
+        ("trailer", TRAILER_COLUMNS), ("flatplank", FLATPLANK_COLUMNS),
+        ("characteristics", CHARACTERISTICS_COLUMNS))}
+    if manifest is None:
+        manifest, more = _single_csv_manifest(path, frames["characteristics"], pressure, load)
+        notes += more
+    manifest = Manifest(manifest.path, manifest.tyre, manifest.rig, tuple(runs), manifest.extra,
+                        manifest.notes + tuple(notes))
+    return MeasurementSet(str(path), manifest, frames["trailer"], frames["flatplank"],
+                          frames["characteristics"], checksums)
+
+
+def _load_run(run: RunSpec, file: Path, manifest: Manifest | None, problems: Problems,
+              where: str, i: int) -> list[pd.DataFrame]:
+    conditions = dict(run.conditions)
+    if run.kind == "trailer":
+        channels = read_channels(file, run=run.id, units=run.units, problems=problems) or []
+        frames = [channels_to_tidy(ch, axes=run.axes, conditions=conditions, problems=problems)
+                  for ch in channels]
+    elif run.kind == "flatplank":
+        if manifest is None or manifest.rig is None:
+            return []  # the manifest check has reported the missing [rig]
+        frames = [read_flatplank(file, a=manifest.rig.hub_a_m, b=manifest.rig.hub_b_m,
+                                 run=run.id, test=run.test, units=run.units,
+                                 conditions=conditions, problems=problems)]
+    else:
+        if run.units:
+            problems.add(where, "units do not apply to a characteristic table (each row names "
+                                "its unit)", key=f"runs[{i}].units")
+        frames = [read_characteristics(file, run=run.id, problems=problems)]
+    return [f for f in frames if f is not None]
+
+
+def _concat(frames: list[pd.DataFrame], columns: tuple[str, ...]) -> pd.DataFrame:
+    if not frames:
+        return pd.DataFrame({c: pd.Series(dtype=object if c in ("run", "test", "quantity",
+                                                                "unit", "mode") else float)
+                             for c in columns})
+    return pd.concat(frames, ignore_index=True)
+
+
+def _single_csv_manifest(path: Path, table: pd.DataFrame, pressure: float | None,
+                         load: float | None) -> tuple[Manifest, list[str]]:
+    notes = []
+    if pressure is None:
+        pressure = float(np.median(np.unique(table["p_Pa"]))) if len(table) else math.nan
+        notes.append(f"nominal pressure not given: took {pressure:.6g} Pa, the median of the "
+                     "table's pressures")
+    if load is None:
+        loads = np.unique(table["Fz_N"][table["Fz_N"] > 0])
+        load = float(np.median(loads)) if loads.size else math.nan
+        notes.append(f"nominal load not given: took {load:.6g} N, the median of the table's "
+                     "loads")
+    tyre = TyreInfo(path.stem, float(pressure), float(load), math.nan)
+    return Manifest(str(path), tyre, None, (), {}, ("no manifest: a single characteristic "
+                                                    "table; unloaded radius unknown",)), notes
