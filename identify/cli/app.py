@@ -48,6 +48,8 @@ def fail(exc: MfidError) -> None:
 
 # Commands register themselves on `app` when their modules are imported.
 from identify.cli import eval_cmd  # noqa: E402,F401
+from identify.cli import simulate_cmd  # noqa: E402,F401
+from identify.cli import check_cmd, convert_cmd  # noqa
 
 
 def main() -> None:

@@ -1,0 +1,73 @@
+"""``mfid convert``: convert a trailer channel file between CSV, HDF5 and TYDEX."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import List, Optional
+
+import typer
+
+from identify.cli.app import app, fail, out_console
+from identify.errors import InputError, MfidError
+
+_FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
+
+
+def _manifest_run(src: Path):
+    """The manifest run that names ``src`` (tyre.toml in its folder or the one above), or None."""
+    from identify.load.common import Problems
+    from identify.load.manifest import MANIFEST_NAME, read_manifest
+
+    for folder in (src.parent, src.parent.parent):
+        toml = folder / MANIFEST_NAME
+        if not toml.is_file():
+            continue
+        manifest = read_manifest(toml, Problems(), partial=True)
+        for run in manifest.runs if manifest else ():
+            if (folder / run.file).resolve() == src.resolve():
+                return run
+    return None
+
+
+def _parse_units(pairs: list[str]) -> dict[str, str]:
+    units = {}
+    for pair in pairs:
+        name, sep, unit = pair.partition("=")
+        if not sep or not name.strip() or not unit.strip():
+            raise InputError(None, f"expected CHANNEL=UNIT, got '{pair}'", key="--unit")
+        units[name.strip()] = unit.strip()
+    return units
+
+
+@app.command("convert")
+def convert_command(
+    src: Path = typer.Argument(..., help="Trailer channel file: CSV, HDF5 or TYDEX (detected "
+                                         "from the content)."),
+    dst: Path = typer.Argument(..., help="Output file; the format follows the extension: "
+                                         ".csv, .h5/.hdf5 or .tdx."),
+    run: Optional[str] = typer.Option(None, "--run", help="Run id: the HDF5 group to read, "
+                                                          "and the name of the run written."),
+    unit: List[str] = typer.Option([], "--unit", help="CHANNEL=UNIT for a channel the file "
+                                                      "gives in non-SI units (repeatable)."),
+) -> None:
+    """Convert trailer channels to SI values in another format (names and axes kept).
+
+    Units: --unit, else the manifest run that lists SRC, else the file. Atomic write.
+    """
+    from identify.load.trailer import read_channels, write_channels
+
+    try:
+        if dst.exists() and src.exists() and dst.resolve() == src.resolve():
+            raise InputError(dst, "output is the input file; choose another name")
+        if dst.suffix.lower() not in _FORMATS:
+            raise InputError(dst, "unknown output format: expected .csv, .h5, .hdf5 or .tdx")
+        units = _parse_units(unit)
+        spec = _manifest_run(src) if src.is_file() else None
+        if spec is not None:
+            units = {**spec.units, **units}
+            run = run or (spec.id if src.suffix.lower() not in (".h5", ".hdf5") else None)
+        runs = read_channels(src, run=run, units=units)
+        write_channels(runs, dst)
+    except MfidError as exc:
+        fail(exc)
+    samples = sum(len(next(iter(r.data.values()), ())) for r in runs)
+    out_console.print(f"wrote {dst} ({len(runs)} run(s), {samples} samples)", markup=False)
