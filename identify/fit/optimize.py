@@ -19,10 +19,10 @@ from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 
 BEST_RTOL = 1e-6
-BEST_ATOL = 1e-12
+BEST_ATOL = 1e-8
 """Two starts reached 'the same' optimum when their objectives agree to BEST_RTOL relative
 plus BEST_ATOL absolute (the objectives are O(1): % for the thesis metric, normalised squared
-errors for weighted least squares, so 1e-12 is far below any meaningful difference)."""
+errors for weighted least squares; 1e-8 only matters for exact, noise-free data)."""
 
 
 def _sampling_box(problem: FitProblem) -> tuple[np.ndarray, np.ndarray]:

@@ -105,7 +105,9 @@ class FitProblem:
 
     # ----- objective -----------------------------------------------------------------------
     def predict(self, x: np.ndarray | None = None) -> np.ndarray:
-        return np.asarray(self.model(self.values(x)), dtype=float)
+        # trial points outside a model's domain give NaN, which the objective penalises
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            return np.asarray(self.model(self.values(x)), dtype=float)
 
     def weights(self) -> np.ndarray:
         if self.sigma is not None:

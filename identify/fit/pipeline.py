@@ -1,0 +1,277 @@
+"""The whole fit of one measurement folder: load -> extract -> fit -> outputs.
+
+``fit_folder`` runs the MF stages on trailer data (when present), then every relation of the
+plan whose characteristics are present (extracted from raw Flatplank runs and/or given as
+tables), optionally MCMC, and writes ``fits/<tyre id>/`` as in docs/contracts-fit.md. Every file
+is written to a temporary name and renamed; the measurement folder is only read.
+"""
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+import json
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Sequence
+
+import numpy as np
+import pandas as pd
+
+from identify import __version__
+from identify.errors import FitError, InputError
+from identify.fit.mcmc import run_mcmc
+from identify.fit.optimize import fit
+from identify.fit.plan import PLAN, RELATION_NAMES
+from identify.fit.relations import Context
+from identify.fit.result import FitResult
+from identify.model.parameters import defaults
+from identify.report.atomic import atomic_write_csv, atomic_write_text
+from identify.report.tir import write_tir
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """Settings that make a fit (recorded in fit.json).
+
+    Attributes
+    ----------
+    seed : int             seeds the global search and MCMC
+    mcmc : bool            run emcee on every fit
+    mcmc_ar1 : bool        AR(1) noise along sweeps in MCMC
+    save_chains : bool     keep MCMC chains as HDF5 under fits/<id>/mcmc/
+    only : tuple of str    relation names to fit (empty = all)
+    fittyp : int           61 or 62 for the written .tir
+    """
+
+    seed: int = 0
+    mcmc: bool = False
+    mcmc_ar1: bool = False
+    save_chains: bool = False
+    only: tuple[str, ...] = ()
+    fittyp: int = 61
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class FitRun:
+    """Everything one ``mfid fit`` produced.
+
+    Attributes
+    ----------
+    tyre_id : str
+    fit_dir : Path          fits/<tyre id>
+    tir_path, json_path, csv_path : Path
+    results : tuple of FitResult
+    params : dict            the written .tir values
+    key_sources : dict       .tir key -> "relation/form" that supplied it
+    flags : tuple of dict    data-quality flags from extraction
+    """
+
+    tyre_id: str
+    fit_dir: Path
+    tir_path: Path
+    json_path: Path
+    csv_path: Path
+    results: tuple[FitResult, ...]
+    params: dict
+    key_sources: dict
+    flags: tuple = field(default=())
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"tyre_id": self.tyre_id, "fit_dir": str(self.fit_dir),
+                "results": [r.to_dict() for r in self.results],
+                "key_sources": dict(self.key_sources), "flags": list(self.flags)}
+
+
+def _say(progress: Progress | None, text: str) -> None:
+    if progress is not None:
+        progress(text)
+
+
+def _base_tir(mset, fittyp: int) -> dict:
+    """.tir values before fitting: MFeval defaults with the folder's nominal conditions."""
+    t = defaults()
+    tyre = mset.manifest.tyre
+    t["FITTYP"] = float(fittyp)
+    t["FNOMIN"] = float(tyre.nominal_load_N)
+    t["NOMPRES"] = t["INFLPRES"] = float(tyre.nominal_pressure_Pa)
+    if tyre.unloaded_radius_m and math.isfinite(tyre.unloaded_radius_m):
+        t["UNLOADED_RADIUS"] = float(tyre.unloaded_radius_m)
+    return t
+
+
+def _numeric(t: dict) -> dict[str, float]:
+    return {k: float(v) for k, v in t.items() if isinstance(v, (int, float))}
+
+
+def _characteristics(mset, progress) -> tuple[pd.DataFrame, tuple, dict | None]:
+    frames = []
+    flags: tuple = ()
+    extraction = None
+    if mset.flatplank is not None and len(mset.flatplank):
+        from identify.extract import extract_folder  # raw Flatplank runs -> characteristics
+
+        _say(progress, "extract: characteristics from raw Flatplank runs")
+        ex = extract_folder(mset)
+        frames.append(ex.characteristics)
+        flags = tuple(ex.flags)
+        extraction = ex.to_dict()
+    if mset.characteristics is not None and len(mset.characteristics):
+        frames.append(mset.characteristics)
+    if not frames:
+        return pd.DataFrame(columns=["quantity", "pi_bar", "Fz_N", "value", "unit"]), flags, \
+            extraction
+    chars = pd.concat(frames, ignore_index=True)
+    if "p_Pa" not in chars or chars["p_Pa"].isna().any():
+        chars["p_Pa"] = chars["pi_bar"] * 1e5
+    return chars, flags, extraction
+
+
+def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
+    n = result.n_points
+    extra = getattr(problem, "extra", {}) or {}
+    cols = {k: np.asarray(extra.get(k, np.full(n, np.nan)), dtype=float)
+            for k in ("Fz_N", "gamma_deg", "alpha_rad", "kappa", "Vx_mps")}
+    quantity = extra.get("quantity", result.relation)
+    return pd.DataFrame({"relation": result.relation, "form": result.form,
+                         "quantity": quantity, "unit": problem.unit,
+                         "pi_bar": result.pressure_bar, **cols,
+                         "measured": result.measured, "model": result.predicted})
+
+
+def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
+               settings: FitSettings = FitSettings(), progress: Progress | None = None,
+               nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
+               command: str = "") -> FitRun:
+    """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
+
+    Raises
+    ------
+    InputError
+        The folder or file is malformed (exit 2 from the CLI).
+    FitError
+        A fit did not converge or a constraint is infeasible (exit 1 from the CLI).
+    """
+    from identify.load.folder import load_folder
+
+    unknown = [n for n in settings.only if n not in RELATION_NAMES]
+    if unknown:
+        raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
+                               f"{', '.join(RELATION_NAMES)}", key="--only")
+    _say(progress, f"load: {source}")
+    mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
+                       nominal_load_N=nominal_load_N)
+    tyre = mset.manifest.tyre
+    chars, flags, extraction = _characteristics(mset, progress)
+    tir = _base_tir(mset, settings.fittyp)
+    key_sources: dict[str, str] = {}
+    results: list[FitResult] = []
+    rows: list[pd.DataFrame] = []
+    wanted = (lambda name: not settings.only or name in settings.only)
+
+    if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
+        from identify.fit.mf_stages import fit_mf
+
+        _say(progress, "fit: Magic Formula stages on trailer data")
+        mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
+                    fittyp=settings.fittyp)
+        for r in mf.results:
+            results.append(r)
+            for k in r.free:
+                key_sources[k] = f"MF/{r.form} (trailer)"
+        tir.update(mf.params)
+        rows.extend(getattr(mf, "csv_frames", ()) or ())
+
+    ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
+                  tir=_numeric(tir), kya_from_tir=any(k in key_sources for k in ("PKY1", "PKY2")))
+    for entry in PLAN:
+        if not wanted(entry.relation):
+            continue
+        problem = entry.build(chars, ctx)
+        if problem is None:
+            continue
+        _say(progress, f"fit: {entry.relation} [{entry.form}]")
+        result = fit(problem, seed=settings.seed)
+        if settings.mcmc:
+            _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
+            chain = None
+            if settings.save_chains:
+                chain = Path(out_root) / tyre.id / "mcmc" / f"{entry.relation}_{entry.form}.h5"
+                chain.parent.mkdir(parents=True, exist_ok=True)
+            result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
+                              chain_file=chain)
+        results.append(result)
+        rows.append(_csv_rows(result, problem))
+        for key in entry.writes:
+            if key in key_sources and key_sources[key].startswith("MF/"):
+                continue  # the trailer's MF stage identified it; keep that, report both
+            if key in result.parameters:
+                tir[key] = result.parameters[key]
+                key_sources[key] = f"{entry.relation}/{entry.form}"
+        if entry.relation == "camber":  # later camber fits see the updated coefficients
+            ctx = dataclasses.replace(ctx, tir=_numeric(tir))
+    if not results:
+        raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
+                                    f"of a known quantity{' for --only' if settings.only else ''}")
+    failed = [f"{r.relation}[{r.form}]: {r.message}" for r in results if not r.converged]
+    return _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, settings,
+                  Path(out_root), command, failed)
+
+
+def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, settings, out_root,
+           command, failed) -> FitRun:
+    fit_dir = out_root / tyre.id
+    fit_dir.mkdir(parents=True, exist_ok=True)
+    tir_path = fit_dir / f"{tyre.id}.tir"
+    inputs = [{"path": str(Path(mset.path) / name), "sha256": digest}
+              for name, digest in sorted(mset.checksums.items())]
+    provenance = {"mfid_version": __version__,
+                  "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+                  "command": command, "seed": settings.seed, "settings": settings.to_dict(),
+                  "inputs": inputs}
+    comment = [f"fitted by mfid {__version__} from {tyre.id} ({tyre.source} data)",
+               f"seed {settings.seed}; inputs: " + ", ".join(
+                   f"{i['path']} sha256:{i['sha256'][:12]}" for i in inputs[:6])
+               + (" ..." if len(inputs) > 6 else "")]
+    write_tir(tir_path, tir, fittyp=settings.fittyp, comment_lines=comment)
+    csv_path = fit_dir / "measured_vs_model.csv"
+    frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    atomic_write_csv(frame, csv_path)
+    doc = {"schema": "mfid.fit/1",
+           "tyre": {"id": tyre.id, "nominal_pressure_Pa": tyre.nominal_pressure_Pa,
+                    "nominal_load_N": tyre.nominal_load_N, "source": tyre.source},
+           "provenance": provenance, "fits": [r.to_dict() for r in results],
+           "tir": {"path": tir_path.name, "fittyp": settings.fittyp,
+                   "key_sources": key_sources},
+           "flags": [dict(f) for f in flags], "failed": failed}
+    json_path = fit_dir / "fit.json"
+    if extraction is not None:
+        atomic_write_text(fit_dir / "extraction.json",
+                          json.dumps(extraction, indent=1, default=_json_default))
+    atomic_write_text(json_path, json.dumps(doc, indent=1, default=_json_default))
+    run = FitRun(tyre_id=tyre.id, fit_dir=fit_dir, tir_path=tir_path, json_path=json_path,
+                 csv_path=csv_path, results=tuple(results), params=tir,
+                 key_sources=key_sources, flags=tuple(flags))
+    if failed:
+        raise FitError("fit did not converge: " + "; ".join(failed))
+    return run
+
+
+def _json_default(obj):
+    if isinstance(obj, (np.floating, np.integer)):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, Path):
+        return str(obj)
+    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
+
+
+def only_names(values: Sequence[str]) -> tuple[str, ...]:
+    """Split repeated/comma-separated --only values."""
+    return tuple(n.strip() for v in values for n in v.split(",") if n.strip())
