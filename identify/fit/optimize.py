@@ -49,15 +49,9 @@ def _least_squares(problem: FitProblem, x0: np.ndarray):
                                   max_nfev=200 * (len(x0) + 1))
 
 
-def _local(problem: FitProblem, x0: np.ndarray) -> tuple[np.ndarray, bool, str]:
-    """Local solve from x0. Weighted least squares without constraints: trust-region
-    reflective. Otherwise a least-squares pre-solve (the thesis metric's smooth companion,
-    constraints ignored) followed by SLSQP on the true objective with bounds and constraints."""
-    res = _least_squares(problem, x0)
-    if problem.objective == "wls" and not problem.constraints:
-        return res.x, bool(res.status > 0), str(res.message)
+def _polish(problem: FitProblem, x1: np.ndarray) -> tuple[np.ndarray, bool, str]:
+    """SLSQP on the true objective with bounds and constraints, from x1."""
     lo, hi = problem.bounds()
-    x1 = res.x
     scale = np.maximum(np.abs(x1), 1e-3)  # SLSQP is sensitive to scaling: optimise x / scale
 
     def scaled(z):
@@ -74,6 +68,25 @@ def _local(problem: FitProblem, x0: np.ndarray) -> tuple[np.ndarray, bool, str]:
     if not problem.constraints and problem.objective_value(x) > problem.objective_value(x1):
         return x1, True, "least-squares pre-solve kept (SLSQP did not improve)"
     return x, bool(out.success), str(out.message)
+
+
+def _local(problem: FitProblem, x0: np.ndarray, cache: list | None = None
+           ) -> tuple[np.ndarray, bool, str]:
+    """Local solve from x0. Weighted least squares without constraints: trust-region
+    reflective. Otherwise a least-squares pre-solve (the thesis metric's smooth companion,
+    constraints ignored) followed by SLSQP on the true objective with bounds and constraints;
+    starts whose pre-solves land on the same point share one polish (``cache``)."""
+    res = _least_squares(problem, x0)
+    if problem.objective == "wls" and not problem.constraints:
+        return res.x, bool(res.status > 0), str(res.message)
+    if cache is not None:
+        for x_ls, outcome in cache:
+            if np.allclose(x_ls, res.x, rtol=1e-8, atol=1e-12):
+                return outcome
+    outcome = _polish(problem, res.x)
+    if cache is not None:
+        cache.append((res.x, outcome))
+    return outcome
 
 
 def _jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
@@ -100,7 +113,8 @@ def covariance(problem: FitProblem, x: np.ndarray) -> np.ndarray:
     return s2 * np.linalg.pinv(J.T @ J)
 
 
-def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0) -> FitResult:
+def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
+        starts: np.ndarray | None = None) -> FitResult:
     """Solve ``problem`` globally: multi-start Latin hypercube, local polish, best of all.
 
     Parameters
@@ -109,17 +123,24 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0) -> F
         Number of starts including the initial values; default max(16, 8 * free parameters).
     seed : int
         Seed of the Latin hypercube.
+    starts : ndarray, optional
+        Explicit start points, shape (starts, free parameters), used instead of the initial
+        values + Latin hypercube (``n_starts`` and ``seed`` are then ignored); clipped to the
+        bounds.
     """
     t0 = time.perf_counter()
     free = problem.free
     k = len(free)
     n_starts = n_starts or max(16, 8 * k)
+    if starts is not None:
+        starts = np.clip(np.atleast_2d(np.asarray(starts, dtype=float)), *problem.bounds())
     if k == 0:
         xs, oks, msgs = [np.zeros(0)], [True], ["nothing to fit"]
     else:
         xs, oks, msgs = [], [], []
-        for x0 in _starts(problem, n_starts, seed):
-            x, ok, msg = _local(problem, x0)
+        cache: list = []
+        for x0 in (_starts(problem, n_starts, seed) if starts is None else starts):
+            x, ok, msg = _local(problem, x0, cache)
             feasible = problem.constraint_values(x).min(initial=0.0) >= -1e-8
             xs.append(x)
             oks.append(ok and feasible)
