@@ -48,3 +48,13 @@ def test_fused_matches_numpy(fittyp, mode, with_omega):
         err = np.abs(a - b) / np.maximum(1.0, np.abs(a))
         tol = 1e-6 if (fittyp == 62 and name in ("rho", "Rl", "Cz")) else TOL
         assert np.nanmax(err) <= tol, f"{name}: worst {np.nanmax(err):.2e}"
+
+
+def test_threaded_kernel_gives_identical_results():
+    P = params(61)
+    pts = random_points(2000, seed=11)
+    args = (pts["fz"], pts["kappa"], pts["alpha"], pts["gamma"], pts["vx"], pts["p"])
+    a = evaluate_fused(P, *args, mode=111)
+    b = evaluate_fused(P, *args, mode=111, threads=True)
+    for name in OUTPUT_COLUMNS:
+        assert np.array_equal(a[name], b[name], equal_nan=True), name

@@ -11,6 +11,7 @@ lateral.fy0, and so on; change both together.
 from __future__ import annotations
 
 import math
+import os
 from collections import namedtuple
 from typing import Mapping
 
@@ -396,15 +397,36 @@ def _evaluate_all(c, fz, kappa, alpha, gamma, vx, p, phit, omega, has_omega, lim
                limits, alpha_star, out[i])
 
 
-if HAVE_NUMBA:
-    _evaluate_all = numba.njit(cache=True, fastmath=False, error_model="numpy")(_evaluate_all)
+if HAVE_NUMBA:  # nogil: chunks run truly in parallel on Python threads
+    _evaluate_all = numba.njit(cache=True, fastmath=False, error_model="numpy",
+                               nogil=True)(_evaluate_all)
+
+
+def _evaluate_all_threads(c, fz, *arrays_and_flags):
+    """Split the points into one contiguous chunk per core and run them on threads."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    (kappa, alpha, gamma, vx, p, phit, omega, has_omega, limits, alpha_star, out) = \
+        arrays_and_flags
+    n_workers = max(1, min(os.cpu_count() or 1, fz.shape[0] // 1000 or 1))
+    edges = np.linspace(0, fz.shape[0], n_workers + 1).astype(int)
+
+    def work(k):
+        sl = slice(edges[k], edges[k + 1])
+        _evaluate_all(c, fz[sl], kappa[sl], alpha[sl], gamma[sl], vx[sl], p[sl], phit[sl],
+                      omega[sl], has_omega, limits, alpha_star, out[sl])
+
+    with ThreadPoolExecutor(n_workers) as pool:
+        list(pool.map(work, range(n_workers)))
 
 
 def evaluate_fused(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, omega=None,
-                   phit=None, mode: int = 111) -> dict[str, np.ndarray]:
+                   phit=None, mode: int = 111, threads: bool = False) -> dict[str, np.ndarray]:
     """Fused-kernel twin of :func:`identify.model.evaluate.evaluate` (default solver options).
 
-    Same arguments and the same returned dict of arrays.
+    Same arguments and the same returned dict of arrays. ``threads=True`` spreads the points
+    over numba's thread pool (NUMBA_NUM_THREADS cores); points are independent, so the result
+    is identical.
     """
     from identify.model.modes import UseMode
 
@@ -426,7 +448,8 @@ def evaluate_fused(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, 
     om = col(omega, 0.0)
     has_omega = omega is not None and np.sum(om) != 0
     out = np.empty((n, len(KERNEL_COLUMNS)))
-    _evaluate_all(kernel_params(P), fz, col(kappa, 0.0), col(alpha, 0.0), col(gamma, 0.0),
+    run = _evaluate_all_threads if threads else _evaluate_all
+    run(kernel_params(P), fz, col(kappa, 0.0), col(alpha, 0.0), col(gamma, 0.0),
                   col(vx, 0.0), p_arr, col(phit, 0.0), om, has_omega, um.limits, um.alpha_star,
                   out)
     result = {name: out[:, j] for j, name in enumerate(KERNEL_COLUMNS)}
