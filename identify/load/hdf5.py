@@ -6,8 +6,6 @@ reads files pandas wrote). Writing goes to a temporary file that is renamed into
 """
 from __future__ import annotations
 
-import os
-import tempfile
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
@@ -15,8 +13,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from identify.errors import InputError
 from identify.load.common import Problems
+from identify.report.atomic import atomic_path
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
 
@@ -131,12 +129,7 @@ def write_hdf5(path: str | Path, runs: Sequence[RawRun], *, time: str = "RUNTIME
     import h5py
 
     target = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-    except OSError as exc:
-        raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
-    os.close(fd)
-    try:
+    with atomic_path(target) as tmp:
         with h5py.File(tmp, "w", track_order=True) as fh:
             for run in runs:
                 grp = fh.create_group(run.name, track_order=True)
@@ -151,20 +144,4 @@ def write_hdf5(path: str | Path, runs: Sequence[RawRun], *, time: str = "RUNTIME
                     for key in grp:
                         if key != time:
                             grp[key].dims[0].attach_scale(grp[time])
-        os.chmod(tmp, 0o666 & ~_umask())
-        os.replace(tmp, target)
-    except BaseException as exc:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        if isinstance(exc, OSError):
-            raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
-        raise
     return target
-
-
-def _umask() -> int:
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask

@@ -7,15 +7,16 @@ from __future__ import annotations
 
 import os
 import tempfile
+from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Iterator
 
 from identify.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["atomic_write_text", "atomic_write_csv"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv"]
 
 
 def _umask() -> int:
@@ -27,41 +28,26 @@ def _umask() -> int:
 _MODE = 0o666 & ~_umask()
 
 
-def atomic_write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> Path:
-    """Write ``text`` to ``path`` atomically (temp file + fsync + ``os.replace``).
+@contextmanager
+def atomic_path(path: str | Path) -> Iterator[Path]:
+    """Give a temporary path next to ``path``; on success rename it onto ``path``.
 
-    Line ends are written as given (no newline translation).
-
-    Parameters
-    ----------
-    path : str or Path
-        Target file; its directory must exist.
-    text : str
-        Complete file content.
-    encoding : str
-        Text encoding.
-
-    Returns
-    -------
-    Path
-        The target path.
-
-    Raises
-    ------
-    InputError
-        If the file cannot be written (missing directory, permission ...).
+    For writers that need a file name (HDF5, PDF): write the complete file to the yielded
+    path inside the ``with`` block. On any exception (including KeyboardInterrupt) the
+    temporary file is removed and the target keeps its old content; an OSError becomes an
+    :class:`InputError` naming the target.
     """
     target = Path(path)
     directory = target.parent
     try:
         mode = target.stat().st_mode & 0o777 if target.exists() else _MODE
         fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=directory)
+        os.close(fd)
     except OSError as exc:
         raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
     try:
-        with os.fdopen(fd, "w", encoding=encoding, newline="") as fh:
-            fh.write(text)
-            fh.flush()
+        yield Path(tmp)
+        with open(tmp, "rb") as fh:
             os.fsync(fh.fileno())
         os.chmod(tmp, mode)
         os.replace(tmp, target)
@@ -76,14 +62,29 @@ def atomic_write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -
     try:  # make the rename itself durable; not possible on every platform
         dir_fd = os.open(directory, os.O_RDONLY)
     except OSError:
-        return target
+        return
     try:
         os.fsync(dir_fd)
     except OSError:
         pass
     finally:
         os.close(dir_fd)
-    return target
+
+
+def atomic_write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -> Path:
+    """Write ``text`` to ``path`` atomically (temp file + fsync + ``os.replace``).
+
+    Line ends are written as given (no newline translation).
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written (missing directory, permission ...).
+    """
+    with atomic_path(path) as tmp:
+        with open(tmp, "w", encoding=encoding, newline="") as fh:
+            fh.write(text)
+    return Path(path)
 
 
 def atomic_write_csv(df: "pd.DataFrame", path: str | Path, **to_csv: Any) -> Path:
