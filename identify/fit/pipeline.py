@@ -11,6 +11,7 @@ import dataclasses
 import datetime as _dt
 import json
 import math
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Callable, Sequence
@@ -26,8 +27,8 @@ from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.model.parameters import defaults
-from identify.report.atomic import atomic_write_csv, atomic_write_text
-from identify.report.tir import write_tir
+from identify.report.atomic import atomic_path
+from identify.report.tir import format_tir
 
 Progress = Callable[[str], None]
 
@@ -185,7 +186,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
             for k in r.free:
                 key_sources[k] = f"MF/{r.form} (trailer)"
         tir.update(mf.params)
-        rows.extend(getattr(mf, "csv_frames", ()) or ())
+        rows.append(mf.measured_vs_model())
 
     ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
                   tir=_numeric(tir), kya_from_tir=any(k in key_sources for k in ("PKY1", "PKY2")))
@@ -238,10 +239,8 @@ def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, setti
                f"seed {settings.seed}; inputs: " + ", ".join(
                    f"{i['path']} sha256:{i['sha256'][:12]}" for i in inputs[:6])
                + (" ..." if len(inputs) > 6 else "")]
-    write_tir(tir_path, tir, fittyp=settings.fittyp, comment_lines=comment)
     csv_path = fit_dir / "measured_vs_model.csv"
     frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    atomic_write_csv(frame, csv_path)
     doc = {"schema": "mfid.fit/1",
            "tyre": {"id": tyre.id, "nominal_pressure_Pa": tyre.nominal_pressure_Pa,
                     "nominal_load_N": tyre.nominal_load_N, "source": tyre.source},
@@ -250,10 +249,18 @@ def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, setti
                    "key_sources": key_sources},
            "flags": [dict(f) for f in flags], "failed": failed}
     json_path = fit_dir / "fit.json"
+    texts = {tir_path: format_tir(tir, fittyp=settings.fittyp, comment_lines=comment),
+             csv_path: frame.to_csv(index=False, lineterminator="\n"),
+             json_path: json.dumps(doc, indent=1, default=_json_default)}
     if extraction is not None:
-        atomic_write_text(fit_dir / "extraction.json",
-                          json.dumps(extraction, indent=1, default=_json_default))
-    atomic_write_text(json_path, json.dumps(doc, indent=1, default=_json_default))
+        texts[fit_dir / "extraction.json"] = json.dumps(extraction, indent=1,
+                                                        default=_json_default)
+    # every file goes to a temporary name first; the renames come last, back to back, so an
+    # interrupt leaves either the previous set of outputs or the complete new one
+    with ExitStack() as stack:
+        for path, text in texts.items():
+            tmp = stack.enter_context(atomic_path(path))
+            tmp.write_text(text, encoding="utf-8")
     run = FitRun(tyre_id=tyre.id, fit_dir=fit_dir, tir_path=tir_path, json_path=json_path,
                  csv_path=csv_path, results=tuple(results), params=tir,
                  key_sources=key_sources, flags=tuple(flags))

@@ -87,14 +87,14 @@ def cfz(chars: pd.DataFrame, ctx: Context, form: str = "mf") -> FitProblem | Non
     P = lmfit.Parameters()
     c_nom = float(np.median(d["value"]))
     if form == "qfz":
-        _add(P, "QFZ1", c_nom, lo=0.0, hi=10 * c_nom)
+        _add(P, "QFZ1", c_nom, lo=0.0, hi=10 * max(abs(c_nom), 1.0))
         _add(P, "QFZ2", 0.0, lo=-1e8, hi=1e8)
         _add(P, "QFZ3", 0.5, lo=-1.0, hi=3.0)
 
         def model(v):
             return rel.cfz_qfz_at_load(fz, dp, v["QFZ1"], v["QFZ2"], v["QFZ3"])
     elif form == "mf":
-        _add(P, "VERTICAL_STIFFNESS", c_nom, lo=0.0, hi=10 * c_nom)
+        _add(P, "VERTICAL_STIFFNESS", c_nom, lo=0.0, hi=10 * max(abs(c_nom), 1.0))
         _add(P, "Q_FZ2", 1.0, lo=0.0, hi=100.0)
         _add(P, "PFZ1", 0.5)
         r0, fz0 = ctx.r0, ctx.fz0
@@ -117,7 +117,8 @@ def _stiffness(chars, ctx, quantity, keys, form) -> FitProblem | None:
     nom, k1, k2, k3 = keys
     fz, dp = d["Fz_N"].to_numpy(float), ctx.dp(d["pi_bar"].to_numpy(float))
     P = lmfit.Parameters()
-    _add(P, nom, float(np.median(d["value"])), lo=0.0, hi=10 * float(d["value"].max()))
+    _add(P, nom, float(np.median(d["value"])), lo=0.0,
+         hi=10 * max(float(np.abs(d["value"]).max()), 1.0))
     _add(P, k1, 0.2)
     _add(P, k2, 0.0, vary=form == "quadratic_load")
     _add(P, k3, 0.3)
@@ -161,7 +162,8 @@ def cfy(chars, ctx, form="linear_load", *, cofit_kya: bool | None = None,
     locked = _select(chars, "CFy")
     c_nom = float(np.median(locked["value"])) if not locked.empty else float(
         t["LATERAL_STIFFNESS"])
-    _add(P, "LATERAL_STIFFNESS", c_nom, vary=not cofit_kya, lo=0.0, hi=10 * c_nom)
+    _add(P, "LATERAL_STIFFNESS", c_nom, vary=not cofit_kya, lo=0.0,
+         hi=10 * max(abs(c_nom), 1.0))
     _add(P, "PCFY1", 0.2)
     _add(P, "PCFY2", 0.0, lo=-0.6, hi=0.6)
     _add(P, "PCFY3", 0.3)
@@ -314,7 +316,7 @@ def sidewall(chars, ctx, mode: str, form: str = "scaling") -> FitProblem | None:
     key = f"F_{mode.upper()}"
     P = lmfit.Parameters()
     f_nom = float(np.median(d["value"]))
-    _add(P, f"F0_{mode.upper()}", f_nom, lo=0.0, hi=10 * f_nom)
+    _add(P, f"F0_{mode.upper()}", f_nom, lo=0.0, hi=10 * max(abs(f_nom), 1.0))
     if form == "scaling":
         _add(P, key, 0.5, lo=-0.99, hi=5.0)
 
