@@ -1,0 +1,226 @@
+"""``mfid fit``: check -> load -> extract -> fit -> .tir, fit.json, CSVs -> PDF report.
+
+Exit codes: 0 success; 1 a fit failed (did not converge, constraint infeasible): the outputs
+are still written, complete and marked as failed (fit.json "failed", a red line on the
+report's cover) so that the reason can be inspected, and the reason is printed; 2 a usage error
+or bad input (one line on stderr); 130 interrupted (every output is written to a temporary
+name and renamed, so no partial file is left).
+"""
+from __future__ import annotations
+
+import shlex
+import time
+import warnings
+from pathlib import Path
+from typing import Optional
+
+import typer
+from rich import box
+from rich.console import Console
+from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.table import Table
+
+from identify.cli.app import _STATE, app, err_console, fail, out_console
+from identify.errors import FitError, InputError, MfidError
+
+
+class StageProgress:
+    """The ``progress`` callback of the fit pipeline, shown with rich.
+
+    On a terminal every stage is a line with a spinner while it runs and its elapsed time once
+    done; elsewhere (a pipe, make's log) each stage is printed as one line when it starts.
+    """
+
+    def __init__(self, console=out_console):
+        self.console = console
+        self.live = console.is_terminal
+        self.t0 = time.perf_counter()
+        self._progress = None
+        self._task = None
+
+    def __enter__(self) -> "StageProgress":
+        if self.live:
+            self._progress = Progress(SpinnerColumn(finished_text="[green]done"),
+                                      TextColumn("{task.description}", markup=False), TimeElapsedColumn(),
+                                      console=self.console, transient=False)
+            self._progress.start()
+        return self
+
+    def __call__(self, text: str) -> None:
+        if self._progress is not None:
+            self._finish()
+            self._task = self._progress.add_task(text, total=1)
+        else:
+            self.console.print(f"[{time.perf_counter() - self.t0:6.1f} s] {text}", markup=False,
+                               highlight=False)
+
+    def _finish(self) -> None:
+        if self._progress is not None and self._task is not None:
+            self._progress.update(self._task, completed=1)
+
+    def __exit__(self, exc_type, exc, tb) -> None:
+        if self._progress is not None:
+            if exc_type is None:
+                self._finish()
+            self._progress.stop()
+
+
+def tyre_id_of(folder: Path) -> str:
+    """The tyre id ``mfid fit`` names the fit directory after (manifest id, or the CSV's
+    stem)."""
+    from identify.load.manifest import MANIFEST_NAME, read_manifest
+
+    toml = folder / MANIFEST_NAME if folder.is_dir() else folder
+    if toml.name == MANIFEST_NAME:
+        return read_manifest(toml).tyre.id
+    return folder.stem
+
+
+def summary_table(doc: dict) -> Table:
+    """Relation, form, total thesis error, key coefficients: one row per fit."""
+    from identify.report import tables as T
+
+    table = Table(title="fit summary (thesis error: mean of the per-pressure errors)",
+                  title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False)
+    for name, just in (("relation", "left"), ("form", "left"), ("total error %", "right"),
+                       ("points", "right"), ("status", "left"), (".tir", "center")):
+        table.add_column(name, justify=just, no_wrap=True)
+    table.add_column("key coefficients", overflow="fold")
+    for r in T.summary_rows(doc):
+        table.add_row(r.relation, r.form, T.fmt_pct(r.error_total_pct), str(r.n_points),
+                      "ok" if r.converged else "[red]FAILED[/red]", "x" if r.in_tir else "",
+                      r.key_coefficients)
+    return table
+
+
+def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
+                  no_report, fittyp) -> str:
+    args = ["mfid", "fit", str(folder)]
+    if str(out) != "fits":
+        args += ["--out", str(out)]
+    if str(reports) != "reports":
+        args += ["--reports", str(reports)]
+    if mcmc:
+        args.append("--mcmc")
+    if seed:
+        args += ["--seed", str(seed)]
+    for o in only:
+        args += ["--only", o]
+    if nominal_pressure is not None:
+        args += ["--nominal-pressure", f"{nominal_pressure:g}"]
+    if nominal_load is not None:
+        args += ["--nominal-load", f"{nominal_load:g}"]
+    if fittyp != 61:
+        args += ["--fittyp", str(fittyp)]
+    if no_report:
+        args.append("--no-report")
+    return shlex.join(args)
+
+
+@app.command("fit")
+def fit_command(
+    folder: Path = typer.Argument(..., help="Measurement folder (with tyre.toml), its "
+                                            "tyre.toml, or a single characteristics CSV."),
+    out: Path = typer.Option(Path("fits"), "--out",
+                             help="Root of the fit directories: writes OUT/<tyre id>/."),
+    reports: Path = typer.Option(Path("reports"), "--reports",
+                                 help="Folder of the PDF reports: writes REPORTS/<tyre id>.pdf."),
+    mcmc: bool = typer.Option(False, "--mcmc", help="Run MCMC (emcee) on every fit; the chains "
+                                                    "are kept in OUT/<tyre id>/mcmc/ for the "
+                                                    "report's corner plots and traces."),
+    mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1",
+                                  help="With --mcmc: AR(1) noise along each sweep."),
+    seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
+    only: list[str] = typer.Option([], "--only", metavar="NAME",
+                                   help="Fit only these relations (repeat or separate with "
+                                        "commas): CFz, CFx, CFy, CMz, RR, camber, sidewall, "
+                                        "MF."),
+    nominal_pressure: Optional[float] = typer.Option(
+        None, "--nominal-pressure", metavar="PA",
+        help="Nominal pressure [Pa] of a single characteristics CSV."),
+    nominal_load: Optional[float] = typer.Option(
+        None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
+                                                  "characteristics CSV."),
+    fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
+    no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
+) -> None:
+    """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
+    (and extraction.json) and the PDF report REPORTS/<id>.pdf.
+
+    Exit 0 on success; 1 when a fit failed (outputs are still written, marked as failed);
+    2 on bad input.
+    """
+    from identify.fit.pipeline import FitSettings, fit_folder, only_names
+
+    command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
+                            nominal_load, no_report, fittyp)
+    failure: FitError | None = None
+    started = time.time()
+    try:
+        if fittyp not in (61, 62):
+            raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
+        if mcmc_ar1 and not mcmc:
+            raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
+        settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
+                               only=only_names(only), fittyp=fittyp)
+        with warnings.catch_warnings(), StageProgress() as progress:
+            if not _STATE.get("debug"):
+                # numerical warnings from trial points are expected; failures are reported
+                warnings.simplefilter("ignore", RuntimeWarning)
+            try:
+                run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
+                                 nominal_pressure_Pa=nominal_pressure,
+                                 nominal_load_N=nominal_load, command=command)
+                fit_dir = run.fit_dir
+            except FitError as exc:
+                # the pipeline wrote complete outputs before raising: report them too
+                failure = exc
+                fit_dir = out / tyre_id_of(folder)
+            written = _fresh(fit_dir / "fit.json", started)
+            report = None
+            if not no_report and written:
+                from identify.report.pdf import write_report
+
+                progress("report: PDF")
+                report = write_report(fit_dir, reports / f"{fit_dir.name}.pdf",
+                                      progress=progress)
+    except KeyboardInterrupt:
+        err_console.print("interrupted: no partial output was left (files are written to a "
+                          "temporary name and renamed)", markup=False)
+        raise typer.Exit(130)
+    except MfidError as exc:
+        fail(exc)
+    if written:
+        _print_outputs(fit_dir, report)
+    if failure is not None:
+        if _STATE.get("debug"):
+            raise failure
+        err_console.print(f"error: {failure}", markup=False)
+        raise typer.Exit(failure.exit_code)
+
+
+def _fresh(path: Path, since: float) -> bool:
+    """The file exists and was written by this run (not left from an earlier one)."""
+    try:
+        return path.stat().st_mtime >= since - 1.0
+    except OSError:
+        return False
+
+
+def _print_outputs(fit_dir: Path, report) -> None:
+    import json
+
+    doc = json.loads((fit_dir / "fit.json").read_text(encoding="utf-8"))
+    if out_console.is_terminal:
+        out_console.print(summary_table(doc))
+    else:  # a log or pipe gets the whole table rather than rich's default 80 columns
+        Console(highlight=False, width=160).print(summary_table(doc))
+    tir_name = (doc.get("tir") or {}).get("path") or f"{fit_dir.name}.tir"
+    out_console.print("outputs:", markup=False)
+    for path in (fit_dir / tir_name, fit_dir / "fit.json", fit_dir / "measured_vs_model.csv",
+                 fit_dir / "extraction.json", fit_dir / "mcmc"):
+        if path.exists():
+            out_console.print(f"  {path}", markup=False, highlight=False)
+    if report is not None:
+        out_console.print(f"  {report.path} ({report.n_pages} pages)", markup=False,
+                          highlight=False)

@@ -1,0 +1,34 @@
+"""``mfid report``: rebuild the PDF report from a saved fit directory, without refitting."""
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Optional
+
+import typer
+
+from identify.cli.app import app, fail, out_console
+from identify.errors import MfidError
+
+
+@app.command("report")
+def report_command(
+    fit_dir: Path = typer.Argument(..., metavar="FITDIR",
+                                   help="A fit directory written by mfid fit (fits/<tyre id>/)."),
+    output: Optional[Path] = typer.Option(None, "--output", "-o",
+                                          help="PDF to write (default reports/<tyre id>.pdf)."),
+) -> None:
+    """Rebuild the PDF fit report from FITDIR alone (fit.json, measured_vs_model.csv, the
+    .tir, extraction.json and saved MCMC chains)."""
+    from identify.report.fitdir import read_fit_dir
+    from identify.report.pdf import default_report_path, write_report
+
+    try:
+        fd = read_fit_dir(fit_dir)
+        report = write_report(fd, output if output is not None else default_report_path(fd))
+    except KeyboardInterrupt:
+        out_console.print("interrupted: no partial report was left", markup=False)
+        raise typer.Exit(130)
+    except MfidError as exc:
+        fail(exc)
+    out_console.print(f"wrote {report.path} ({report.n_pages} pages)", markup=False,
+                      highlight=False)

@@ -1,0 +1,160 @@
+"""The PDF fit report, rebuilt from a fit directory alone (``mfid report FITDIR``).
+
+Pages, in order: cover (tyre, provenance, settings, every fit with its total thesis error);
+one page per fit (measured points and model lines, residuals, the thesis error per pressure
+with the total first, the parameter table); the MF slip pages (Fy-alpha, Fx-kappa, Mz-alpha,
+Mx-gamma, friction ellipse) when the fit has MF rows; MCMC pages when MCMC ran; the
+data-quality page; an appendix of input files when the cover cannot list them all.
+
+matplotlib ``Figure`` objects (no pyplot state) go into ``PdfPages`` one per page and are
+released after saving. The file is written to a temporary name in the target's folder and
+renamed, so an interrupted run leaves no partial PDF. The metadata's CreationDate is the fit's
+creation time from fit.json, so the same fit directory gives the same PDF.
+"""
+from __future__ import annotations
+
+import contextlib
+import os
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Callable, Iterator
+
+from identify import __version__
+from identify.errors import InputError
+from identify.report.fitdir import FitDir, read_fit_dir
+
+Progress = Callable[[str], None]
+
+
+@dataclass(frozen=True)
+class Report:
+    """A written report: its path and the title of every page, in order."""
+
+    path: Path
+    pages: tuple[str, ...]
+    notes: tuple[str, ...]
+
+    @property
+    def n_pages(self) -> int:
+        return len(self.pages)
+
+
+def default_report_path(fd: FitDir, reports: str | Path = "reports") -> Path:
+    return Path(reports) / f"{fd.tyre_id}.pdf"
+
+
+@contextlib.contextmanager
+def atomic_binary(path: str | Path) -> Iterator[Path]:
+    """Yield a temporary path next to ``path``; on success fsync and rename it onto ``path``,
+    on any exception (KeyboardInterrupt included) delete it."""
+    target = Path(path)
+    try:
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
+        os.close(fd)
+    except OSError as exc:
+        raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
+    tmp_path = Path(tmp)
+    try:
+        yield tmp_path
+        with open(tmp_path, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.chmod(tmp_path, 0o644)
+        os.replace(tmp_path, target)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            tmp_path.unlink()
+        raise
+
+
+def metadata(fd: FitDir) -> dict:
+    """PDF metadata: Title, Author ("mfid <version>"), Subject, Keywords, CreationDate (the
+    fit's creation time, for a reproducible file)."""
+    relations = sorted({str(f.get("relation")) for f in fd.fits})
+    source = fd.tyre.get("source") or "unknown"
+    meta = {"Title": f"mfid fit report: {fd.tyre_id}",
+            "Author": f"mfid {__version__}",
+            "Subject": f"Magic Formula fit with inflation pressure of tyre {fd.tyre_id} "
+                       f"({source} data)",
+            "Keywords": "; ".join(["tyre model", "Magic Formula", "inflation pressure",
+                                   fd.tyre_id] + relations),
+            "Creator": f"mfid {__version__} (matplotlib)",
+            "CreationDate": fd.created}
+    if meta["CreationDate"] is None:
+        del meta["CreationDate"]
+    return meta
+
+
+def build_pages(fd: FitDir, progress: Progress | None = None):
+    """Yield (title, Figure) for every page, and collect notes in the generator's return."""
+    from identify.report import pages as P
+    from identify.report.curves import mf_slip_pages
+
+    notes: list[str] = []
+    yield from P.cover(fd)
+    for fit in fd.fits:
+        if progress:
+            progress(f"report: {fit.get('relation')} [{fit.get('form')}]")
+        fpages, note = P.fit_pages(fd, fit)
+        if note:
+            notes.append(note)
+        yield from fpages
+    slip, slip_notes = mf_slip_pages(fd)
+    notes += slip_notes
+    if slip and progress:
+        progress("report: MF slip pages")
+    yield from P.slip_pages(fd, slip)
+    for fit in fd.fits:
+        if fit.get("mcmc"):
+            if progress:
+                progress(f"report: MCMC {fit.get('relation')} [{fit.get('form')}]")
+            mpages, note = P.mcmc_pages(fd, fit)
+            if note:
+                notes.append(note)
+            yield from mpages
+    yield from P.quality_pages(fd, notes)
+    yield from P.inputs_appendix(fd)
+    return notes
+
+
+def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None, *,
+                 progress: Progress | None = None) -> Report:
+    """Write the PDF report of a fit directory.
+
+    Parameters
+    ----------
+    fit_dir : path or FitDir
+        ``fits/<tyre id>/`` as written by ``mfid fit``.
+    output : path, optional
+        The PDF (default ``reports/<tyre id>.pdf``); its folder is created.
+    progress : callable, optional
+        Called with a short text per stage.
+
+    Raises
+    ------
+    InputError
+        The fit directory is missing or malformed, or the PDF cannot be written.
+    """
+    from matplotlib.backends.backend_pdf import PdfPages
+
+    fd = fit_dir if isinstance(fit_dir, FitDir) else read_fit_dir(fit_dir)
+    out = Path(output) if output is not None else default_report_path(fd)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(out.parent, f"cannot create folder: {exc.strerror or exc}") from None
+    titles: list[str] = []
+    notes: list[str] = []
+    with atomic_binary(out) as tmp:
+        with PdfPages(tmp, metadata=metadata(fd)) as pdf:
+            gen = build_pages(fd, progress)
+            while True:
+                try:
+                    title, fig = next(gen)
+                except StopIteration as stop:
+                    notes = list(stop.value or [])
+                    break
+                pdf.savefig(fig)
+                fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
+                titles.append(title)
+    return Report(out, tuple(titles), tuple(notes))
