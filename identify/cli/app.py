@@ -50,6 +50,8 @@ def fail(exc: MfidError) -> None:
 from identify.cli import eval_cmd  # noqa: E402,F401
 from identify.cli import simulate_cmd  # noqa: E402,F401
 from identify.cli import check_cmd, convert_cmd  # noqa
+from identify.cli import fit_cmd, report_cmd  # noqa: E402,F401
+from identify.cli import extract_cmd  # noqa
 
 
 def main() -> None:
