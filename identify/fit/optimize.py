@@ -25,6 +25,12 @@ plus BEST_ATOL absolute (the objectives are O(1): % for the thesis metric, norma
 errors for weighted least squares; 1e-8 only matters for exact, noise-free data)."""
 
 
+TIE_ATOL = 1e-20
+"""Absolute part of the tolerance within which two starts' objectives are the same optimum
+when choosing which to report (the earliest); stricter than BEST_ATOL so that noise-free fits
+do not report a start that stopped short of the exact optimum."""
+
+
 def _sampling_box(problem: FitProblem) -> tuple[np.ndarray, np.ndarray]:
     """Finite box for the start points: the bounds, or initial +/- max(|initial|, 1) where a
     bound is infinite."""
@@ -42,11 +48,11 @@ def _starts(problem: FitProblem, n_starts: int, seed: int) -> np.ndarray:
     return np.vstack([np.clip(problem.x0(), *problem.bounds()), pts])
 
 
-def _least_squares(problem: FitProblem, x0: np.ndarray):
+def _least_squares(problem: FitProblem, x0: np.ndarray, max_nfev: int | None = None):
     lo, hi = problem.bounds()
     return optimize.least_squares(problem.residuals, x0, bounds=(lo, hi), method="trf",
                                   x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                                  max_nfev=200 * (len(x0) + 1))
+                                  max_nfev=max_nfev or 200 * (len(x0) + 1))
 
 
 def _polish(problem: FitProblem, x1: np.ndarray) -> tuple[np.ndarray, bool, str]:
@@ -70,15 +76,29 @@ def _polish(problem: FitProblem, x1: np.ndarray) -> tuple[np.ndarray, bool, str]
     return x, bool(out.success), str(out.message)
 
 
-def _local(problem: FitProblem, x0: np.ndarray, cache: list | None = None
+def _local(problem: FitProblem, x0: np.ndarray, cache: list | None = None,
+           max_nfev: int | None = None
            ) -> tuple[np.ndarray, bool, str]:
     """Local solve from x0. Weighted least squares without constraints: trust-region
     reflective. Otherwise a least-squares pre-solve (the thesis metric's smooth companion,
     constraints ignored) followed by SLSQP on the true objective with bounds and constraints;
     starts whose pre-solves land on the same point share one polish (``cache``)."""
-    res = _least_squares(problem, x0)
-    if problem.objective == "wls" and not problem.constraints:
-        return res.x, bool(res.status > 0), str(res.message)
+    return _finish(problem, _least_squares(problem, x0, max_nfev), cache)
+
+
+def _finish(problem: FitProblem, res, cache: list | None = None,
+            bound: float = np.inf) -> tuple[np.ndarray, bool, str]:
+    """The rest of :func:`_local` after the least-squares solve ``res``. Weighted least
+    squares: a pre-solve that violates no constraint is the constrained optimum; one that does
+    is polished unless its cost already reaches ``bound`` (the best feasible objective found
+    so far: polishing only raises it) or it exhausted its budget."""
+    if problem.objective == "wls":
+        if res.status == 0 or not problem.constraints \
+                or problem.constraint_values(res.x).min(initial=0.0) >= 0.0:
+            return res.x, bool(res.status > 0), str(res.message)
+        if res.cost >= bound:
+            return res.x, False, ("not polished: infeasible least-squares optimum no better "
+                                  "than a feasible start")
     if cache is not None:
         for x_ls, outcome in cache:
             if np.allclose(x_ls, res.x, rtol=1e-8, atol=1e-12):
@@ -114,7 +134,7 @@ def covariance(problem: FitProblem, x: np.ndarray) -> np.ndarray:
 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
-        starts: np.ndarray | None = None) -> FitResult:
+        starts: np.ndarray | None = None, max_nfev: int | None = None) -> FitResult:
     """Solve ``problem`` globally: multi-start Latin hypercube, local polish, best of all.
 
     Parameters
@@ -127,6 +147,10 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         Explicit start points, shape (starts, free parameters), used instead of the initial
         values + Latin hypercube (``n_starts`` and ``seed`` are then ignored); clipped to the
         bounds.
+    max_nfev : int, optional
+        Budget of model evaluations (Jacobian ones not counted) of each start's least-squares
+        solve; default 200 * (free parameters + 1). A start that exhausts it counts as not
+        converged.
     """
     t0 = time.perf_counter()
     free = problem.free
@@ -137,20 +161,31 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
     if k == 0:
         xs, oks, msgs = [np.zeros(0)], [True], ["nothing to fit"]
     else:
-        xs, oks, msgs = [], [], []
         cache: list = []
-        for x0 in (_starts(problem, n_starts, seed) if starts is None else starts):
-            x, ok, msg = _local(problem, x0, cache)
+        # all least-squares solves first, then the polishes from the lowest cost up, so that
+        # (weighted least squares) a start that cannot beat a feasible optimum is not polished
+        pre = [_least_squares(problem, x0, max_nfev)
+               for x0 in (_starts(problem, n_starts, seed) if starts is None else starts)]
+        done: dict[int, tuple] = {}
+        bound = np.inf
+        for i in np.argsort([r.cost for r in pre], kind="stable"):
+            x, ok, msg = _finish(problem, pre[i], cache, bound)
             feasible = problem.constraint_values(x).min(initial=0.0) >= -1e-8
-            xs.append(x)
-            oks.append(ok and feasible)
-            msgs.append(msg if feasible else "constraint violated: " + msg)
+            done[i] = (x, ok and feasible, msg if feasible else "constraint violated: " + msg)
+            if ok and feasible and problem.objective == "wls":
+                bound = min(bound, problem.objective_value(x))
+        xs, oks, msgs = (list(v) for v in zip(*(done[i] for i in range(len(pre)))))
     objs = np.array([problem.objective_value(x) if ok else np.inf for x, ok in zip(xs, oks)])
     if not np.isfinite(objs).any():  # nothing converged: report the least bad start
         objs = np.array([problem.objective_value(x) for x in xs])
     best = int(np.argmin(objs))
+    gap = np.abs(objs - objs[best])
+    at_best = int(np.sum(gap <= BEST_RTOL * abs(objs[best]) + BEST_ATOL))
+    # starts that reach the same best value (a symmetric or multi-branch optimum): report the
+    # earliest in start order, so the initial values choose the branch, not round-off
+    if np.isfinite(objs[best]):
+        best = int(np.flatnonzero(gap <= BEST_RTOL * abs(objs[best]) + TIE_ATOL)[0])
     xb = xs[best]
-    at_best = int(np.sum(np.abs(objs - objs[best]) <= BEST_RTOL * abs(objs[best]) + BEST_ATOL))
     lo, hi = problem.bounds()
     span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
     # a parameter within 1e-7 of its range from a bound is on it: report the bound exactly

@@ -1,0 +1,91 @@
+"""Wall time of the Magic Formula stages on the bundled sample folder's trailer data.
+
+Fits Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to the trailer
+runs of ``measurements/sample-225-50R17`` and prints, per stage: points, free and held
+coefficients, global-search statistics, seconds and the thesis error (total and per pressure).
+The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
+
+    python bench/fit_mf.py [--folder DIR] [--start defaults|truth] [--json out.json]
+
+``--start defaults`` (default) starts where ``mfid fit`` starts: the MFeval defaults with the
+folder's nominal load, pressure and radius. ``--start truth`` starts from the .tir the
+simulator used (truth.json), the easy case.
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import time  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+from identify.fit.mf_stages import fit_mf  # noqa: E402
+from identify.load.folder import load_folder  # noqa: E402
+from identify.model.parameters import defaults  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+FOLDER = ROOT / "measurements" / "sample-225-50R17"
+BUDGET_S = 40.0
+
+
+def _base(mset, start: str, folder: Path) -> dict[str, float]:
+    if start == "truth":
+        tir = json.loads((folder / "truth.json").read_text())["tir"]
+        return {k: float(v) for k, v in tir.items() if not isinstance(v, str)}
+    base = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    tyre = mset.manifest.tyre
+    base["FNOMIN"] = float(tyre.nominal_load_N)
+    base["NOMPRES"] = base["INFLPRES"] = float(tyre.nominal_pressure_Pa)
+    if tyre.unloaded_radius_m:
+        base["UNLOADED_RADIUS"] = float(tyre.unloaded_radius_m)
+    return base
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--folder", type=Path, default=FOLDER)
+    ap.add_argument("--start", choices=("defaults", "truth"), default="defaults")
+    ap.add_argument("--json", type=Path, help="write the numbers to this file")
+    args = ap.parse_args()
+
+    t0 = time.perf_counter()
+    mset = load_folder(args.folder)
+    t_load = time.perf_counter() - t0
+    trailer = mset.trailer
+    base = _base(mset, args.start, args.folder)
+    t1 = time.perf_counter()
+    mf = fit_mf(trailer, base)
+    t_fit = time.perf_counter() - t1
+
+    print(f"{args.folder.name}: {len(trailer)} trailer points, start = {args.start}, "
+          f"load {t_load:.1f} s (not counted)")
+    head = f"{'stage':6} {'points':>7} {'free':>5} {'held':>5} {'best':>6} {'s':>7} {'thesis %':>9}"
+    print(head + "   per pressure [bar: %]")
+    rows = []
+    for r in mf.results:
+        by_p = "  ".join(f"{p:g}: {e:.3f}" for p, e in r.error_by_pressure_pct.items())
+        print(f"{r.form:6} {r.n_points:7d} {len(r.free):5d} {len(mf.held[r.form]):5d} "
+              f"{r.starts_at_best:>2}/{r.n_starts:<3} {r.seconds:7.2f} {r.error_total_pct:9.3f}"
+              f"   {by_p}" + ("" if r.converged else "   NOT CONVERGED: " + r.message))
+        rows.append({"stage": r.form, "points": r.n_points, "free": len(r.free),
+                     "held": len(mf.held[r.form]), "n_starts": r.n_starts,
+                     "starts_at_best": r.starts_at_best, "seconds": r.seconds,
+                     "error_total_pct": r.error_total_pct, "converged": r.converged,
+                     "error_by_pressure_pct": {f"{p:g}": e
+                                               for p, e in r.error_by_pressure_pct.items()}})
+    stage_s = sum(r.seconds for r in mf.results)
+    print(f"MF stages: {t_fit:.1f} s wall ({stage_s:.1f} s in the optimiser, the rest is data "
+          f"selection, identifiability screens and constraint grids); budget about "
+          f"{BUDGET_S:.0f} s of bench/fit.py's 60 s")
+    if args.json:
+        args.json.write_text(json.dumps({"folder": str(args.folder), "start": args.start,
+                                         "load_seconds": t_load, "fit_seconds": t_fit,
+                                         "stages": rows}, indent=2))
+
+
+if __name__ == "__main__":
+    main()

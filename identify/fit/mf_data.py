@@ -1,0 +1,142 @@
+"""Trailer points for the MF stages: selection, pressure groups, sweeps and data coverage.
+
+The input is the tidy trailer table of ``identify.load.folder.load_folder(path).trailer``:
+columns run, t, Vx, omega, alpha, kappa, gamma, p, Fx, Fy, Fz, Mx, My, Mz (SI, ISO-W).
+Nothing here modifies the table.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from identify.fit.mf_stage_defs import PURE_ALPHA, PURE_KAPPA
+
+REQUIRED = ("run", "Vx", "alpha", "kappa", "gamma", "p", "Fz")
+SWEEP_KAPPA = 0.02
+"""[-] a run whose kappa spans more than this holds a longitudinal-slip sweep."""
+SWEEP_ANGLE = np.deg2rad(1.0)
+"""[rad] a run whose alpha or gamma spans more than this holds a lateral sweep."""
+LOAD_RESOLUTION = 0.05
+"""Load levels closer than this fraction of FNOMIN are one level."""
+PRESSURE_RESOLUTION = 5000.0
+"""[Pa] pressure levels closer than this are one level."""
+SPEED_RESOLUTION = 1.0
+"""[m/s] speed levels closer than this are one level."""
+CAMBER_SPREAD = np.deg2rad(0.5)
+"""[rad] the data cover camber when gamma spans more than this."""
+
+
+def check_columns(frame: pd.DataFrame, quantities: tuple[str, ...]) -> None:
+    """Raise ValueError when a column the MF stages need is missing."""
+    missing = [c for c in REQUIRED + quantities if c not in frame.columns]
+    if missing:
+        raise ValueError("trailer table lacks column(s) " + ", ".join(missing))
+
+
+def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
+    """Row positions of the points a stage fits (finite quantity, positive load).
+
+    Parameters
+    ----------
+    frame : DataFrame
+        The trailer table.
+    selection : str
+        ``"longitudinal"``, ``"lateral"``, ``"combined"`` or ``"all"`` (see StageDef).
+    quantity : str
+        The fitted channel.
+    """
+    a = np.abs(frame["alpha"].to_numpy(float))
+    k = np.abs(frame["kappa"].to_numpy(float))
+    ok = np.isfinite(frame[quantity].to_numpy(float)) & (frame["Fz"].to_numpy(float) > 0)
+    span = frame.groupby("run", sort=False)[["alpha", "kappa", "gamma"]].agg(
+        lambda x: float(np.nanmax(x) - np.nanmin(x)))
+    run = frame["run"]
+    kappa_sweep = run.map(span["kappa"] > SWEEP_KAPPA).to_numpy(bool)
+    lateral_sweep = run.map((span["alpha"] > SWEEP_ANGLE) | (span["gamma"] > SWEEP_ANGLE)
+                            ).to_numpy(bool)
+    if selection == "longitudinal":
+        ok &= (a <= PURE_ALPHA) & kappa_sweep
+    elif selection == "lateral":
+        ok &= (k <= PURE_KAPPA) & lateral_sweep
+    elif selection == "combined":
+        ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
+    elif selection != "all":
+        raise ValueError(f"unknown selection {selection!r}")
+    return np.flatnonzero(ok)
+
+
+def pressure_groups(frame: pd.DataFrame) -> np.ndarray:
+    """Pressure group of every row [bar]: the run's median pressure, rounded to 0.01 bar."""
+    med = frame.groupby("run", sort=False)["p"].transform("median").to_numpy(float)
+    return np.round(med / 1e5, 2)
+
+
+def sweep_ids(frame: pd.DataFrame, fnomin: float) -> np.ndarray:
+    """Sweep number of every row: a new sweep at a new run, a time gap (> 1.5 x the median
+    step) or a load step (> LOAD_RESOLUTION x FNOMIN)."""
+    run = pd.factorize(frame["run"])[0]
+    new = np.r_[True, run[1:] != run[:-1]]
+    fz = frame["Fz"].to_numpy(float)
+    new[1:] |= np.abs(np.diff(fz)) > LOAD_RESOLUTION * fnomin
+    if "t" in frame.columns:
+        dt = np.diff(frame["t"].to_numpy(float))
+        step = np.median(dt[dt > 0]) if np.any(dt > 0) else np.inf
+        new[1:] |= (dt > 1.5 * step) | (dt < 0)
+    return np.cumsum(new) - 1
+
+
+def levels(x: np.ndarray, resolution: float) -> int:
+    """Number of distinct levels of ``x`` (values closer than ``resolution`` merge)."""
+    x = np.sort(np.asarray(x, dtype=float)[np.isfinite(x)])
+    return 0 if x.size == 0 else int(1 + np.sum(np.diff(x) > resolution))
+
+
+@dataclass(frozen=True)
+class Coverage:
+    """What a stage's points cover (for the identifiability rules of StageDef coefficients).
+
+    Attributes
+    ----------
+    loads, pressures, speeds : int   numbers of distinct levels
+    camber : bool                    gamma varies by more than CAMBER_SPREAD
+    kappa_sign, alpha_sign : bool    slip of both signs present
+    """
+
+    loads: int
+    pressures: int
+    speeds: int
+    camber: bool
+    kappa_sign: bool
+    alpha_sign: bool
+
+    @classmethod
+    def of(cls, frame: pd.DataFrame, fnomin: float) -> "Coverage":
+        g = frame["gamma"].to_numpy(float)
+        k = frame["kappa"].to_numpy(float)
+        a = frame["alpha"].to_numpy(float)
+        return cls(loads=levels(frame["Fz"].to_numpy(float), LOAD_RESOLUTION * fnomin),
+                   pressures=levels(frame["p"].to_numpy(float), PRESSURE_RESOLUTION),
+                   speeds=levels(frame["Vx"].to_numpy(float), SPEED_RESOLUTION),
+                   camber=bool(g.size and np.ptp(g) > CAMBER_SPREAD),
+                   kappa_sign=bool(np.any(k > PURE_KAPPA) and np.any(k < -PURE_KAPPA)),
+                   alpha_sign=bool(np.any(a > PURE_ALPHA) and np.any(a < -PURE_ALPHA)))
+
+    def missing(self, needs: tuple[str, ...]) -> str | None:
+        """Why the data cannot identify a coefficient with ``needs``, or None."""
+        rules = {"load": (self.loads >= 2, "one load level"),
+                 "load2": (self.loads >= 3, f"{self.loads} load level(s), 3 needed"),
+                 "load3": (self.loads >= 4, f"{self.loads} load level(s), 4 needed"),
+                 "pressure": (self.pressures >= 2, "one pressure"),
+                 "pressure2": (self.pressures >= 3, f"{self.pressures} pressure(s), 3 needed"),
+                 "speed": (self.speeds >= 2, "one speed"),
+                 "speed2": (self.speeds >= 3, f"{self.speeds} speed(s), 3 needed"),
+                 "camber": (self.camber, "no camber variation"),
+                 "kappa_sign": (self.kappa_sign, "slip of one sign only"),
+                 "alpha_sign": (self.alpha_sign, "slip angles of one sign only")}
+        for need in needs:
+            ok, why = rules[need]
+            if not ok:
+                return "data: " + why
+        return None

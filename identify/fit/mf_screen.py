@@ -1,0 +1,132 @@
+"""Identifiability screen of an MF stage: which candidate coefficients the data can determine.
+
+Rules applied before the fit, so that a coefficient the data say nothing about is held (and
+reported with the reason) instead of being "recovered" by luck or wandering to a bound:
+
+1. Coverage (``identify.fit.mf_data.Coverage``): a coefficient of a load-, pressure-, speed-,
+   camber- or slip-sign-dependent term needs data that vary in that variable.
+2. Sensitivity: the central-difference Jacobian of the weighted residuals at the start values.
+   A coefficient with an exactly zero column (it multiplies a term that is zero at the start,
+   e.g. QSX5..QSX9 while QSX4 = 0) is held; so is one whose unit-normalised column lies within
+   ``DEPENDENCE_TOL`` of the span of the coefficients accepted before it (priority order of the
+   stage), e.g. RBY3 when the combined data hold only two slip angles, and one whose unique
+   effect is negligible (``EFFECT_TOL``), e.g. PEY5 when the data's cambers are small.
+
+After the stage's global fit (identify.fit.mf_stages):
+
+3. Gates: rule 2 again, at the start values moved by the coefficients that have significantly
+   moved (``Z_GATE`` standard errors): a coefficient that had no effect only because another
+   one was 0 at the start (PEX4 while PEX1..3 = 0, the MFeval defaults; PPMX1 while QSX2 = 0)
+   is freed, and the stage is re-fitted locally from its optimum. A gate that moved only
+   within the noise (QSX7, QSX8 of a tyre without that Mx term) frees nothing, so no product
+   of two unidentifiable coefficients is left to wander.
+"""
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from identify.fit.problem import FitProblem
+from identify.model.parameters import spec
+
+DEPENDENCE_TOL = 1e-5
+"""Relative residual of a unit-normalised Jacobian column after projection on the accepted
+columns below which a coefficient counts as not separable. Central differences with a
+relative step of 1e-6 resolve exact dependence to ~1e-9."""
+EFFECT_TOL = 1e-6
+"""Unique effect below which a coefficient counts as negligible: the norm of the projected
+column times the coefficient's plausible change max(|value|, |default|, DELTA_FLOOR), in units
+of the weighted residuals (the root sum over pressures of squared thesis errors / 100), i.e. a
+plausible change moves the fit by less than 1e-4 %."""
+Z_GATE = 2.0
+"""A fitted coefficient has significantly moved from its start value when
+|value - start| >= Z_GATE standard errors (rule 3)."""
+DELTA_FLOOR = 0.01
+"""Smallest plausible change of a coefficient (for one whose value and default are 0)."""
+STEP = 1e-6
+"""Relative step of the central differences (of max(|value|, 1e-3))."""
+
+
+def jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
+    """Central-difference Jacobian of ``problem.residuals`` at ``x`` (no bound clipping)."""
+    cols = []
+    for j in range(x.size):
+        h = STEP * max(abs(x[j]), 1e-3)
+        xp, xm = x.copy(), x.copy()
+        xp[j] += h
+        xm[j] -= h
+        cols.append((problem.residuals(xp) - problem.residuals(xm)) / (2 * h))
+    return np.column_stack(cols) if cols else np.zeros((problem.measured.size, 0))
+
+
+def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = None,
+               tol: float = DEPENDENCE_TOL, effect_tol: float = EFFECT_TOL
+               ) -> tuple[dict[str, str], dict[str, float]]:
+    """Gram-Schmidt in priority order over the columns of ``J``.
+
+    Parameters
+    ----------
+    J : ndarray (points, coefficients)
+    names : sequence of str      column names, priority order
+    delta : ndarray, optional    plausible change of each coefficient (default 1)
+
+    Returns
+    -------
+    held : dict name -> reason
+    residual : dict name -> relative residual of the column after projection (1 = orthogonal)
+    """
+    delta = np.ones(len(names)) if delta is None else np.asarray(delta, dtype=float)
+    held: dict[str, str] = {}
+    residual: dict[str, float] = {}
+    basis: list[np.ndarray] = []
+    accepted: list[str] = []
+    for j, name in enumerate(names):
+        col = J[:, j]
+        norm = float(np.linalg.norm(col))
+        if not np.isfinite(norm):
+            held[name] = "sensitivity: not finite at the start values"
+            continue
+        if norm == 0.0:
+            held[name] = "sensitivity: no effect on the data at the start values"
+            residual[name] = 0.0
+            continue
+        v = col / norm
+        coef = []
+        for _ in range(2):  # re-orthogonalise once for accuracy
+            c = [float(q @ v) for q in basis]
+            for q, cq in zip(basis, c):
+                v = v - cq * q
+            coef = c if not coef else [a + b for a, b in zip(coef, c)]
+        rel = float(np.linalg.norm(v))
+        residual[name] = rel
+        if rel < tol:
+            top = [accepted[i] for i in np.argsort(np.abs(coef))[::-1][:3]]
+            held[name] = (f"sensitivity: not separable from {', '.join(top)} "
+                          f"(residual {rel:.1e})")
+            continue
+        effect = rel * norm * delta[j]
+        if effect < effect_tol:
+            held[name] = (f"sensitivity: negligible effect ({effect:.1e} for a change of "
+                          f"{delta[j]:.3g})")
+            continue
+        basis.append(v / rel)
+        accepted.append(name)
+    return held, residual
+
+
+def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL
+           ) -> tuple[dict[str, str], dict[str, float]]:
+    """Sensitivity rule for the free parameters of ``problem`` (declaration order = priority).
+
+    Returns
+    -------
+    held : dict name -> reason
+    residual : dict name -> relative residual (see :func:`dependence`)
+    """
+    free = problem.free
+    x0 = problem.x0()
+    J = jacobian(problem, x0)
+    delta = np.array([max(abs(x), abs(float(spec(n).default)), DELTA_FLOOR)
+                      for n, x in zip(free, x0)])
+    return dependence(J, free, delta, tol)

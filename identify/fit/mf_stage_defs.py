@@ -1,0 +1,170 @@
+"""The MF fitting stages: which coefficients, which data, which model (design.md "Fit in stages").
+
+Each stage fits one measured quantity on one selection of the trailer points with only its own
+coefficients free; everything else is held at the values carried forward from the earlier
+stages. The stage models call the forward model's pieces (identify.model) with useMode 211 and
+precompute whatever does not depend on the stage's coefficients, so that a prediction is
+bit-identical to ``identify.model.evaluate.evaluate(..., mode=211)[quantity]``.
+
+Coefficients are listed in priority order: when the data cannot separate two of them, the later
+one is held (identify.fit.mf_screen). ``NEEDS`` states what the data must cover for a
+coefficient to be identifiable at all (load, pressure, camber, speed levels, slip signs).
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Callable, Mapping
+
+import numpy as np
+
+from identify.model import aligning, lateral, longitudinal, moments
+from identify.model.state import OperatingState
+
+PURE_ALPHA = np.deg2rad(0.25)
+"""[rad] |alpha| at or below this is pure longitudinal slip."""
+PURE_KAPPA = 0.002
+"""[-] |kappa| at or below this is pure lateral slip."""
+
+
+@dataclass(frozen=True)
+class StageDef:
+    """One MF stage.
+
+    Attributes
+    ----------
+    name : str             stage name (FitResult.form)
+    quantity : str         fitted channel of the trailer table (Fx, Fy, Mz, Mx, My)
+    unit : str             its unit
+    selection : str        ``"longitudinal"`` (|alpha| <= PURE_ALPHA in runs with a kappa sweep),
+                           ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
+                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA)
+                           or ``"all"``
+    coefficients : tuple of str   the stage's own coefficients, priority order
+    """
+
+    name: str
+    quantity: str
+    unit: str
+    selection: str
+    coefficients: tuple[str, ...]
+
+
+def _names(text: str) -> tuple[str, ...]:
+    return tuple(text.split())
+
+
+STAGES: dict[str, StageDef] = {s.name: s for s in (
+    StageDef("Fx0", "Fx", "N", "longitudinal", _names(
+        "PDX1 PKX1 PCX1 PEX1 PDX2 PKX2 PEX2 PHX1 PVX1 PHX2 PVX2 PKX3 PEX3 PEX4 "
+        "PPX1 PPX3 PPX2 PPX4 PDX3")),
+    StageDef("Fy0", "Fy", "N", "lateral", _names(
+        "PDY1 PKY1 PCY1 PEY1 PKY2 PDY2 PEY2 PKY4 PHY1 PVY1 PHY2 PVY2 PEY3 "
+        "PPY1 PPY2 PPY3 PPY4 PKY6 PKY7 PVY3 PVY4 PDY3 PKY3 PKY5 PEY4 PEY5 PPY5")),
+    StageDef("Mz0", "Mz", "N m", "lateral", _names(
+        "QDZ1 QBZ1 QCZ1 QEZ1 QDZ2 QBZ2 QEZ2 QHZ1 QHZ2 QDZ6 QDZ7 QBZ9 QBZ10 QBZ3 QEZ3 QEZ4 "
+        "PPZ1 QDZ3 QDZ4 QBZ4 QBZ5 QHZ3 QHZ4 QDZ8 QDZ9 QDZ10 QDZ11 QEZ5 PPZ2")),
+    StageDef("Fx", "Fx", "N", "combined", _names("RBX1 RBX2 RCX1 REX1 REX2 RHX1 RBX3")),
+    StageDef("Fy", "Fy", "N", "combined", _names(
+        "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
+    StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
+    StageDef("Mx", "Mx", "N m", "all", _names(
+        "QSX1 QSX2 QSX3 QSX12 QSX13 QSX14 PPMX1 QSX4 QSX5 QSX6 QSX7 QSX8 QSX9 QSX10 QSX11")),
+    StageDef("My", "My", "N m", "all", _names("QSY1 QSY2 QSY3 QSY4 QSY5 QSY6 QSY7 QSY8")),
+)}
+
+DEFAULT_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
+
+_NEEDS_TEXT = """
+PDX2 load; PDX3 camber; PEX2 load; PEX3 load2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
+PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2; PPX3 pressure; PPX4 pressure2;
+PDY2 load; PDY3 camber; PEY2 load; PEY3 alpha_sign; PEY4 camber alpha_sign; PEY5 camber;
+PKY2 load; PKY3 camber; PKY4 load2; PKY5 camber; PKY6 camber; PKY7 camber load; PHY2 load;
+PVY2 load; PVY3 camber; PVY4 camber load; PPY1 pressure; PPY2 pressure; PPY3 pressure;
+PPY4 pressure2; PPY5 pressure camber;
+QBZ2 load; QBZ3 load2; QBZ4 camber; QBZ5 camber; QDZ2 load; QDZ3 camber; QDZ4 camber;
+QDZ7 load; QDZ8 camber; QDZ9 camber load; QDZ10 camber; QDZ11 camber load; QEZ2 load;
+QEZ3 load2; QEZ5 camber; QHZ2 load; QHZ3 camber; QHZ4 camber load; PPZ1 pressure;
+PPZ2 pressure camber;
+RBX3 camber; REX2 load; RBY4 camber; REY2 load; RHY2 load; RVY2 load; RVY3 camber;
+SSZ3 camber; SSZ4 camber load;
+QSX2 camber; QSX7 camber; QSX10 camber; QSX12 camber; QSX14 camber; PPMX1 pressure camber;
+QSY3 speed; QSY4 speed2; QSY5 camber; QSY6 camber load; QSY7 load; QSY8 pressure
+"""
+NEEDS: dict[str, tuple[str, ...]] = {
+    item.split()[0]: tuple(item.split()[1:])
+    for item in _NEEDS_TEXT.replace("\n", " ").split(";") if item.strip()}
+"""Coverage a coefficient needs: ``load``/``load2``/``load3`` >= 2/3/4 load levels (PKX3: with
+three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches,
+PKX2 = +-a, and a local solve from near one branch can end on the other), ``pressure``/
+``pressure2`` >= 2/3 pressures, ``speed``/``speed2`` >= 2/3 speeds, ``camber`` a camber
+variation, ``kappa_sign``/``alpha_sign`` slip of both signs."""
+
+Values = Mapping[str, float]
+Model = Callable[[Values], np.ndarray]
+
+
+def _subset(s: OperatingState, idx: np.ndarray) -> OperatingState:
+    """The operating points ``idx`` of ``s``."""
+    return dataclasses.replace(s, **{
+        f.name: getattr(s, f.name)[idx] for f in dataclasses.fields(s)
+        if isinstance(getattr(s, f.name), np.ndarray)})
+
+
+def stage_model(stage: str, base: Values, s: OperatingState) -> Model:
+    """The vectorised model of ``stage`` at the operating points ``s``.
+
+    Parameters
+    ----------
+    stage : str
+        Stage name.
+    base : mapping
+        Every .tir value; the stage's own coefficients are overridden per call.
+    s : OperatingState
+        The stage's points, prepared with useMode 211.
+
+    Returns
+    -------
+    callable
+        values -> prediction of the stage's quantity at every point [N or N m]. ``values`` may
+        hold floats or arrays of shape (walkers, 1) (then the result is (walkers, points)).
+    """
+    def merged(values: Values) -> dict:
+        return {**base, **values}
+
+    if stage == "Fx0":
+        gxa = longitudinal.gx_alpha(base, s)
+        return lambda v: gxa * longitudinal.fx0(merged(v), s).fx0
+    if stage == "Fx":
+        fx0 = longitudinal.fx0(base, s).fx0
+        return lambda v: longitudinal.gx_alpha(merged(v), s) * fx0
+
+    if stage == "Fy0":
+        # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (magic-formula.md
+        # 5.2); the combined expression is evaluated only where kappa != 0
+        slip = np.flatnonzero(s.kappa != 0)
+        s_slip = _subset(s, slip)
+
+        def fy0_model(v):
+            P = merged(v)
+            fy = lateral.fy0(P, s).fy0
+            if slip.size:
+                fy = np.array(fy, copy=True)
+                fy[..., slip] = lateral.fy_combined(P, s_slip, lateral.fy0(P, s_slip)).fy
+            return fy
+        return fy0_model
+    pure = lateral.fy0(base, s)
+    if stage == "Fy":
+        return lambda v: lateral.fy_combined(merged(v), s, pure).fy
+
+    fy = lateral.fy_combined(base, s, pure)
+    lon = longitudinal.fx0(base, s)
+    fx = longitudinal.gx_alpha(base, s) * lon.fx0
+    if stage in ("Mz0", "Mz"):
+        pure0 = lateral.fy0(base, s, zero_camber=True)
+        return lambda v: aligning.mz(merged(v), s, pure, pure0, fy, fx, lon.kxk).mz
+    if stage == "Mx":
+        return lambda v: moments.mx(merged(v), s, fy.fy)
+    if stage == "My":
+        return lambda v: moments.my(merged(v), s, fx)
+    raise ValueError(f"unknown MF stage {stage!r}")

@@ -1,0 +1,294 @@
+"""Fit the Magic Formula slip coefficients to trailer data in stages (issue 5).
+
+Stages, in order (identify.fit.mf_stage_defs.STAGES): Fx0, Fy0, Mz0 on pure-slip points, then
+Fx, Fy, Mz on combined-slip points, then Mx and My on every point. Each stage
+
+* selects its points and fits one channel (weighted least squares, each pressure weighted by
+  1/sqrt(sum of the squared measurements), so the objective is the sum over pressures of the
+  squared thesis errors / 100^2; FitResult reports the thesis error per pressure too);
+* frees only its own coefficients (the parameter table's ``fit_default_vary`` ones, pressure
+  coefficients included), minus those the data cannot identify (identify.fit.mf_screen: not
+  covered by the data, no effect, not separable or negligible at the start values; after the
+  global fit a coefficient that had no effect only because another was 0 at the start is
+  freed and the stage re-fitted locally), and holds every other value at what the earlier
+  stages carried forward; the held coefficients and why are in ``MFFit.held``;
+* enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
+* evaluates the model with useMode 211 (magic-formula.md 1.2).
+
+Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
+up to 29 free coefficients): the carried-forward values, the parameter table's defaults, and
+``n_lhs`` (2) Latin-hypercube points in a box of +/-50 % of max(|start|, |default|) around the
+carried-forward values (+/-0.05 where both are 0), each solved by the engine's local solver
+(identify.fit.optimize.fit) within MAX_NFEV evaluations; ``starts_at_best`` says how many
+reached the best value. The full bounds are far too wide for a few starts in 20-30 dimensions;
+the box is where the optimum of a carried-forward stage lies. The Mz0 stage's mirror solutions
+(QBZ9, QBZ10) -> (-QBZ9, -QBZ10) predict identically; the one nearer the start is reported.
+
+Coupling: SSZ1..4 (stage Mz) act on the Mz0 points through s*Fx; ``passes`` > 1 runs the
+sequence again from its result. Each FitResult's predictions (and errors) are those of the
+final parameter set, i.e. exactly what the written .tir gives.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass
+from typing import Collection, Mapping, Sequence
+
+import lmfit
+import numpy as np
+import pandas as pd
+
+from identify.fit import mf_data
+from identify.fit.mf_constraints import FIT_MODE, stage_constraints
+from identify.fit.mf_result import MFFit, point_columns
+from identify.fit.mf_search import MAX_NFEV, N_LHS, canonical_br, final_predictions, start_points
+from identify.fit.mf_screen import Z_GATE
+from identify.fit.mf_screen import screen as sensitivity_screen
+from identify.fit.mf_stage_defs import DEFAULT_STAGES, NEEDS, STAGES, StageDef, stage_model
+from identify.fit.optimize import fit
+from identify.fit.problem import FitProblem
+from identify.fit.result import FitResult
+from identify.model.parameters import bounds, defaults, spec
+from identify.model.state import OperatingState, prepare
+
+__all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
+           "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
+
+MAX_ROUNDS = 2
+"""Refinement re-fits per stage after the global fit (see _refine)."""
+
+
+@dataclass(frozen=True)
+class StageProblem:
+    """A stage ready to fit.
+
+    Attributes
+    ----------
+    problem : FitProblem       relation "MF", form = stage name
+    rows : ndarray             row positions of the stage's points in the trailer table
+    held : dict name -> reason  candidate coefficients held by the identifiability rules
+    state : OperatingState     the stage's points, prepared with useMode 211
+    """
+
+    problem: FitProblem
+    rows: np.ndarray
+    held: Mapping[str, str]
+    state: OperatingState
+
+
+def _candidates(sd: StageDef, free) -> list[str]:
+    names = [n for n in sd.coefficients if spec(n).fit_default_vary]
+    if free is None:
+        return names
+    if isinstance(free, Mapping):
+        return list(free[sd.name]) if sd.name in free else names
+    return [n for n in names if n in set(free)]
+
+
+def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float], *,
+                  free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
+                  screen: bool = True,
+                  hold: Mapping[str, str] | None = None) -> StageProblem | None:
+    """Build the FitProblem of one stage at the current values ``params``.
+
+    Parameters
+    ----------
+    stage : str
+        Stage name (``"Fx0"`` ... ``"My"``).
+    trailer : DataFrame
+        The trailer table (see identify.fit.mf_data).
+    params : mapping
+        Every .tir value (start values; held values are taken from here).
+    free : mapping or collection, optional
+        Mapping stage -> coefficients replaces a stage's candidate list; a collection limits
+        every stage's candidates to its members. The identifiability rules still apply.
+    screen : bool
+        Apply the identifiability rules (coverage and sensitivity); False frees every
+        candidate.
+    hold : mapping name -> reason, optional
+        Hold exactly these candidates (no screening).
+
+    Returns
+    -------
+    StageProblem or None
+        None when the table holds no point for the stage.
+    """
+    sd = STAGES[stage]
+    rows = mf_data.select(trailer, sd.selection, sd.quantity)
+    if rows.size == 0:
+        return None
+    pts = trailer.iloc[rows]
+    col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    s = prepare(params, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
+                p=col["p"], mode=FIT_MODE)
+    model = stage_model(stage, params, s)
+    held: dict[str, str] = {}
+    names = _candidates(sd, free)
+    if hold is not None:
+        held = {n: why for n, why in hold.items() if n in names}
+    elif screen:
+        cov = mf_data.Coverage.of(pts, float(params["FNOMIN"]))
+        for n in names:
+            why = cov.missing(NEEDS.get(n, ()))
+            if why:
+                held[n] = why
+
+    extra = {"quantity": sd.quantity, **point_columns(pts)}
+
+    def build(vary: Collection[str], constraints=()) -> FitProblem:
+        P = lmfit.Parameters()
+        for n in names:
+            v = float(params[n])
+            if n in vary:  # free: start inside the table's bounds
+                lo, hi = bounds(n, v)
+                P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
+            else:  # held: exactly the carried-forward value
+                P.add(n, value=v, vary=False)
+        return FitProblem("MF", stage, P, model, pts[sd.quantity].to_numpy(float),
+                          mf_data.pressure_groups(pts), objective="wls", sigma=None,
+                          constraints=tuple(constraints),
+                          sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
+                          extra=extra)
+
+    if screen and hold is None:
+        more, _ = sensitivity_screen(build([n for n in names if n not in held]))
+        held.update(more)
+    vary = [n for n in names if n not in held]
+
+    def merge(values):
+        return {**params, **values}
+
+    cons = stage_constraints(stage, params, merge, np.unique(pts["p"].to_numpy(float)))
+    return StageProblem(build(vary, cons), rows, held, s)
+
+
+def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+            params: Mapping[str, float], free) -> tuple[FitResult, StageProblem]:
+    """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
+    significant moves have given an effect, and re-fit locally from the optimum (the new ones
+    start at their carried-forward values, so the objective can only fall). At most
+    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best and
+    its message says what was added."""
+    added_all: list[str] = []
+    for _ in range(MAX_ROUNDS):
+        moved = {n: float(result.parameters[n]) for n in result.free
+                 if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
+        gates = stage_problem(stage, trailer, {**params, **moved}, free=free)
+        added = [n for n in gates.problem.free if n not in result.free]
+        if not added:
+            break
+        held = {n: why for n, why in gates.held.items() if n not in result.free}
+        values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
+        trial = stage_problem(stage, trailer, values, free=free, hold=held)
+        refit = fit(trial.problem, starts=trial.problem.x0()[None, :], max_nfev=MAX_NFEV)
+        if not refit.converged or refit.wls > result.wls:
+            # e.g. a product of two weakly determined coefficients: keep the global optimum
+            sp = dataclasses.replace(sp, held={**sp.held, **{
+                n: "sensitivity: effective only after the fit, and the re-fit with it did not "
+                   "converge" for n in added}})
+            break
+        added_all += added
+        sp = trial
+        result = dataclasses.replace(
+            refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
+            seconds=result.seconds + refit.seconds)
+    if added_all:
+        result = dataclasses.replace(
+            result, message=f"{result.message} (then re-fitted from the global optimum with "
+                            f"{', '.join(added_all)}, which had no effect at the start)")
+    return result, sp
+
+
+def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
+           stages: Sequence[str] = DEFAULT_STAGES, seed: int = 0, fittyp: int = 61,
+           free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
+           n_lhs: int = N_LHS, screen: bool = True, passes: int = 1) -> MFFit:
+    """Fit the MF slip coefficients stage by stage.
+
+    Parameters
+    ----------
+    trailer : DataFrame
+        Trailer table: run, Vx [m/s], alpha [rad], kappa [-], gamma [rad], p [Pa], Fz [N] and
+        the channels Fx, Fy [N], Mz, Mx, My [N m] of the stages asked for (ISO-W).
+    base : mapping
+        Start values of every .tir key (``read_tir(path).params()``); missing keys take the
+        parameter table's defaults. Not modified.
+    stages : sequence of str
+        Stages to fit, in order (default Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My).
+    seed : int
+        Seed of the Latin-hypercube starts (stage i uses seed + i).
+    fittyp : int
+        FITTYP of the result (61 or 62); the force and moment equations are the same.
+    free : mapping or collection, optional
+        See :func:`stage_problem`.
+    n_lhs : int
+        Latin-hypercube starts per stage (besides carried-forward and default values).
+    screen : bool
+        Apply the identifiability rules (see :func:`stage_problem`).
+    passes : int
+        Times the stage sequence is run. The stages are coupled where a later stage's
+        coefficients act on an earlier stage's points (SSZ1..4 act on Mz at kappa = 0 through
+        s*Fx, so Mz0 sees the Mz stage's arm); each further pass starts every stage from the
+        previous pass (carried-forward values only: the global search is pass 1's) and
+        converges the blocks together. The results are the last pass's.
+
+    Returns
+    -------
+    MFFit
+    """
+    t0 = time.perf_counter()
+    unknown = [s for s in stages if s not in STAGES]
+    if unknown:
+        raise ValueError(f"unknown MF stage(s) {unknown}; known: {', '.join(STAGES)}")
+    if fittyp not in (61, 62):
+        raise ValueError(f"fittyp must be 61 or 62, not {fittyp}")
+    if passes < 1:
+        raise ValueError(f"passes must be >= 1, not {passes}")
+    mf_data.check_columns(trailer, tuple(sorted({STAGES[s].quantity for s in stages})))
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
+    params["FITTYP"] = float(fittyp)
+    for pass_no in range(passes):
+        results, held, skipped, points, problems = [], {}, {}, {}, []
+        for i, stage in enumerate(stages):
+            sp = stage_problem(stage, trailer, params, free=free, screen=screen)
+            if sp is None:
+                skipped[stage] = "no points in the trailer table for this stage"
+                continue
+            starts = (start_points(sp.problem, n_lhs, seed + i) if pass_no == 0
+                      else sp.problem.x0()[None, :])
+            result = fit(sp.problem, starts=starts, max_nfev=MAX_NFEV)
+            if screen:
+                result, sp = _refine(result, sp, stage, trailer, params, free)
+            if stage == "Mz0":
+                result = canonical_br(result, params)
+            params.update({n: float(result.parameters[n]) for n in result.free})
+            results.append(result)
+            problems.append(sp)
+            held[stage] = dict(sp.held)
+            points[stage] = trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]]
+    results = [final_predictions(r, sp.problem, sp.state, params)
+               for r, sp in zip(results, problems)]
+    settings = {"seed": seed, "fittyp": fittyp, "use_mode": FIT_MODE, "n_lhs": n_lhs,
+                "max_nfev": MAX_NFEV, "passes": passes, "stages": list(stages),
+                "screen": screen, "objective": "wls"}
+    return MFFit(params=params, results=tuple(results), held=held, skipped=skipped,
+                 settings=settings, points=points, seconds=time.perf_counter() - t0)
+
+
+def stage_mcmc(trailer: pd.DataFrame, mf: MFFit, stage: str, *, seed: int = 0,
+               ar1: bool = False, **kwargs) -> FitResult:
+    """MCMC uncertainty (identify.fit.mcmc.run_mcmc) of one fitted stage of ``mf``.
+
+    The stage's problem is rebuilt at the final values ``mf.params`` with the stage's free
+    coefficients; the returned FitResult is the stage's with ``mcmc`` set. ``kwargs`` go to
+    run_mcmc (n_walkers, max_steps, chain_file).
+    """
+    from identify.fit.mcmc import run_mcmc
+
+    result = mf.result(stage)
+    hold = {n: "held in the fit" for n in result.parameters if n not in result.free}
+    sp = stage_problem(stage, trailer, mf.params, free={stage: list(result.parameters)},
+                       hold=hold)
+    return run_mcmc(sp.problem, result, seed=seed, ar1=ar1, **kwargs)
