@@ -1,0 +1,304 @@
+"""What a discovery run found: frozen dataclasses with ``to_dict()`` (discovery.json).
+
+``discovery.json`` (schema ``mfid.discovery/1``) is a stable interface::
+
+    base            {kind, name, tir, problems: [problem summaries]}
+    steps           [{step, candidates: [candidate table rows], tried: [...], accepted}]
+    accepted        [{name, coefficients {name: value}, error_before_pct, error_after_pct,
+                      heldout_before_pct, heldout_after_pct, p_value, ...}]
+    noise_floor_pct, excess_explained, conclusion
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any, Mapping
+
+import numpy as np
+
+from identify.discover.noise import NoiseModel
+
+__all__ = ["CandidateRow", "Trial", "Step", "Accepted", "ProblemSummary", "Discovery",
+           "SCHEMA"]
+
+SCHEMA = "mfid.discovery/1"
+
+
+def _num(x) -> float | None:
+    if x is None:
+        return None
+    x = float(x)
+    return x if math.isfinite(x) else None
+
+
+def _nums(d: Mapping) -> dict:
+    return {str(k): _num(v) for k, v in d.items()}
+
+
+@dataclass(frozen=True)
+class CandidateRow:
+    """One row of a step's candidate table.
+
+    Attributes
+    ----------
+    name, problem : str
+    coefficients : tuple of str
+    equation, description : str
+    testable : bool
+    rel_norm : float              ||M G|| / ||G|| [-]
+    statistic : float             one-step F form of the LM test, or robust Wald/q
+    dof : int
+    p_value, p_holm : float       raw and Holm-adjusted
+    predicted_error_pct : float   thesis error predicted after adding it (one step) [%]
+    predicted_explained : float   predicted fraction of the excess error explained [-]
+    cosines : Mapping[str, float] |cos| with the other candidates of the problem
+    ambiguity_group : tuple of str other candidates it cannot be told apart from
+    passes : bool                 Holm and predicted-drop requirements met
+    """
+
+    name: str
+    problem: str
+    coefficients: tuple[str, ...]
+    equation: str
+    description: str
+    testable: bool
+    rel_norm: float
+    statistic: float
+    dof: int
+    p_value: float
+    p_holm: float
+    predicted_error_pct: float
+    predicted_explained: float
+    cosines: Mapping[str, float]
+    ambiguity_group: tuple[str, ...]
+    passes: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "problem": self.problem,
+                "coefficients": list(self.coefficients), "equation": self.equation,
+                "description": self.description, "testable": self.testable,
+                "rel_norm": _num(self.rel_norm), "statistic": _num(self.statistic),
+                "dof": self.dof, "p_value": _num(self.p_value), "p_holm": _num(self.p_holm),
+                "predicted_error_pct": _num(self.predicted_error_pct),
+                "predicted_explained": _num(self.predicted_explained),
+                "cosines": _nums(self.cosines), "ambiguity_group": list(self.ambiguity_group),
+                "passes": self.passes}
+
+
+@dataclass(frozen=True)
+class Trial:
+    """One refit-and-confirm attempt.
+
+    Attributes
+    ----------
+    name, problem : str
+    coefficients, stderr : Mapping[str, float]   refitted values and standard errors
+    test : str                      ``"F"`` or ``"cluster-robust Wald"``
+    statistic, p_value, p_adjusted : float
+    error_before_pct, error_after_pct : float     training thesis error [%]
+    heldout_before_pct, heldout_after_pct : float held-out thesis error [%]
+    heldout_scheme : str            ``"leave one pressure out"``, ``"sweep folds"`` ...
+    accepted : bool
+    reason : str
+    """
+
+    name: str
+    problem: str
+    coefficients: Mapping[str, float]
+    stderr: Mapping[str, float]
+    test: str
+    statistic: float
+    p_value: float
+    p_adjusted: float
+    error_before_pct: float
+    error_after_pct: float
+    heldout_before_pct: float
+    heldout_after_pct: float
+    heldout_scheme: str
+    accepted: bool
+    reason: str
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {k: getattr(self, k) for k in ("name", "problem", "test", "heldout_scheme",
+                                            "accepted", "reason")}
+        d.update({k: _num(getattr(self, k)) for k in (
+            "statistic", "p_value", "p_adjusted", "error_before_pct", "error_after_pct",
+            "heldout_before_pct", "heldout_after_pct")})
+        d["coefficients"] = _nums(self.coefficients)
+        d["stderr"] = _nums(self.stderr)
+        return d
+
+
+@dataclass(frozen=True)
+class Step:
+    """One forward step: the candidate table, the attempts, what was accepted."""
+
+    index: int
+    candidates: tuple[CandidateRow, ...]
+    tried: tuple[Trial, ...]
+    accepted: str | None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"step": self.index, "candidates": [c.to_dict() for c in self.candidates],
+                "tried": [t.to_dict() for t in self.tried], "accepted": self.accepted}
+
+
+@dataclass(frozen=True)
+class Accepted:
+    """An accepted effect (the discovery.json ``accepted`` entries).
+
+    ``p_value`` is the F test's (or cluster-robust Wald test's) p-value after the refit, Holm
+    adjusted; errors are thesis totals [%] before/after; ``ambiguous_with`` names the
+    candidates it cannot be told apart from (then it is not a confident name)."""
+
+    name: str
+    problem: str
+    description: str
+    coefficients: Mapping[str, float]
+    stderr: Mapping[str, float]
+    error_before_pct: float
+    error_after_pct: float
+    heldout_before_pct: float
+    heldout_after_pct: float
+    p_value: float
+    ambiguous_with: tuple[str, ...] = ()
+    noise_floor_pct: float = float("nan")
+    excess_explained: float = float("nan")
+    note: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        d = {"name": self.name, "problem": self.problem, "description": self.description,
+             "coefficients": _nums(self.coefficients), "stderr": _nums(self.stderr),
+             "ambiguous_with": list(self.ambiguous_with), "note": self.note}
+        d.update({k: _num(getattr(self, k)) for k in (
+            "error_before_pct", "error_after_pct", "heldout_before_pct", "heldout_after_pct",
+            "p_value", "noise_floor_pct", "excess_explained")})
+        return d
+
+
+@dataclass(frozen=True)
+class ProblemSummary:
+    """One problem's base fit, diagnosis and final state.
+
+    Attributes
+    ----------
+    name, relation, form, unit : str
+    n_points : int
+    free : tuple of str             base model's fitted parameters
+    candidates : tuple of str       library candidates tested on it
+    base_error_pct, final_error_pct : float    thesis total error [%]
+    base_error_by_pressure_pct : Mapping[float, float]
+    converged, stationary : bool    base fit status
+    message : str
+    noise, base_noise : NoiseModel  error model of the final and of the base model
+    noise_floor_pct : float         thesis error of the noise alone [%]
+    floor_source : str
+    cells, final_cells : tuple of dict   thesis error per condition cell (pressure x load x
+                                    camber) of the base and the final model [%]
+    fit_seconds, score_seconds : float   one base fit; scoring all its candidates
+    parameters, stderr : Mapping    final values of every parameter; errors of the free ones
+    final_free : tuple of str
+    arrays : Mapping[str, ndarray]  per-point data for the report (not in to_dict)
+    fit : FitResult                 the final fit (fit.json; not in to_dict)
+    """
+
+    name: str
+    relation: str
+    form: str
+    unit: str
+    n_points: int
+    free: tuple[str, ...]
+    candidates: tuple[str, ...]
+    base_error_pct: float
+    final_error_pct: float
+    base_error_by_pressure_pct: Mapping[float, float]
+    converged: bool
+    stationary: bool
+    message: str
+    noise: NoiseModel
+    base_noise: NoiseModel
+    noise_floor_pct: float
+    floor_source: str
+    cells: tuple[dict, ...]
+    final_cells: tuple[dict, ...]
+    fit_seconds: float
+    score_seconds: float
+    parameters: Mapping[str, float]
+    stderr: Mapping[str, float]
+    final_free: tuple[str, ...]
+    arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
+    fit: Any = field(default=None, repr=False, compare=False)
+
+    @property
+    def excess_explained(self) -> float:
+        return excess_explained(self.base_error_pct, self.final_error_pct, self.noise_floor_pct)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"name": self.name, "relation": self.relation, "form": self.form,
+                "unit": self.unit, "n_points": self.n_points, "free": list(self.free),
+                "candidates": list(self.candidates),
+                "base_error_pct": _num(self.base_error_pct),
+                "final_error_pct": _num(self.final_error_pct),
+                "base_error_by_pressure_pct": {f"{k:g}": _num(v) for k, v in
+                                               self.base_error_by_pressure_pct.items()},
+                "converged": self.converged, "stationary": self.stationary,
+                "message": self.message, "noise": self.noise.to_dict(),
+                "base_noise": self.base_noise.to_dict(),
+                "noise_floor_pct": _num(self.noise_floor_pct), "floor_source": self.floor_source,
+                "excess_explained": _num(self.excess_explained),
+                "cells": [dict(c) for c in self.cells],
+                "final_cells": [dict(c) for c in self.final_cells],
+                "fit_seconds": self.fit_seconds,
+                "score_seconds": self.score_seconds, "parameters": _nums(self.parameters),
+                "stderr": _nums(self.stderr), "final_free": list(self.final_free)}
+
+
+def excess_explained(before: float, after: float, floor: float) -> float:
+    """(eps0^2 - eps1^2) / (eps0^2 - eps_floor^2); NaN without excess error [-]."""
+    den = before ** 2 - floor ** 2
+    return (before ** 2 - after ** 2) / den if den > 0 else float("nan")
+
+
+@dataclass(frozen=True)
+class Discovery:
+    """The whole run.
+
+    Attributes
+    ----------
+    base : Mapping            {kind, name, tir}
+    problems : tuple of ProblemSummary
+    steps : tuple of Step
+    accepted : tuple of Accepted
+    noise_floor_pct, excess_explained : float   of the first accepted effect's problem (or of
+                                                the problem with the largest error when none)
+    conclusion : str
+    settings : Mapping
+    seconds : float
+    """
+
+    base: Mapping[str, Any]
+    problems: tuple[ProblemSummary, ...]
+    steps: tuple[Step, ...]
+    accepted: tuple[Accepted, ...]
+    noise_floor_pct: float
+    excess_explained: float
+    conclusion: str
+    settings: Mapping[str, Any]
+    seconds: float
+
+    @property
+    def named(self) -> str | None:
+        """The first confidently named effect (None when nothing or an ambiguity group)."""
+        if not self.accepted or self.accepted[0].ambiguous_with:
+            return None
+        return self.accepted[0].name
+
+    def to_dict(self) -> dict[str, Any]:
+        base = dict(self.base)
+        base["problems"] = [p.to_dict() for p in self.problems]
+        return {"schema": SCHEMA, "base": base, "steps": [s.to_dict() for s in self.steps],
+                "accepted": [a.to_dict() for a in self.accepted],
+                "noise_floor_pct": _num(self.noise_floor_pct),
+                "excess_explained": _num(self.excess_explained),
+                "conclusion": self.conclusion, "settings": dict(self.settings),
+                "seconds": self.seconds}

@@ -1,0 +1,213 @@
+"""Magic Formula stage problems on trailer sweeps, for discovery.
+
+Small, self-contained :class:`~identify.fit.problem.FitProblem` builders on the forward model's
+pieces (``fx0``, ``fy0``, ``mx``, ``mz``): one output, the sweeps that excite it, a set of free
+MF coefficients, and every other key taken from a base .tir. The model reads the whole .tir
+(``{**tir, **values}``), so any .tir key can be added as a parameter (a library candidate held at
+its neutral value). The operating-point pre-processing is done once per problem.
+
+The trailer table (``identify.load.trailer`` columns ``Fz, kappa, alpha, gamma, Vx, p`` and the
+measured ``Fx, Fy, Mx, My, Mz``) gets a ``sweep`` id, a ``kind`` (cornering, braking_driving,
+combined, camber, rolling_resistance) and a ``shape`` (what the sweep varies: ``alpha``,
+``kappa``, ``gamma``, ``alpha@gamma``, ``kappa@alpha``, ``speed``) by :func:`label_sweeps`.
+Each shape is one characteristic of the thesis metric: the error of a stage problem is the
+mean over (pressure, shape) groups (``extra["metric_group"]``), so that the small camber
+thrust of a pure camber sweep is not drowned by the cornering force.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Mapping
+
+import lmfit
+import numpy as np
+import pandas as pd
+
+from identify.fit.problem import FitProblem
+from identify.model import aligning, lateral, longitudinal, moments
+from identify.model.parameters import bounds as table_bounds
+from identify.model.state import prepare
+
+__all__ = ["Stage", "STAGES", "TRAILER_MODE", "label_sweeps", "stage_problem", "add_parameter",
+           "sweep_shapes"]
+
+TRAILER_MODE = 111
+"""useMode of trailer data (limit checks on, as the simulator and MFeval's default)."""
+_TINY = 1e-6
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One MF stage for discovery.
+
+    Attributes
+    ----------
+    output : str                 measured channel (Fx, Fy, Mx, Mz)
+    kinds : tuple of str         sweep kinds used
+    free : tuple of str          MF coefficients fitted in the base model
+    candidates : tuple of str    library coefficients present (held at their neutral values)
+    """
+
+    output: str
+    kinds: tuple[str, ...]
+    free: tuple[str, ...]
+    candidates: tuple[str, ...]
+
+
+STAGES: dict[str, Stage] = {
+    "Fx": Stage("Fx", ("braking_driving",),
+                ("PCX1", "PDX1", "PDX2", "PEX1", "PEX2", "PEX4", "PKX1", "PKX2", "PKX3",
+                 "PHX1", "PVX1"),
+                ("PPX1", "PPX2", "PPX3", "PPX4")),
+    "Fy": Stage("Fy", ("cornering", "camber"),
+                ("PCY1", "PDY1", "PDY2", "PDY3", "PEY1", "PEY2", "PEY3", "PKY1", "PKY2",
+                 "PKY3", "PKY6", "PKY7", "PHY1", "PHY2", "PVY1", "PVY2", "PVY3", "PVY4"),
+                ("PPY1", "PPY2", "PPY3", "PPY4", "PPY5")),
+    "Mx": Stage("Mx", ("cornering", "camber"), ("QSX1", "QSX2", "QSX3"), ("PPMX1",)),
+    "Mz": Stage("Mz", ("cornering", "camber"),
+                ("QBZ1", "QBZ2", "QCZ1", "QDZ1", "QDZ2", "QDZ3", "QEZ1", "QEZ2", "QHZ1",
+                 "QHZ3", "QDZ6", "QDZ8", "QDZ9"),
+                ("PPZ1", "PPZ2")),
+}
+
+
+def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) -> pd.DataFrame:
+    """Add ``sweep`` (int id) and ``kind`` columns to a trailer table.
+
+    A sweep ends where the running time jumps by more than 1.5 sample intervals, the run
+    changes, or the load changes by more than 2 %. The kind is the manifest test of the run
+    (``tests``: run id -> test) when it is a known one, else it follows from what varies.
+    """
+    df = frame.reset_index(drop=True).copy()
+    run = df["run"].astype(str).to_numpy() if "run" in df else np.zeros(len(df), dtype=str)
+    t = df["t"].to_numpy(float) if "t" in df else np.arange(len(df), dtype=float)
+    fz = df["Fz"].to_numpy(float)
+    dt = np.diff(t)
+    step = np.median(dt[dt > 0]) if np.any(dt > 0) else 1.0
+    brk = np.ones(len(df), dtype=bool)
+    brk[1:] = ((run[1:] != run[:-1]) | (dt > 1.5 * step) | (dt <= 0)
+               | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0)))
+    df["sweep"] = np.cumsum(brk) - 1
+    known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}
+    kinds = {}
+    for sid, g in df.groupby("sweep", sort=False):
+        test = (tests or {}).get(str(g["run"].iloc[0])) if "run" in g else None
+        if test in known:
+            kinds[sid] = test
+            continue
+        moves = {c: np.ptp(g[c].to_numpy(float)) > _TINY for c in ("alpha", "kappa", "gamma")}
+        has = {c: np.any(np.abs(g[c].to_numpy(float)) > _TINY) for c in ("alpha", "kappa",
+                                                                             "gamma")}
+        if has["gamma"] and not has["kappa"]:
+            kinds[sid] = "camber"
+        elif moves["kappa"]:
+            kinds[sid] = "combined" if has["alpha"] else "braking_driving"
+        elif moves["alpha"]:
+            kinds[sid] = "cornering"
+        else:
+            kinds[sid] = "rolling_resistance"
+    df["kind"] = df["sweep"].map(kinds)
+    df["shape"] = df["sweep"].map(sweep_shapes(df))
+    return df
+
+
+def sweep_shapes(df: pd.DataFrame) -> dict:
+    """Sweep id -> what it varies (``alpha``, ``alpha@gamma``, ``gamma``, ``kappa`` ...)."""
+    out = {}
+    for sid, g in df.groupby("sweep", sort=False):
+        moves = [c for c in ("alpha", "kappa", "gamma") if np.ptp(g[c].to_numpy(float)) > _TINY]
+        held = [c for c in ("alpha", "kappa", "gamma") if c not in moves
+                and np.any(np.abs(g[c].to_numpy(float)) > _TINY)]
+        out[sid] = "+".join(moves or ["speed"]) + ("@" + "+".join(held) if held else "")
+    return out
+
+
+def _param(P: lmfit.Parameters, name: str, value: float, vary: bool,
+           lo: float | None = None, hi: float | None = None) -> None:
+    tlo, thi = table_bounds(name, value)
+    lo = tlo if lo is None else lo
+    hi = thi if hi is None else hi
+    if vary and not np.isfinite(lo) and not np.isfinite(hi):
+        span = max(abs(value), 1.0)
+        lo, hi = value - 10 * span, value + 10 * span
+    P.add(name, value=float(np.clip(value, lo, hi)), vary=vary, min=lo, max=hi)
+
+
+def add_parameter(problem: FitProblem, name: str, value: float, *, vary: bool = False,
+                  lo: float = -np.inf, hi: float = np.inf) -> FitProblem:
+    """A copy of ``problem`` with one more parameter (for problems whose model reads the whole
+    .tir: MF stages, camber and rolling-resistance relations)."""
+    import dataclasses
+
+    P = problem.parameters.copy()
+    P.add(name, value=float(value), vary=vary, min=lo, max=hi)
+    return dataclasses.replace(problem, parameters=P)
+
+
+def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
+                  free: tuple[str, ...] | None = None, extra_fixed: Mapping[str, float] = {},
+                  mode: int = TRAILER_MODE) -> FitProblem | None:
+    """The FitProblem of MF stage ``name`` (a key of :data:`STAGES`) on a labelled trailer
+    table (:func:`label_sweeps`); None when the table has no sweep of the stage's kinds.
+
+    Parameters
+    ----------
+    frame : DataFrame
+        Columns Fz [N], kappa [-], alpha, gamma [rad], Vx [m/s], p [Pa], the stage's output
+        [N or N m], sweep, kind.
+    tir : mapping
+        Base .tir values (SI): start values of the free coefficients and every fixed key.
+    free : tuple of str, optional
+        Free coefficients (default: the stage's list).
+    extra_fixed : mapping
+        Further parameters held fixed (e.g. library candidates at their neutral values).
+    """
+    stage = STAGES[name]
+    d = frame[frame["kind"].isin(stage.kinds)].reset_index(drop=True)
+    if d.empty or stage.output not in d or d[stage.output].isna().all():
+        return None
+    d = d[np.isfinite(d[stage.output].to_numpy(float))].reset_index(drop=True)
+    t = {k: float(v) for k, v in tir.items() if isinstance(v, (int, float))}
+    cols = {c: d[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    s = prepare(t, cols["Fz"], cols["kappa"], cols["alpha"], cols["gamma"], cols["Vx"],
+                p=cols["p"], mode=mode)
+    P = lmfit.Parameters()
+    for k in (free if free is not None else stage.free):
+        _param(P, k, t.get(k, 0.0), True)
+    for k in stage.candidates:
+        if k not in P:
+            _param(P, k, t.get(k, 0.0), False)
+    for k, v in extra_fixed.items():
+        if k not in P:
+            P.add(k, value=float(v), vary=False)
+    model = _model(name, t, s)
+    extra = {"quantity": stage.output, "Fz_N": cols["Fz"], "gamma_deg": np.rad2deg(cols["gamma"]),
+             "alpha_rad": cols["alpha"], "kappa": cols["kappa"], "Vx_mps": cols["Vx"],
+             "noise_group": d["sweep"].to_numpy(),
+             "metric_group": (d["shape"] if "shape" in d else d["kind"]).to_numpy(),
+             "full_tir": True}
+    return FitProblem("MF", name, P, model, d[stage.output].to_numpy(float),
+                      cols["p"] / 1e5, objective="wls", sweeps=d["sweep"].to_numpy(),
+                      unit="N" if stage.output.startswith("F") else "N*m", extra=extra)
+
+
+def _model(name: str, t: Mapping[str, float], s):
+    """model(values) -> predictions of stage ``name`` with the other keys from ``t``."""
+    if name == "Fx":
+        return lambda v: longitudinal.fx0({**t, **v}, s).fx0
+    if name == "Fy":
+        return lambda v: lateral.fy0({**t, **v}, s).fy0
+    lat = lateral.fy0(t, s)
+    fy = lateral.fy_combined(t, s, lat)
+    if name == "Mx":
+        return lambda v: moments.mx({**t, **v}, s, fy.fy)
+    if name == "Mz":
+        lat0 = lateral.fy0(t, s, zero_camber=True)
+        lon = longitudinal.fx0(t, s)
+        fx = longitudinal.gx_alpha(t, s) * lon.fx0
+
+        def mz(v):
+            P = {**t, **v}
+            return aligning.mz(P, s, lat, lat0, fy, fx, lon.kxk).mz
+        return mz
+    raise KeyError(name)

@@ -1,0 +1,253 @@
+"""One problem under discovery: base fit, convergence check, error model, diagnosis, folds.
+
+:func:`prepare` turns a :class:`~identify.fit.problem.FitProblem` (library coefficients present
+and held at their neutral values) into a :class:`Working` problem:
+
+1. fit the base model (weighted least squares with the thesis-metric group weights; optional
+   multi-start through :func:`identify.fit.optimize.fit`) and check it is a stationary point;
+2. with sweeps: the noise std of each noise group (run) and the AR(1) coefficient from the
+   within-sweep variogram of the residuals, refit with weights 1/sigma, choose the error model
+   (:func:`identify.discover.noise.choose_noise`) and refit prewhitened if AR(1);
+3. thesis error per pressure and per condition cell, the noise floor, the held-out folds.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from identify.discover.library import Candidate, Library
+from identify.discover.noise import (MIN_SWEEP, PHI_MIN, NoiseModel, choose_noise, fit_ar1,
+                                     sweep_index, variogram)
+from identify.discover.objective import Objective, Solution, problem_name
+from identify.discover.stages import add_parameter
+from identify.fit.metric import group_weights, thesis_error, thesis_error_by_group
+from identify.fit.problem import FitProblem
+
+__all__ = ["Working", "prepare", "cells", "folds", "metric_groups", "total_error_pct",
+           "final_floor", "renoise", "noise_scale"]
+
+LONG_LAGS = 20
+"""Variogram lags for the noise floor of correlated noise from the final residuals."""
+
+
+@dataclass
+class Working:
+    """Mutable working state of one problem during the search (internal)."""
+
+    name: str
+    problem: FitProblem
+    objective: Objective
+    sol: Solution
+    noise: NoiseModel
+    candidates: list[Candidate]
+    base_free: tuple[str, ...]
+    base_error_pct: float
+    base_by_pressure: dict
+    base_predicted: np.ndarray
+    converged: bool
+    stationary: bool
+    message: str
+    floor_pct: float
+    floor_source: str
+    fit_seconds: float
+    folds: list[np.ndarray]
+    fold_scheme: str
+    fold_errors: list[float] | None = None
+    has_sweeps: bool = False
+    base_noise: NoiseModel | None = None
+    score_seconds: float = 0.0
+    history: list[str] = field(default_factory=list)
+    rejected: set = field(default_factory=set)
+
+    @property
+    def x(self) -> np.ndarray:
+        return self.sol.x
+
+    def error_pct(self, x: np.ndarray | None = None) -> float:
+        p = self.problem
+        return total_error_pct(p, p.predict(self.x if x is None else x))
+
+
+def metric_groups(problem: FitProblem) -> np.ndarray:
+    """Group id of each point for the thesis metric: the pressure, and within a pressure the
+    characteristic (``extra["metric_group"]``, e.g. the sweep shape of MF stage data)."""
+    pres = np.round(problem.pressure_bar, 6).astype(str)
+    extra = problem.extra.get("metric_group")
+    labels = pres if extra is None else np.char.add(np.char.add(pres, "|"),
+                                                    np.asarray(extra).astype(str))
+    return np.unique(labels, return_inverse=True)[1]
+
+
+def total_error_pct(problem: FitProblem, pred: np.ndarray, mask: np.ndarray | None = None
+                    ) -> float:
+    """Total thesis error [%]: mean over the metric groups of the points in ``mask``."""
+    g = metric_groups(problem)
+    meas = problem.measured
+    if mask is not None:
+        pred, meas, g = pred[mask], meas[mask], g[mask]
+    return float(np.mean(list(thesis_error_by_group(pred, meas, g).values())))
+
+
+def _applicable(problem: FitProblem, name: str, library: Library) -> tuple[FitProblem, list]:
+    """Inject missing candidate coefficients where the model reads the whole .tir; return the
+    problem and the candidates present at their neutral values."""
+    out = []
+    for cand in library.for_problem(name):
+        for k, neutral in cand.coefficients.items():
+            if k not in problem.parameters and problem.extra.get("full_tir"):
+                problem = add_parameter(problem, k, neutral)
+        P = problem.parameters
+        if all(k in P and not P[k].vary and abs(P[k].value - v) <= 1e-12
+               for k, v in cand.coefficients.items()):
+            out.append(cand)
+    return problem, out
+
+
+def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
+                long_lags: int = 0) -> tuple[float, np.ndarray]:
+    """(phi, marginal noise std per point) from the within-sweep variogram of residuals ``e``.
+
+    Each noise group is normalised by its lag-one semivariogram; phi comes from lags 1..3 of
+    the pooled variogram (robust to a smooth misfit). With ``long_lags`` and phi >= PHI_MIN the
+    marginal level is refined on lags 1..long_lags (for residuals that are pure noise: a long
+    variogram pins the plateau of strongly correlated noise). NaN stds when a group has no
+    pairs.
+    """
+    gam1 = np.full(e.size, np.nan)
+    for g in np.unique(groups):
+        sel = groups == g
+        sub = [idx[sel[idx]] for idx in index if sel[idx].sum() > 1]
+        gam1[sel] = variogram(e, sub, 1)[0] if sub else np.nan
+    ok = np.isfinite(gam1) & (gam1 > 0)
+    if not ok.all():
+        return 0.0, np.full(e.size, np.nan)
+    en = e / np.sqrt(gam1)
+    phi, s2 = fit_ar1(variogram(en, index))
+    if phi < PHI_MIN:
+        return phi, np.sqrt(gam1)
+    if long_lags:
+        phi, s2 = fit_ar1(variogram(en, index, long_lags))
+    return phi, np.sqrt(gam1 * s2)
+
+
+def noise_floor_pct(sigma: np.ndarray, meas: np.ndarray, groups: np.ndarray) -> float:
+    """Thesis error of the noise alone: mean over groups of 100 sqrt(sum s^2/sum A^2) [%]."""
+    vals = [100.0 * np.sqrt(np.sum(sigma[groups == g] ** 2) / np.sum(meas[groups == g] ** 2))
+            for g in np.unique(groups)]
+    return float(np.mean(vals))
+
+
+def final_floor(w: Working) -> tuple[float, str]:
+    """Noise floor [%] and its source from the final model's residuals: the within-sweep
+    variogram (long lags for correlated noise), or, without sweeps, the residual variance."""
+    p = w.problem
+    e = p.predict(w.x) - p.measured
+    if w.has_sweeps:
+        groups = np.asarray(p.extra.get("noise_group", p.pressure_bar))
+        _, sigma = noise_scale(e, w.objective.index, groups, long_lags=LONG_LAGS)
+        if np.all(np.isfinite(sigma)):
+            return (noise_floor_pct(sigma, p.measured, metric_groups(p)),
+                    "within-sweep variogram of the final residuals")
+    r = e / np.asarray(p.sigma, dtype=float)
+    s = np.sqrt(float(r @ r) / max(r.size - len(p.free), 1))
+    return (noise_floor_pct(s * np.asarray(p.sigma, dtype=float), p.measured, metric_groups(p)),
+            "residual variance of the final model (no sweeps)")
+
+
+def renoise(w: Working) -> None:
+    """Re-choose the error model from the current residuals; refit if phi changed."""
+    if not w.has_sweeps:
+        return
+    w.noise = choose_noise(w.problem.residuals(w.x), w.objective.index)
+    phi = w.noise.phi if w.noise.kind == "ar1" else 0.0
+    if phi != w.objective.phi:
+        w.objective = Objective(w.problem, w.objective.index, phi)
+        w.sol = w.objective.solve(w.x)
+        w.fold_errors = None
+
+
+def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
+    """Thesis error per condition cell: pressure x load x camber class [%]."""
+    n = problem.measured.size
+    fz = np.asarray(problem.extra.get("Fz_N", np.full(n, np.nan)), dtype=float)
+    g = np.asarray(problem.extra.get("gamma_deg", np.zeros(n)), dtype=float)
+    gcls = np.where(g < -0.5, "<0", np.where(g > 0.5, ">0", "0"))
+    fzr = np.round(fz, -1)
+    out = []
+    keys = sorted({(float(a), float(b), str(c)) for a, b, c in
+                   zip(problem.pressure_bar, fzr, gcls)}, key=lambda t: (t[0], t[1], t[2]))
+    for pb, f, gc in keys:
+        sel = (problem.pressure_bar == pb) & ((fzr == f) | (np.isnan(fzr) & np.isnan(f))) \
+            & (gcls == gc)
+        out.append({"pi_bar": pb, "Fz_N": None if np.isnan(f) else f, "gamma": gc,
+                    "n": int(sel.sum()),
+                    "error_pct": thesis_error(pred[sel], problem.measured[sel])})
+    return tuple(out)
+
+
+def folds(problem: FitProblem, index: list[np.ndarray], max_folds: int = 5
+          ) -> tuple[list[np.ndarray], str]:
+    """Held-out folds (bool masks of held-out points) and the scheme's name."""
+    pres = np.round(problem.pressure_bar, 4)
+    levels = np.unique(pres)
+    if levels.size >= 3:
+        return [pres == lv for lv in levels], "leave one pressure level out"
+    n = problem.measured.size
+    real = [idx for idx in index if idx.size > 1]
+    if len(real) >= 2:
+        k = min(max_folds, len(index))
+        masks = [np.zeros(n, dtype=bool) for _ in range(k)]
+        for i, idx in enumerate(index):
+            masks[i % k][idx] = True
+        return masks, f"{k} folds of whole sweeps"
+    k = min(max_folds, n)
+    return [np.arange(n) % k == i for i in range(k)], f"{k} interleaved point folds"
+
+
+def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
+            seed: int = 0) -> Working:
+    """Fit the base model of ``problem`` and diagnose it (see the module docstring)."""
+    name = problem_name(problem)
+    p = dataclasses.replace(problem, objective="wls", constraints=(), sigma=None)
+    p = dataclasses.replace(p, sigma=1.0 / group_weights(p.measured, metric_groups(p)))
+    p, cands = _applicable(p, name, library)
+    index = sweep_index(p.sweeps, p.measured.size)
+    t0 = time.process_time()
+    x0 = p.x0()
+    if n_starts > 1 and x0.size:
+        from identify.fit.optimize import fit
+        x0 = np.array([fit(p, n_starts=n_starts, seed=seed).parameters[k] for k in p.free])
+    sol = Objective(p, index).solve(x0)
+    fit_seconds = time.process_time() - t0
+    converged, stationary, message = sol.ok, sol.stationary, sol.message
+    noise = choose_noise(sol.r, [])
+    floor, source, phi = float("nan"), "no sweeps", 0.0
+    has_sweeps = any(idx.size >= MIN_SWEEP for idx in index)
+    if has_sweeps:
+        e = p.predict(sol.x) - p.measured
+        groups = np.asarray(p.extra.get("noise_group", p.pressure_bar))
+        _, sigma = noise_scale(e, index, groups)
+        if np.all(np.isfinite(sigma)) and np.all(sigma > 0):
+            p = dataclasses.replace(p, sigma=sigma)
+            sol = Objective(p, index).solve(sol.x)
+            floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
+            source = "within-sweep variogram of the base residuals"
+        noise = choose_noise(sol.r, index)
+        phi = noise.phi if noise.kind == "ar1" else 0.0
+        if phi:
+            sol = Objective(p, index, phi).solve(sol.x)
+    obj = Objective(p, index, phi)
+    pred = p.predict(sol.x)
+    by_p = thesis_error_by_group(pred, p.measured, p.pressure_bar)
+    base_error = total_error_pct(p, pred)
+    masks, scheme = folds(p, index)
+    return Working(name=name, problem=p, objective=obj, sol=sol, noise=noise,
+                   candidates=cands, base_free=p.free,
+                   base_error_pct=base_error, base_by_pressure=by_p,
+                   base_predicted=pred, converged=converged, stationary=stationary,
+                   message=message, floor_pct=floor, floor_source=source,
+                   fit_seconds=fit_seconds, folds=masks, fold_scheme=scheme,
+                   has_sweeps=has_sweeps, base_noise=noise)

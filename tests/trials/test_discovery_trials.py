@@ -1,0 +1,56 @@
+"""Issue 7 acceptance trials for ``mfid discover`` (run with ``make trials`` or
+``pytest -m trials tests/trials``). About 1400 trials; well under an hour on two cores.
+
+1. >= 6 hidden effects (PPY5, QSY8, PPY1, PPX1, PPMX1, PCFY2 among them), 50 randomised trials
+   each: first named in >= 95 % (independent 1 % noise) and >= 80 % (AR(1), rho = 0.9).
+2. >= 200 null trials per noise model: a false addition in <= 5 % (independent), <= 10 % (AR(1)).
+3. When named: training and held-out error both drop; excess error explained >= 80 % (median).
+4. A confusion matrix with Wilson intervals is printed.
+5. Scoring all candidates takes no longer than one base fit.
+"""
+from __future__ import annotations
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[2] / "bench" / "discovery_trials.py"
+N_TRIALS = 50
+N_NULL = 200
+
+
+def _bench():
+    spec = importlib.util.spec_from_file_location("discovery_trials", BENCH)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod  # the worker processes unpickle its functions by name
+    spec.loader.exec_module(mod)
+    return mod
+
+
+@pytest.mark.trials
+def test_discovery_trials(tmp_path, capsys):
+    bench = _bench()
+    records = bench.run(N_TRIALS, N_NULL, jobs=2)
+    s = bench.summarise(records)
+    text = bench.table(s)
+    (tmp_path / "discovery_trials.json").write_text(json.dumps(
+        {"summary": s, "records": records}, default=float))
+    with capsys.disabled():
+        print("\n" + text)
+    effects = {k.split("|")[0] for k in s["named"]}
+    assert len(effects) >= 6 and set(bench.REQUIRED) <= effects
+    for key, v in s["named"].items():
+        noise = key.split("|")[1]
+        assert v["n"] >= N_TRIALS
+        assert v["rate"] >= bench.TARGET_NAMED[noise], (key, v)
+        d = s["drops"][key]
+        assert d["both_drop"] == d["n_named"], (key, d)
+        assert d["ee_median"] >= 0.8, (key, d)
+    for noise, v in s["null"].items():
+        assert v["n"] >= N_NULL
+        assert v["rate"] <= bench.TARGET_NULL[noise], (noise, v)
+    assert s["timing"]["score_over_fit_median"] <= 1.0
+    assert s["timing"]["score_over_fit_p95"] <= 1.0
