@@ -45,6 +45,7 @@ class FitSettings:
     save_chains : bool     keep MCMC chains as HDF5 under fits/<id>/mcmc/
     only : tuple of str    relation names to fit (empty = all)
     fittyp : int           61 or 62 for the written .tir
+    mf_mcmc_max_steps : int  cap on the MCMC chain of each MF stage (relations run to 50 tau)
     """
 
     seed: int = 0
@@ -53,6 +54,7 @@ class FitSettings:
     save_chains: bool = False
     only: tuple[str, ...] = ()
     fittyp: int = 61
+    mf_mcmc_max_steps: int = 3000
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -182,6 +184,19 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
                     fittyp=settings.fittyp)
         for r in mf.results:
+            if settings.mcmc:
+                from identify.fit.mf_stages import stage_mcmc
+
+                _say(progress, f"mcmc: MF [{r.form}]")
+                chain = None
+                if settings.save_chains:
+                    chain = Path(out_root) / tyre.id / "mcmc" / f"MF_{r.form}.h5"
+                    chain.parent.mkdir(parents=True, exist_ok=True)
+                # MF stages have up to ~30 coefficients and the model does not broadcast over
+                # walkers: the chain is capped, and its summary says whether it reached 50 tau
+                r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
+                               ar1=settings.mcmc_ar1, max_steps=settings.mf_mcmc_max_steps,
+                               chain_file=chain)
             results.append(r)
             for k in r.free:
                 key_sources[k] = f"MF/{r.form} (trailer)"
