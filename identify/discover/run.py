@@ -26,6 +26,7 @@ from identify.errors import InputError
 from identify.fit.relations import Context
 from identify.model.parameters import spec
 from identify.report.atomic import atomic_write_text
+from identify.report.jsonsafe import json_default
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
 
@@ -117,14 +118,6 @@ def _enriched(tir: dict, d: Discovery) -> dict:
     return out
 
 
-def _json_default(obj):
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    return str(obj)
-
-
 def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
                     base_form: str | None = None, candidates: str | Path | None = None,
                     settings: Settings = Settings(), out_dir: str | Path | None = None,
@@ -189,7 +182,7 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     doc = {**d.to_dict(), "tyre": tyre.to_dict(), "provenance": provenance,
            "notes": notes}
     json_path = atomic_write_text(out / "discovery.json",
-                                  json.dumps(doc, indent=1, default=_json_default))
+                                  json.dumps(doc, indent=1, default=json_default))
     from identify.discover.report import write_pdf
     pdf_path = write_pdf(d, out / "discovery.pdf")
     tir_path = write_tir(out / f"{tyre.id}.tir", _enriched(tir, d), fittyp=fittyp,
@@ -201,6 +194,6 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
                "fits": [p.fit.to_dict() for p in d.problems if p.fit is not None],
                "tir": {"path": tir_path.name, "fittyp": fittyp}, "flags": []}
     fit_json = atomic_write_text(out / "fit.json",
-                                 json.dumps(fit_doc, indent=1, default=_json_default))
+                                 json.dumps(fit_doc, indent=1, default=json_default))
     return DiscoveryRun(out, json_path, pdf_path, Path(tir_path), fit_json, d, tuple(notes))
 

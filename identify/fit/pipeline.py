@@ -28,6 +28,7 @@ from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.model.parameters import defaults
 from identify.report.atomic import atomic_path
+from identify.report.jsonsafe import json_default
 from identify.report.tir import format_tir
 
 Progress = Callable[[str], None]
@@ -94,6 +95,15 @@ class FitRun:
 def _say(progress: Progress | None, text: str) -> None:
     if progress is not None:
         progress(text)
+
+
+def _chain_file(settings: FitSettings, out_root, tyre_id: str, name: str) -> Path | None:
+    """fits/<id>/mcmc/<name>.h5 when chains are to be kept, else None."""
+    if not settings.save_chains:
+        return None
+    path = Path(out_root) / tyre_id / "mcmc" / f"{name}.h5"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return path
 
 
 def _base_tir(mset, fittyp: int) -> dict:
@@ -188,10 +198,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                 from identify.fit.mf_stages import stage_mcmc
 
                 _say(progress, f"mcmc: MF [{r.form}]")
-                chain = None
-                if settings.save_chains:
-                    chain = Path(out_root) / tyre.id / "mcmc" / f"MF_{r.form}.h5"
-                    chain.parent.mkdir(parents=True, exist_ok=True)
+                chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
                 # MF stages have up to ~30 coefficients and the model does not broadcast over
                 # walkers: the chain is capped, and its summary says whether it reached 50 tau
                 r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
@@ -215,10 +222,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         result = fit(problem, seed=settings.seed)
         if settings.mcmc:
             _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
-            chain = None
-            if settings.save_chains:
-                chain = Path(out_root) / tyre.id / "mcmc" / f"{entry.relation}_{entry.form}.h5"
-                chain.parent.mkdir(parents=True, exist_ok=True)
+            chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
             result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
                               chain_file=chain)
         results.append(result)
@@ -266,10 +270,10 @@ def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, setti
     json_path = fit_dir / "fit.json"
     texts = {tir_path: format_tir(tir, fittyp=settings.fittyp, comment_lines=comment),
              csv_path: frame.to_csv(index=False, lineterminator="\n"),
-             json_path: json.dumps(doc, indent=1, default=_json_default)}
+             json_path: json.dumps(doc, indent=1, default=json_default)}
     if extraction is not None:
         texts[fit_dir / "extraction.json"] = json.dumps(extraction, indent=1,
-                                                        default=_json_default)
+                                                        default=json_default)
     # every file goes to a temporary name first; the renames come last, back to back, so an
     # interrupt leaves either the previous set of outputs or the complete new one
     with ExitStack() as stack:
@@ -282,16 +286,6 @@ def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, setti
     if failed:
         raise FitError("fit did not converge: " + "; ".join(failed))
     return run
-
-
-def _json_default(obj):
-    if isinstance(obj, (np.floating, np.integer)):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, Path):
-        return str(obj)
-    raise TypeError(f"not JSON serialisable: {type(obj).__name__}")
 
 
 def only_names(values: Sequence[str]) -> tuple[str, ...]:
