@@ -35,7 +35,6 @@ def main() -> None:
     args = parser.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         stages: list[tuple[str, float]] = []
-        last = [time.perf_counter()]
 
         def progress(text: str) -> None:
             now = time.perf_counter()
@@ -50,7 +49,6 @@ def main() -> None:
         marks = stages + [("end", time.perf_counter())]
         for (name, t_a), (_, t_b) in zip(marks, marks[1:]):
             print(f"  {t_b - t_a:6.2f} s  {name}")
-        del last
     thesis = load_folder(ROOT / "measurements" / "thesis-225-50R17")
     t = {k: float(v) for k, v in defaults().items() if isinstance(v, (int, float))}
     ctx = R.Context(5000.0, 2.5, t)

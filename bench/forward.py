@@ -56,75 +56,40 @@ def _best_rate(fn, P, pts, repeats: int, **kw) -> float:
 CALLS_PER_POINT = {"atan": 26, "sin": 7, "cos": 7, "tan": 4, "pow": 3, "exp": 1}
 
 
+def _summing_loop(fn):
+    """A compiled loop that sums fn(v[i]) over an array (timing one libm function)."""
+    import numba
+
+    inner = numba.njit(fn)
+
+    @numba.njit
+    def loop(v):
+        s = 0.0
+        for i in range(v.size):
+            s += inner(v[i])
+        return s
+    return loop
+
+
+def _ns_per_element(loop, x) -> float:
+    loop(x[:10])  # compile
+    t0 = time.perf_counter()
+    loop(x)
+    return (time.perf_counter() - t0) / x.size * 1e9
+
+
 def _libm_profile(total_ns_per_point: float) -> None:
     import math
 
-    import numba
-
     x = np.random.default_rng(0).uniform(0.1, 3.0, 2_000_000)
-    @numba.njit
-    def loop_atan(v):
-        s = 0.0
-        for i in range(v.size):
-            s += math.atan(v[i])
-        return s
-
-    @numba.njit
-    def loop_sin(v):
-        s = 0.0
-        for i in range(v.size):
-            s += math.sin(v[i])
-        return s
-
-    @numba.njit
-    def loop_cos(v):
-        s = 0.0
-        for i in range(v.size):
-            s += math.cos(v[i])
-        return s
-
-    @numba.njit
-    def loop_tan(v):
-        s = 0.0
-        for i in range(v.size):
-            s += math.tan(v[i])
-        return s
-
-    @numba.njit
-    def loop_pow(v):
-        s = 0.0
-        for i in range(v.size):
-            s += v[i] ** 0.85
-        return s
-
-    @numba.njit
-    def loop_exp(v):
-        s = 0.0
-        for i in range(v.size):
-            s += math.exp(v[i])
-        return s
-
-    @numba.njit
-    def loop_add(v):
-        s = 0.0
-        for i in range(v.size):
-            s += v[i] * 1.0001
-        return s
-
-    loops = {"atan": loop_atan, "sin": loop_sin, "cos": loop_cos, "tan": loop_tan,
-             "pow": loop_pow, "exp": loop_exp}
-    base_fn = loop_add
-    base_fn(x[:10])
-    t0 = time.perf_counter()
-    base_fn(x)
-    base = (time.perf_counter() - t0) / x.size * 1e9
+    functions = {"atan": lambda v: math.atan(v), "sin": lambda v: math.sin(v),
+                 "cos": lambda v: math.cos(v), "tan": lambda v: math.tan(v),
+                 "pow": lambda v: v ** 0.85, "exp": lambda v: math.exp(v)}
+    base = _ns_per_element(_summing_loop(lambda v: v * 1.0001), x)  # loop and add overhead
     print(f"\nwhere the fused kernel's time goes ({total_ns_per_point:.0f} ns per point):")
     spent = 0.0
-    for name, fn in loops.items():
-        fn(x[:10])
-        t0 = time.perf_counter()
-        fn(x)
-        ns = (time.perf_counter() - t0) / x.size * 1e9 - base
+    for name, fn in functions.items():
+        ns = _ns_per_element(_summing_loop(fn), x) - base
         part = ns * CALLS_PER_POINT[name]
         spent += part
         print(f"  {name:>5}: {ns:5.1f} ns/call x {CALLS_PER_POINT[name]:>2} calls = "

@@ -6,7 +6,6 @@ exits 1; ``--debug`` shows the traceback. Outputs are written to a temporary nam
 from __future__ import annotations
 
 import sys
-from pathlib import Path
 
 import typer
 from rich.console import Console

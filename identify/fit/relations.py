@@ -9,7 +9,7 @@ value (PCFY2 = 0 for linear load, QSY7 = 1 and QSY8 = 0 for the old rolling-resi
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Callable, Mapping
+from typing import Mapping
 
 import lmfit
 import numpy as np
@@ -334,5 +334,3 @@ def sidewall(chars, ctx, mode: str, form: str = "scaling") -> FitProblem | None:
     return FitProblem("sidewall", f"{form}_{mode}", P, model, d["value"], pi, unit="Hz",
                       extra=_extra(d, "f_nat"))
 
-
-BuilderFn = Callable[..., FitProblem | None]
