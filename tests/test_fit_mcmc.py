@@ -5,7 +5,9 @@ import h5py
 import numpy as np
 import pytest
 
-from identify.fit.mcmc import run_mcmc
+from identify.fit.mcmc import _Posterior, run_mcmc
+from identify.fit.mf_stage_defs import STAGES
+from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from tests.test_fit_engine import PRESSURES, _params, stiffness
@@ -46,6 +48,42 @@ def test_mcmc_ar1_noise_model_runs_and_estimates_phi():
     m = run_mcmc(problem, fit(problem), seed=2, ar1=True).mcmc
     assert "phi" in m.noise and -0.99 < m.noise["phi"] < 0.99
     assert m.converged
+
+
+def _walker_problems():
+    """Every relation and MF stage the calibration trials sample (tests/test_fit_calibration*)."""
+    from tests.test_fit_calibration import CASES
+    from tests.test_fit_mf_stages import _simulate, _sweeps, _truth
+
+    for case in CASES:
+        yield case.name, case.trial(np.random.default_rng(0))[0]
+    truth = _truth()
+    data = _simulate(truth, _sweeps(pressures=(1.9, 3.0), loads=(3000.0, 7000.0)))
+    for stage in STAGES:
+        yield f"MF-{stage}", stage_problem(stage, data, truth).problem
+
+
+WALKER_PROBLEMS = dict(_walker_problems())
+
+
+@pytest.mark.parametrize("name", list(WALKER_PROBLEMS))
+def test_walkers_in_one_call_give_the_per_walker_log_probabilities(name):
+    """The posterior evaluates all walkers in one vectorised model call (no fallback to the
+    per-walker loop) and gets exactly the loop's log-probabilities."""
+    problem = WALKER_PROBLEMS[name]
+    rng = np.random.default_rng(4)
+    x0 = problem.x0()
+    lo, hi = problem.bounds()
+    step = 1e-3 * np.where(x0 != 0, np.abs(x0), 1e-2)
+    x = np.clip(x0 + step * rng.standard_normal((7, x0.size)), lo, hi)
+    theta = np.column_stack([x, np.log(0.01) + 0.1 * rng.standard_normal(7)])
+    fast = _Posterior(problem, ar1=False)
+    lp = fast(theta)
+    assert fast.vectorised, "the model did not broadcast over walkers"
+    assert np.all(np.isfinite(lp))
+    slow = _Posterior(problem, ar1=False)
+    slow.vectorised = False
+    np.testing.assert_array_equal(lp, slow(theta))
 
 
 @pytest.mark.trials

@@ -267,6 +267,28 @@ def rolling_resistance(chars, ctx, form="new") -> FitProblem | None:
 
 # ----- camber ----------------------------------------------------------------------------------
 
+def _evaluate_walkers(P: Mapping, output: str, fz, kappa, alpha, gamma, vx, p,
+                      mode: int) -> np.ndarray:
+    """One output of the forward model at the points, for scalar parameters (-> (points,)) or
+    for MCMC walkers (array values of shape (walkers, 1) -> (walkers, points)).
+
+    The forward model is elementwise in the points and accepts a per-point array for any
+    parameter, so W walkers are one call on the points tiled W times, each tile carrying its
+    walker's values: no Python loop over walkers or points.
+    """
+    arrays = {k: np.asarray(v, dtype=float) for k, v in P.items()
+              if not isinstance(v, str) and np.ndim(v) > 0}
+    if not arrays:
+        return evaluate(P, fz, kappa, alpha, gamma, vx, p=p, mode=mode)[output]
+    w = max(a.shape[0] for a in arrays.values())
+    n = np.size(fz)
+    per_point = {k: np.repeat(np.broadcast_to(a.reshape(a.shape[0]), (w,)), n)
+                 for k, a in arrays.items()}
+    tiled = [np.tile(np.asarray(x, dtype=float), w) for x in (fz, kappa, alpha, gamma, vx, p)]
+    out = evaluate({**P, **per_point}, *tiled[:5], p=tiled[5], mode=mode)[output]
+    return out.reshape(w, n)
+
+
 CAMBER_TERMS = {"Fy_gamma": ("Fy", "PPY5"), "Mz_gamma": ("Mz", "PPZ2"),
                 "Mx_gamma": ("Mx", "PPMX1")}
 
@@ -295,8 +317,8 @@ def camber(chars, ctx, quantity: str, *, vx: float = 0.05,
     v2 = np.full(2 * n, vx)
 
     def model(v):
-        out = evaluate({**t, **v}, fz2, zeros, zeros, g2, v2, p=p2, mode=CAMBER_MODE)[output]
-        return out[:n] - out[n:]
+        out = _evaluate_walkers({**t, **v}, output, fz2, zeros, zeros, g2, v2, p2, CAMBER_MODE)
+        return out[..., :n] - out[..., n:]
     return FitProblem("camber", quantity, P, model, d["value"], d["pi_bar"],
                       unit="N" if output == "Fy" else "N*m", extra=_extra(d, quantity))
 
