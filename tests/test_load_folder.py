@@ -91,3 +91,42 @@ def test_first_problem_raises(folder, tmp_path):
     with pytest.raises(InputError) as err:
         load_folder(root)
     assert str(err.value) == f"{root}/characteristics.csv:1: Fz_N: missing required column"
+
+
+def _gzip_copy(folder, root, rel: str) -> str:
+    """Copy the folder to ``root`` with ``rel`` gzip-compressed (manifest pointed at it)."""
+    import gzip
+    import shutil
+    shutil.copytree(folder, root)
+    data = (root / rel).read_bytes()
+    (root / rel).unlink()
+    with gzip.GzipFile(root / f"{rel}.gz", "wb", mtime=0) as fh:
+        fh.write(data)
+    toml = (root / "tyre.toml").read_text()
+    assert f'"{rel}"' in toml
+    (root / "tyre.toml").write_text(toml.replace(f'"{rel}"', f'"{rel}.gz"'))
+    return f"{rel}.gz"
+
+
+@pytest.mark.parametrize("rel", ["flatplank/parking_p250_fz5000_s1.csv",
+                                 "trailer/cornering_p250.csv"])
+def test_gzip_channel_files_load_like_plain_ones(folder, loaded, tmp_path, rel):
+    _gzip_copy(folder, tmp_path / "f", rel)
+    again = load_folder(tmp_path / "f")
+    # the same numbers, bit for bit: decompression is lossless and the parser is the same
+    for name in ("flatplank", "trailer"):
+        a, b = getattr(loaded, name), getattr(again, name)
+        assert a.shape == b.shape
+        num = a.select_dtypes("number").columns
+        np.testing.assert_array_equal(a[num].to_numpy(), b[num].to_numpy())
+
+
+def test_corrupt_gzip_file_is_one_clear_problem(folder, tmp_path):
+    rel = _gzip_copy(folder, tmp_path / "f", "flatplank/parking_p250_fz5000_s1.csv")
+    path = tmp_path / "f" / rel
+    path.write_bytes(path.read_bytes()[:-40])  # truncated, as an interrupted copy leaves it
+    with pytest.raises(InputError) as err:
+        load_folder(tmp_path / "f")
+    message = str(err.value)
+    assert message.startswith(f"{path}: ") and "\n" not in message
+    assert "corrupt compressed data" in message or "cannot read file" in message

@@ -1,5 +1,8 @@
 """Shared pieces of the measurement loaders: problems, numeric CSV tables, sanity checks.
 
+Numeric CSV files may be gzip-compressed (recognised from the content, whatever the name): long
+Flatplank and trailer logs are often kept that way, and the bundled sample folder is.
+
 Every loader reports what is wrong through a :class:`Problems` collector. In strict mode (what
 ``load_*`` functions use) the first problem is raised as :class:`~identify.errors.InputError`;
 otherwise (``mfid check``) every problem is collected, so one pass lists them all.
@@ -7,6 +10,7 @@ otherwise (``mfid check``) every problem is collected, so one pass lists them al
 from __future__ import annotations
 
 import csv
+import gzip
 import hashlib
 import warnings
 from dataclasses import dataclass
@@ -19,7 +23,10 @@ import pandas as pd
 from identify.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
-           "check_increasing", "check_declared", "sha256_file"]
+           "check_increasing", "check_declared", "sha256_file", "is_gzip", "open_text"]
+
+#: The first two bytes of every gzip stream (RFC 1952).
+GZIP_MAGIC = b"\x1f\x8b"
 
 #: Relative distance between a measured median and the manifest's declared value that is flagged.
 TOLERANCE = 0.15
@@ -98,9 +105,25 @@ def split_header_name(text: str) -> tuple[str, str | None]:
     return text, None
 
 
+def is_gzip(path: str | Path) -> bool:
+    """True when the file starts with the gzip magic bytes (False when it cannot be read)."""
+    try:
+        with open(path, "rb") as fh:
+            return fh.read(2) == GZIP_MAGIC
+    except OSError:
+        return False
+
+
+def open_text(path: str | Path, **kwargs: Any):
+    """Open a text file for reading, decompressing it on the fly when it is gzip data."""
+    if is_gzip(path):
+        return gzip.open(path, "rt", **kwargs)
+    return open(path, "r", **kwargs)  # noqa: SIM115 - the caller's context manager closes it
+
+
 def _header(path: Path, problems: Problems) -> list[str] | None:
     try:
-        with path.open("r", encoding="utf-8-sig", newline="") as fh:
+        with open_text(path, encoding="utf-8-sig", newline="") as fh:
             first = fh.readline()
     except FileNotFoundError:
         problems.add(path, "file not found")
@@ -111,8 +134,8 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
     except UnicodeDecodeError:
         problems.add(path, "not a UTF-8 text file", line=1)
         return None
-    except OSError as exc:
-        problems.add(path, f"cannot read file: {exc.strerror or exc}")
+    except (OSError, EOFError) as exc:  # gzip.BadGzipFile is an OSError
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
         return None
     if "\x00" in first:
         problems.add(path, "binary data (NUL bytes), not a CSV text file", line=1)
@@ -161,8 +184,10 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
             frame = pd.read_csv(path, header=0, dtype=np.float64, index_col=False,
-                                skipinitialspace=True, encoding="utf-8-sig")
-    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError):
+                                skipinitialspace=True, encoding="utf-8-sig",
+                                compression="gzip" if is_gzip(path) else None)
+    except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError,
+            OSError, EOFError):
         frame = None
     if frame is not None and frame.shape[1] == len(names) and np.isfinite(frame.to_numpy()).all():
         if len(frame) == 0:
@@ -178,8 +203,15 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
 
 def _diagnose(path: Path, width: int, names: list[str], problems: Problems) -> None:
     """Walk the rows and report ragged rows, empty, non-numeric and non-finite cells."""
+    try:
+        _walk_rows(path, width, names, problems)
+    except (OSError, EOFError) as exc:  # truncated or corrupt gzip data
+        problems.add(path, f"corrupt compressed data: {exc}")
+
+
+def _walk_rows(path: Path, width: int, names: list[str], problems: Problems) -> None:
     rows = 0
-    with path.open("r", encoding="utf-8-sig", newline="", errors="replace") as fh:
+    with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
         reader = csv.reader(fh)
         next(reader, None)
         for row in reader:
