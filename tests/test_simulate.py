@@ -68,6 +68,17 @@ def test_deterministic_for_a_seed(tmp_path, folder):
     assert other["tyre.toml"] == same["tyre.toml"]
 
 
+def test_compressed_folder_is_deterministic_and_holds_the_same_csv(tmp_path, folder):
+    import gzip
+    packed = sim(tmp_path / "a" / "tyre", seed=3, compress=True)
+    again = sim(tmp_path / "b" / "tyre", seed=3, compress=True)
+    assert files(packed.path) == files(again.path)  # no time stamp in the gzip streams
+    plain, gz = files(folder.path), files(packed.path)
+    runs = [k for k in plain if k.startswith(("flatplank/", "trailer/"))]
+    assert runs and all(gzip.decompress(gz[f"{k}.gz"]) == plain[k] for k in runs)
+    assert manifest(packed.path)["runs"][0]["file"].endswith(".csv.gz")
+
+
 def test_manifest_follows_the_contract(folder):
     m = manifest(folder.path)
     assert m["tyre"]["nominal_pressure_Pa"] == 250000 and m["tyre"]["nominal_load_N"] == 5000

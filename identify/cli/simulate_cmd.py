@@ -64,6 +64,8 @@ def simulate_command(
     grid: GridChoice = typer.Option(GridChoice.full, "--grid", help="Test grid."),
     digits: int = typer.Option(0, "--digits", help="Significant digits of the channel files "
                                                    "(0 = exact round trip)."),
+    gzip_files: bool = typer.Option(False, "--gzip", help="Write the channel files "
+                                                          "gzip-compressed (.csv.gz)."),
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace a non-empty OUTDIR."),
 ) -> None:
     """Simulate every Flatplank and trailer test of a tyre into a measurement folder."""
@@ -79,7 +81,7 @@ def simulate_command(
                                  ar1_rho=ar1, transients=transients, stick_slip=stick_slip,
                                  asymmetry=asymmetry, short_relaxation=short_relaxation,
                                  hide=hidden, grid=grid.value, overwrite=overwrite,
-                                 digits=digits or None)
+                                 digits=digits or None, compress=gzip_files)
     except MfidError as exc:
         fail(exc)
     out_console.print(f"wrote {result.path} ({len(result.run_ids)} runs, "

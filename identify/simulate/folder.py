@@ -6,6 +6,8 @@ never leaves a partial folder.
 """
 from __future__ import annotations
 
+import dataclasses
+import gzip
 import json
 import os
 import shutil
@@ -119,10 +121,19 @@ def _move_into_place(tmp: Path, outdir: Path, overwrite: bool) -> None:
 
 
 def _write_csv(path: Path, columns: Mapping[str, np.ndarray], digits: int | None) -> None:
+    """Write a channel CSV; a name ending in ``.gz`` is gzip-compressed (no time stamp in the
+    stream, so equal seeds still give byte-identical folders)."""
     # shortest round-trip floats by default: the loader's transform then recovers the
     # simulated contact-patch forces to round-off
     fmt = None if not digits else f"%.{int(digits)}g"
-    pd.DataFrame(dict(columns)).to_csv(path, index=False, lineterminator="\n", float_format=fmt)
+    text = pd.DataFrame(dict(columns)).to_csv(index=False, lineterminator="\n",
+                                              float_format=fmt)
+    if path.suffix != ".gz":
+        path.write_text(text, encoding="utf-8")
+        return
+    with open(path, "wb") as raw, gzip.GzipFile(filename="", mode="wb", fileobj=raw,
+                                                mtime=0) as fh:
+        fh.write(text.encode("utf-8"))
 
 
 def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
@@ -131,7 +142,8 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
                     stick_slip: bool = True, asymmetry: float = 0.0,
                     short_relaxation: bool = True, hide: Mapping[str, float] | None = None,
                     grid: str | Grid = "full", rig: Rig = DEFAULT_RIG, overwrite: bool = False,
-                    tyre_id: str | None = None, digits: int | None = None) -> SimulationResult:
+                    tyre_id: str | None = None, digits: int | None = None,
+                    compress: bool = False) -> SimulationResult:
     """Simulate every Flatplank and trailer test of a tyre and write a measurement folder.
 
     Parameters
@@ -166,6 +178,8 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
         Manifest tyre id (default: the folder name).
     digits : int, optional
         Significant digits of the channel files (default: shortest exact round trip).
+    compress : bool
+        Write the channel files gzip-compressed (``.csv.gz``; the loaders read either).
 
     Returns
     -------
@@ -199,6 +213,8 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
                        *parking_runs(model, grid, art), *relaxation_runs(model, grid, art),
                        *free_rolling_runs(model, grid, art), *camber_runs(model, grid, art),
                        *trailer_runs(model, grid)]
+    if compress:
+        runs = [dataclasses.replace(r, file=f"{r.file}.gz") for r in runs]
     truth_rows = characteristics(model, grid)
     eigen = [dict(r) for r in truth_rows if r["quantity"] == "f_nat"]
     rng = run_rng(art.seed, "characteristics.csv")
