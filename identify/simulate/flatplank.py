@@ -139,7 +139,7 @@ def parking_runs(model: TyreModel, grid: Grid, art: Artefacts) -> list[Run]:
                          * (1 + rig.parking_pressure * dp))
                 m_h = rig.parking_hysteresis * m_sat
                 psi_c = 2 * m_h / cmz
-                travel = np.linspace(0.0, 4 * r, grid.samples.parking)
+                travel = np.linspace(0.0, 5 * r, grid.samples.parking)
                 seg = np.searchsorted([r, 3 * r], travel, side="left")
                 psi = np.choose(seg, [travel, 2 * r - travel, travel - 4 * r])
                 since = np.choose(seg, [travel, travel - r, travel - 3 * r])
