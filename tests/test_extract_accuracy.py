@@ -6,11 +6,14 @@ transients, stick-slip, the short relaxation cell), seed 1 as the bundled sample
 one (no noise, transients or stick-slip; the short relaxation runs stay). Run with ``-s`` to see
 the worst cell per quantity.
 
-At the default noise level three quantities cannot meet the issue's tolerance with any
-estimator that uses only the linear part of a run: the per-cell standard error from the data
-alone is ~0.8 % for CFx, ~0.5 % for CFy and ~2.9 % for Mx_gamma at |gamma| = 2 deg, so the worst
-of 15 (or 30) cells lands near 2-2.5 standard errors. Those checks are marked xfail (not strict);
-``test_noise_limited_errors_match_their_standard_errors`` shows the misses are noise, not bias.
+The tightest checks are set by the noise: the per-cell standard error from the data alone is
+~0.3 % for CFx, ~0.2 % for CFy and ~0.5 % for Mx_gamma at |gamma| = 2 deg at the default sample
+rates (identify/simulate/grid.py), so the worst of 15 (or 30) cells lands near 2.5 standard
+errors, inside the tolerances; ``test_noise_limited_errors_match_their_standard_errors`` checks
+every cell against its own standard error. CFx and CFy keep a small systematic part (mean
+-0.2 to -0.3 % over the cells, also without noise): the window search cannot tell the last of
+the start-up ringing and the first of the saturation bend from the noise, and they lower the
+slope slightly.
 """
 from __future__ import annotations
 
@@ -29,8 +32,6 @@ from identify.simulate import default_tir_path, simulate_folder
 #: Issue 4 tolerances (relative) at the default artefact level.
 TOLERANCE = {"CFz": 0.01, "CFx": 0.01, "CFy": 0.01, "CMz": 0.03, "sigma_y": 0.02,
              "Re": 0.0005, "Fy_gamma": 0.02, "Mz_gamma": 0.02, "Mx_gamma": 0.02}
-#: Quantities whose tolerance is below the noise floor of the default artefacts (see above).
-NOISE_LIMITED = {"CFx", "CFy", "Mx_gamma"}
 CAMBER = ("Fy_gamma", "Mz_gamma", "Mx_gamma")
 
 
@@ -92,12 +93,8 @@ def test_every_cell_is_extracted(default, clean):
 
 
 @pytest.mark.parametrize("quantity", list(TOLERANCE))
-def test_acceptance_1_default_artefacts(default, quantity, request):
+def test_acceptance_1_default_artefacts(default, quantity):
     """Issue 4 acceptance 1: each quantity within its tolerance in all 15 cells."""
-    if quantity in NOISE_LIMITED:
-        request.applymarker(pytest.mark.xfail(
-            strict=False, reason=f"{quantity}: tolerance below the noise floor of the default "
-                                 "artefacts (see the module docstring)"))
     table = compare(*default)
     worst = worst_cells(table[table["quantity"] == quantity], "acceptance 1")[quantity]
     assert worst <= TOLERANCE[quantity]
@@ -132,10 +129,10 @@ def _cell_errors(extraction, quantity: str) -> dict[tuple, float]:
     return {k: math.sqrt(sum(e * e for e in v)) / len(v) for k, v in per_cell.items()}
 
 
-@pytest.mark.parametrize("quantity,bound", [("CFx", 0.03), ("CFy", 0.02), ("Mx_gamma", 0.10)])
+@pytest.mark.parametrize("quantity,bound", [("CFx", 0.01), ("CFy", 0.01), ("Mx_gamma", 0.02)])
 def test_noise_limited_errors_match_their_standard_errors(default, quantity, bound):
-    """The misses of acceptance 1 are noise: every cell within 4 of its own standard errors
-    (no bias), and within a bound that still catches a broken window or fit."""
+    """The noisiest quantities: every cell within 4 of its own standard errors (a badly biased
+    window or build-up fit would leave cells outside), and within the tolerance."""
     extraction, truth = default
     table = compare(extraction, truth)
     table = table[table["quantity"] == quantity]
@@ -147,7 +144,7 @@ def test_noise_limited_errors_match_their_standard_errors(default, quantity, bou
     assert np.max(np.abs(z)) <= 4.0
     assert table["err"].abs().max() <= bound
     if quantity == "Mx_gamma":  # above 2 deg the torque outgrows the noise
-        assert table[table["g"].abs() >= 5]["err"].abs().max() <= 0.04
+        assert table[table["g"].abs() >= 5]["err"].abs().max() <= 0.01
 
 
 def test_acceptance_2_clean(clean):

@@ -234,7 +234,7 @@ def test_bundled_sample_longitudinal_stages():
     """The bundled folder's braking/driving and combined runs (1 % noise): Fx0 and Fx fit to
     the noise level; the outputs follow docs/contracts-fit.md."""
     runs = [f"{kind}_p{p}" for kind in ("braking_driving", "combined") for p in (190, 250, 300)]
-    trailer = pd.concat([read_trailer(SAMPLE / f"{r}.csv", run=r) for r in runs],
+    trailer = pd.concat([read_trailer(SAMPLE / f"{r}.csv.gz", run=r) for r in runs],
                         ignore_index=True)
     base = read_tir(TIR).params()
     mf = fit_mf(trailer, base, stages=("Fx0", "Fx"))
