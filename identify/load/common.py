@@ -23,7 +23,7 @@ import pandas as pd
 from identify.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
-           "check_increasing", "check_declared", "sha256_file", "is_gzip", "open_text"]
+           "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip", "open_text"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -105,13 +105,18 @@ def split_header_name(text: str) -> tuple[str, str | None]:
     return text, None
 
 
-def is_gzip(path: str | Path) -> bool:
-    """True when the file starts with the gzip magic bytes (False when it cannot be read)."""
+def starts_with(path: str | Path, magic: bytes) -> bool:
+    """True when the file's first bytes are ``magic`` (False when it cannot be read)."""
     try:
         with open(path, "rb") as fh:
-            return fh.read(2) == GZIP_MAGIC
+            return fh.read(len(magic)) == magic
     except OSError:
         return False
+
+
+def is_gzip(path: str | Path) -> bool:
+    """True when the file is gzip data (starts with the gzip magic bytes)."""
+    return starts_with(path, GZIP_MAGIC)
 
 
 def open_text(path: str | Path, **kwargs: Any):

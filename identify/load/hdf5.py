@@ -13,7 +13,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from identify.load.common import Problems
+from identify.load.common import Problems, starts_with
 from identify.report.atomic import atomic_path
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
@@ -38,11 +38,7 @@ class RawRun:
 
 def is_hdf5(path: str | Path) -> bool:
     """True when the file starts with the HDF5 signature."""
-    try:
-        with open(path, "rb") as fh:
-            return fh.read(8) == HDF5_SIGNATURE
-    except OSError:
-        return False
+    return starts_with(path, HDF5_SIGNATURE)
 
 
 def _text(value) -> str:
