@@ -71,10 +71,16 @@ def _sweeps(pressures=(1.9, 2.5, 3.0), loads=(3000.0, 5000.0, 7000.0),
 
 
 def _simulate(P, points: pd.DataFrame) -> pd.DataFrame:
-    out = evaluate(P, points["Fz"].to_numpy(), points["kappa"].to_numpy(),
-                   points["alpha"].to_numpy(), points["gamma"].to_numpy(),
-                   points["Vx"].to_numpy(), p=points["p"].to_numpy(), mode=211)
-    return points.assign(**{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
+    """The model's forces and moments, and the wheel speed omega of the fixed point
+    omega = (1 + kappa) Vx / Re(omega) solved to round-off (evaluate's stops at 1e-9 m), so
+    that Vx/omega at kappa = 0 is Re(omega) to ~1e-16 relative."""
+    cols = [points[c].to_numpy() for c in ("Fz", "kappa", "alpha", "gamma", "Vx")]
+    out = evaluate(P, *cols, p=points["p"].to_numpy(), mode=211)
+    omega = out["omega"]
+    for _ in range(4):
+        re = evaluate(P, *cols, p=points["p"].to_numpy(), omega=omega, mode=211)["Re"]
+        omega = (1 + cols[1]) * cols[4] / re
+    return points.assign(omega=omega, **{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
 
 
 @pytest.fixture(scope="module")
@@ -174,6 +180,58 @@ def test_three_loads_cannot_choose_the_slip_stiffness_branch(truth, data):
     assert "PKX3" in stage_problem("Fx0", four, truth).problem.free
 
 
+def test_geometry_stage_model_is_evaluates_re(truth, data):
+    """The geometry stage's model at any coefficients is bit-identical to evaluate()'s Re with
+    the measured omega; the measured Re is Vx/omega on the free-rolling points only."""
+    sp = stage_problem("geometry", data, truth)
+    pts = data.iloc[sp.rows]
+    assert set(pts["run"].str.split("_").str[0]) == {"lat", "rr"}  # no kappa sweeps
+    values = {"Q_RE0": 1.01, "Q_V1": 0.002, "DREFF": 0.2, "FREFF": 0.03, "BREFF": 6.0}
+    P = dict(truth, **values)
+    out = evaluate(P, pts["Fz"].to_numpy(), pts["kappa"].to_numpy(), pts["alpha"].to_numpy(),
+                   pts["gamma"].to_numpy(), pts["Vx"].to_numpy(), p=pts["p"].to_numpy(),
+                   omega=pts["omega"].to_numpy(), mode=211)
+    model = sp.problem.model
+    np.testing.assert_array_equal(model(values), out["Re"])
+    np.testing.assert_array_equal(sp.problem.measured,
+                                  pts["Vx"].to_numpy() / pts["omega"].to_numpy())
+
+
+def test_geometry_stage_recovers_breff_with_four_loads(truth):
+    """Four load levels identify BREFF too (three: held, see NEEDS); the vertical stiffness
+    VERTICAL_STIFFNESS, PFZ1 is held at the start values."""
+    points = _sweeps(loads=(2500.0, 4000.0, 5500.0, 7000.0))
+    data = _simulate(truth, points[points["run"].str.startswith(("lat", "rr"))])
+    free = stage_problem("geometry", data, truth).problem.free
+    assert set(free) == {"Q_RE0", "Q_V1", "DREFF", "FREFF", "BREFF"}
+    for seed in (1, 2):
+        start = _perturb(truth, free, seed=seed)
+        result = fit_mf(data, start, stages=("geometry",)).result("geometry")
+        errors = _rel_errors(result, truth)
+        worst = max(errors, key=errors.get)
+        print(f"geometry, 4 loads, seed {seed}: worst {worst} {errors[worst]:.1e}")
+        assert errors[worst] <= RECOVERY_RTOL, (worst, errors[worst])
+        assert result.converged and result.error_total_pct < 1e-8
+        assert set(result.parameters) >= {"Q_RE0", "BREFF"}
+        assert "VERTICAL_STIFFNESS" not in result.parameters
+
+
+def test_geometry_stage_holds_and_skips(truth, data):
+    held = stage_problem("geometry", data, truth).held
+    assert held == {"BREFF": "data: 3 load level(s), 4 needed"}
+    one_speed = data[data["Vx"] == 16.7]
+    assert stage_problem("geometry", one_speed, truth).held["Q_V1"] == "data: one speed"
+    # no wheel-speed channel: the stage is skipped with the reason, the others still fit
+    mf = fit_mf(data.drop(columns="omega"), truth, stages=("geometry", "My"))
+    assert [r.form for r in mf.results] == ["My"]
+    assert mf.skipped["geometry"].startswith("no wheel-speed (omega) channel")
+    assert "MF [geometry] skipped: no wheel-speed" in mf.report()
+    # a wheel speed but no free rolling (only slip sweeps)
+    slip_only = data[data["run"].str.startswith(("long", "comb"))]
+    mf = fit_mf(slip_only, truth, stages=("geometry",))
+    assert mf.results == () and mf.skipped["geometry"].startswith("no free-rolling points")
+
+
 @pytest.fixture(scope="module")
 def chained(truth, data, free_sets):
     """All stages perturbed at once and fitted in sequence (three passes: SSZ1..4 act on the
@@ -201,7 +259,12 @@ def test_written_tir_reproduces_the_fitted_predictions_exactly(chained, tmp_path
         out = evaluate(back, pts["Fz"].to_numpy(), pts["kappa"].to_numpy(),
                        pts["alpha"].to_numpy(), pts["gamma"].to_numpy(), pts["Vx"].to_numpy(),
                        p=pts["p"].to_numpy(), mode=211)
-        quantity = {"Fx0": "Fx", "Fy0": "Fy", "Mz0": "Mz"}.get(r.form, r.form)
+        quantity = {"Fx0": "Fx", "Fy0": "Fy", "Mz0": "Mz", "geometry": "Re"}.get(r.form, r.form)
+        if r.form == "geometry":  # Re at the measured wheel speed
+            out = evaluate(back, pts["Fz"].to_numpy(), pts["kappa"].to_numpy(),
+                           pts["alpha"].to_numpy(), pts["gamma"].to_numpy(),
+                           pts["Vx"].to_numpy(), p=pts["p"].to_numpy(),
+                           omega=pts["omega"].to_numpy(), mode=211)
         np.testing.assert_array_equal(out[quantity], r.predicted, err_msg=r.form)
         assert all(back[n] == r.parameters[n] for n in r.free)
 

@@ -3,6 +3,16 @@
 The input is the tidy trailer table of ``identify.load.folder.load_folder(path).trailer``:
 columns run, t, Vx, omega, alpha, kappa, gamma, p, Fx, Fy, Fz, Mx, My, Mz (SI, ISO-W).
 Nothing here modifies the table.
+
+Effective rolling radius (stage ``geometry``): measured as Re = Vx/omega on free-rolling points
+only. MF defines kappa = (omega Re - Vx)/Vx, so Re = Vx (1 + kappa)/omega at any slip; but a
+trailer's kappa channel is usually computed from omega with an assumed radius, and then
+Vx (1 + kappa)/omega returns that assumed radius, not the tyre's. Free rolling (no drive or
+brake torque: the cornering, camber and rolling-resistance runs) has kappa = 0 by definition,
+so there Re = Vx/omega uses only the speed channels; the kappa channel serves only to recognise
+free rolling (runs without a kappa sweep, |kappa| <= FREE_KAPPA, generous enough for a kappa
+computed with a radius 1 % off). The simulator (identify.simulate.trailer) writes omega from
+the model's fixed point omega = (1 + kappa) Vx/Re, i.e. Vx/omega = Re at kappa = 0.
 """
 from __future__ import annotations
 
@@ -24,15 +34,33 @@ PRESSURE_RESOLUTION = 5000.0
 """[Pa] pressure levels closer than this are one level."""
 SPEED_RESOLUTION = 1.0
 """[m/s] speed levels closer than this are one level."""
+FREE_KAPPA = 0.01
+"""[-] |kappa| at or below this, in a run without a kappa sweep, is free rolling."""
+FREE_MIN_SPEED = 1.0
+"""[m/s] free-rolling points below this speed are not used for Re = Vx/omega."""
 CAMBER_SPREAD = np.deg2rad(0.5)
 """[rad] the data cover camber when gamma spans more than this."""
 
 
 def check_columns(frame: pd.DataFrame, quantities: tuple[str, ...]) -> None:
-    """Raise ValueError when a column the MF stages need is missing."""
-    missing = [c for c in REQUIRED + quantities if c not in frame.columns]
+    """Raise ValueError when a column the MF stages need is missing (``"Re"`` is derived from
+    Vx and omega; without omega the geometry stage is skipped, not an error)."""
+    missing = [c for c in REQUIRED + quantities if c != "Re" and c not in frame.columns]
     if missing:
         raise ValueError("trailer table lacks column(s) " + ", ".join(missing))
+
+
+def quantity_values(frame: pd.DataFrame, quantity: str) -> np.ndarray:
+    """The measured values of a stage's quantity: the channel itself, or for ``"Re"`` the
+    effective rolling radius Vx/omega [m] (NaN where omega is missing or not positive)."""
+    if quantity != "Re":
+        return frame[quantity].to_numpy(float)
+    if "omega" not in frame.columns:
+        return np.full(len(frame), np.nan)
+    vx = frame["Vx"].to_numpy(float)
+    omega = frame["omega"].to_numpy(float)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(omega > 0, vx / omega, np.nan)
 
 
 def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
@@ -43,20 +71,24 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     frame : DataFrame
         The trailer table.
     selection : str
-        ``"longitudinal"``, ``"lateral"``, ``"combined"`` or ``"all"`` (see StageDef).
+        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"`` or ``"all"``
+        (see StageDef).
     quantity : str
-        The fitted channel.
+        The fitted channel (``"Re"``: Vx/omega, see quantity_values).
     """
     a = np.abs(frame["alpha"].to_numpy(float))
     k = np.abs(frame["kappa"].to_numpy(float))
-    ok = np.isfinite(frame[quantity].to_numpy(float)) & (frame["Fz"].to_numpy(float) > 0)
+    ok = np.isfinite(quantity_values(frame, quantity)) & (frame["Fz"].to_numpy(float) > 0)
     span = frame.groupby("run", sort=False)[["alpha", "kappa", "gamma"]].agg(
         lambda x: float(np.nanmax(x) - np.nanmin(x)))
     run = frame["run"]
     kappa_sweep = run.map(span["kappa"] > SWEEP_KAPPA).to_numpy(bool)
     lateral_sweep = run.map((span["alpha"] > SWEEP_ANGLE) | (span["gamma"] > SWEEP_ANGLE)
                             ).to_numpy(bool)
-    if selection == "longitudinal":
+    if selection == "free_rolling":
+        ok &= ((k <= FREE_KAPPA) & ~kappa_sweep
+               & (frame["Vx"].to_numpy(float) >= FREE_MIN_SPEED))
+    elif selection == "longitudinal":
         ok &= (a <= PURE_ALPHA) & kappa_sweep
     elif selection == "lateral":
         ok &= (k <= PURE_KAPPA) & lateral_sweep

@@ -39,7 +39,8 @@ class MFFit:
     settings : Mapping[str, Any]   seed, fittyp, use_mode, n_lhs, max_nfev, passes, stages,
                                    screen, objective
     points : Mapping[str, DataFrame]   stage -> its operating points (Fz, kappa, alpha, gamma,
-                                   Vx, p), row for row with the stage's FitResult arrays
+                                   Vx, p; geometry also omega), row for row with the stage's
+                                   FitResult arrays
     seconds : float                wall time of the whole fit [s]
     """
 

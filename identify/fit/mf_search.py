@@ -75,11 +75,13 @@ def canonical_br(result: FitResult, start: Mapping[str, float]) -> FitResult:
 
 
 def final_predictions(result: FitResult, problem: FitProblem, s: OperatingState,
-                      params: Mapping[str, float]) -> FitResult:
+                      params: Mapping[str, float], omega: np.ndarray | None = None
+                      ) -> FitResult:
     """``result`` with the predictions (and errors) of the final parameter set: a later
     stage's coefficients can act on an earlier stage's points (SSZ on the Mz0 points), and the
-    reported predictions must be what the written .tir gives."""
-    model = stage_model(result.form, params, s)
+    reported predictions must be what the written .tir gives. ``omega``: the measured wheel
+    speed of the geometry stage's points."""
+    model = stage_model(result.form, params, s, omega)
     pred = np.asarray(model({n: params[n] for n in result.parameters}), dtype=float)
     if np.array_equal(pred, result.predicted):
         return result

@@ -18,7 +18,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from identify.model import aligning, lateral, longitudinal, moments
+from identify.model import aligning, lateral, longitudinal, moments, vertical
 from identify.model.state import OperatingState
 
 PURE_ALPHA = np.deg2rad(0.25)
@@ -34,9 +34,13 @@ class StageDef:
     Attributes
     ----------
     name : str             stage name (FitResult.form)
-    quantity : str         fitted channel of the trailer table (Fx, Fy, Mz, Mx, My)
+    quantity : str         fitted channel of the trailer table (Fx, Fy, Mz, Mx, My), or Re,
+                           the effective rolling radius Vx/omega derived from the wheel speed
+                           (identify.fit.mf_data.quantity_values)
     unit : str             its unit
-    selection : str        ``"longitudinal"`` (|alpha| <= PURE_ALPHA in runs with a kappa sweep),
+    selection : str        ``"free_rolling"`` (runs without a kappa sweep, |kappa| <= FREE_KAPPA,
+                           a wheel speed omega > 0 and Vx >= FREE_MIN_SPEED; see
+                           identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA in runs with a kappa sweep),
                            ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
                            sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA)
                            or ``"all"``
@@ -55,6 +59,9 @@ def _names(text: str) -> tuple[str, ...]:
 
 
 STAGES: dict[str, StageDef] = {s.name: s for s in (
+    # Re = R0 (Q_RE0 + Q_V1 (omega R0/V0)^2) - Fz0/Cz' (DREFF atan(BREFF Fz/Fz0) + FREFF Fz/Fz0)
+    # with Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi) held (CFz relation of the Flatplank data)
+    StageDef("geometry", "Re", "m", "free_rolling", _names("Q_RE0 Q_V1 DREFF FREFF BREFF")),
     StageDef("Fx0", "Fx", "N", "longitudinal", _names(
         "PDX1 PKX1 PCX1 PEX1 PDX2 PKX2 PEX2 PHX1 PVX1 PHX2 PVX2 PKX3 PEX3 PEX4 "
         "PPX1 PPX3 PPX2 PPX4 PDX3")),
@@ -73,9 +80,10 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
     StageDef("My", "My", "N m", "all", _names("QSY1 QSY2 QSY3 QSY4 QSY5 QSY6 QSY7 QSY8")),
 )}
 
-DEFAULT_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
+DEFAULT_STAGES = ("geometry", "Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
 
 _NEEDS_TEXT = """
+Q_V1 speed; DREFF load; FREFF load2; BREFF load3;
 PDX2 load; PDX3 camber; PEX2 load; PEX3 load2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
 PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2; PPX3 pressure; PPX4 pressure2;
 PDY2 load; PDY3 camber; PEY2 load; PEY3 alpha_sign; PEY4 camber alpha_sign; PEY5 camber;
@@ -98,7 +106,10 @@ NEEDS: dict[str, tuple[str, ...]] = {
 three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches,
 PKX2 = +-a, and a local solve from near one branch can end on the other), ``pressure``/
 ``pressure2`` >= 2/3 pressures, ``speed``/``speed2`` >= 2/3 speeds, ``camber`` a camber
-variation, ``kappa_sign``/``alpha_sign`` slip of both signs."""
+variation, ``kappa_sign``/``alpha_sign`` slip of both signs. Geometry: Re - R0 Q_RE0 is
+DREFF atan(BREFF x) + FREFF x at the data's loads x = Fz/Fz0 (scaled per pressure by the held
+Cz'), so n load levels determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); Q_V1
+needs free rolling at two speeds (omega^2 term)."""
 
 Values = Mapping[str, float]
 Model = Callable[[Values], np.ndarray]
@@ -111,7 +122,8 @@ def _subset(s: OperatingState, idx: np.ndarray) -> OperatingState:
         if isinstance(getattr(s, f.name), np.ndarray)})
 
 
-def stage_model(stage: str, base: Values, s: OperatingState) -> Model:
+def stage_model(stage: str, base: Values, s: OperatingState,
+                omega: np.ndarray | None = None) -> Model:
     """The vectorised model of ``stage`` at the operating points ``s``.
 
     Parameters
@@ -122,6 +134,8 @@ def stage_model(stage: str, base: Values, s: OperatingState) -> Model:
         Every .tir value; the stage's own coefficients are overridden per call.
     s : OperatingState
         The stage's points, prepared with useMode 211.
+    omega : ndarray [rad/s], optional
+        The measured wheel speed at the points (stage ``geometry`` only, required there).
 
     Returns
     -------
@@ -132,6 +146,12 @@ def stage_model(stage: str, base: Values, s: OperatingState) -> Model:
     def merged(values: Values) -> dict:
         return {**base, **values}
 
+    if stage == "geometry":
+        if omega is None:
+            raise ValueError("the geometry stage needs the measured wheel speed omega")
+        # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (magic-formula.md 6.3)
+        w = np.asarray(omega, dtype=float) + np.finfo(float).eps
+        return lambda v: vertical._effective_radius(merged(v), s, w)
     if stage == "Fx0":
         gxa = longitudinal.gx_alpha(base, s)
         return lambda v: gxa * longitudinal.fx0(merged(v), s).fx0

@@ -1,7 +1,10 @@
 """Fit the Magic Formula slip coefficients to trailer data in stages (issue 5).
 
-Stages, in order (identify.fit.mf_stage_defs.STAGES): Fx0, Fy0, Mz0 on pure-slip points, then
-Fx, Fy, Mz on combined-slip points, then Mx and My on every point. Each stage
+Stages, in order (identify.fit.mf_stage_defs.STAGES): geometry (the effective rolling radius
+Re = Vx/omega on free-rolling points: Q_RE0, Q_V1, DREFF, FREFF, BREFF, with the vertical
+stiffness VERTICAL_STIFFNESS, PFZ1 held at the start values, i.e. the Flatplank CFz relation's
+when the pipeline has it; skipped without a wheel-speed channel), Fx0, Fy0, Mz0 on pure-slip
+points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. Each stage
 
 * selects its points and fits one channel (weighted least squares, each pressure weighted by
   1/sqrt(sum of the squared measurements), so the objective is the sum over pressures of the
@@ -69,12 +72,14 @@ class StageProblem:
     rows : ndarray             row positions of the stage's points in the trailer table
     held : dict name -> reason  candidate coefficients held by the identifiability rules
     state : OperatingState     the stage's points, prepared with useMode 211
+    omega : ndarray or None    the measured wheel speed [rad/s] (stage geometry only)
     """
 
     problem: FitProblem
     rows: np.ndarray
     held: Mapping[str, str]
     state: OperatingState
+    omega: np.ndarray | None = None
 
 
 def _candidates(sd: StageDef, free) -> list[str]:
@@ -95,7 +100,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     Parameters
     ----------
     stage : str
-        Stage name (``"Fx0"`` ... ``"My"``).
+        Stage name (``"geometry"``, ``"Fx0"`` ... ``"My"``).
     trailer : DataFrame
         The trailer table (see identify.fit.mf_data).
     params : mapping
@@ -122,7 +127,9 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
     s = prepare(params, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
                 p=col["p"], mode=FIT_MODE)
-    model = stage_model(stage, params, s)
+    omega = pts["omega"].to_numpy(float) if sd.quantity == "Re" else None
+    model = stage_model(stage, params, s, omega)
+    measured = mf_data.quantity_values(pts, sd.quantity)
     held: dict[str, str] = {}
     names = _candidates(sd, free)
     if hold is not None:
@@ -145,7 +152,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                 P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
             else:  # held: exactly the carried-forward value
                 P.add(n, value=v, vary=False)
-        return FitProblem("MF", stage, P, model, pts[sd.quantity].to_numpy(float),
+        return FitProblem("MF", stage, P, model, measured,
                           mf_data.pressure_groups(pts), objective="wls", sigma=None,
                           constraints=tuple(constraints),
                           sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
@@ -160,7 +167,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         return {**params, **values}
 
     cons = stage_constraints(stage, params, merge, np.unique(pts["p"].to_numpy(float)))
-    return StageProblem(build(vary, cons), rows, held, s)
+    return StageProblem(build(vary, cons), rows, held, s, omega)
 
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
@@ -200,6 +207,18 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     return result, sp
 
 
+def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
+    """Why ``stage`` has no points in ``trailer``."""
+    if STAGES[stage].quantity != "Re":
+        return "no points in the trailer table for this stage"
+    if "omega" not in trailer.columns:
+        return ("no wheel-speed (omega) channel in the trailer data: the effective rolling "
+                "radius Re = Vx/omega cannot be measured")
+    return ("no free-rolling points with a wheel speed (runs without a kappa sweep, "
+            f"|kappa| <= {mf_data.FREE_KAPPA:g}, omega > 0, Vx >= {mf_data.FREE_MIN_SPEED:g} "
+            "m/s)")
+
+
 def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
            stages: Sequence[str] = DEFAULT_STAGES, seed: int = 0, fittyp: int = 61,
            free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
@@ -215,7 +234,7 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         Start values of every .tir key (``read_tir(path).params()``); missing keys take the
         parameter table's defaults. Not modified.
     stages : sequence of str
-        Stages to fit, in order (default Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My).
+        Stages to fit, in order (default geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My).
     seed : int
         Seed of the Latin-hypercube starts (stage i uses seed + i).
     fittyp : int
@@ -254,7 +273,7 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         for i, stage in enumerate(stages):
             sp = stage_problem(stage, trailer, params, free=free, screen=screen)
             if sp is None:
-                skipped[stage] = "no points in the trailer table for this stage"
+                skipped[stage] = _skip_reason(stage, trailer)
                 continue
             starts = (start_points(sp.problem, n_lhs, seed + i) if pass_no == 0
                       else sp.problem.x0()[None, :])
@@ -267,8 +286,10 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
             results.append(result)
             problems.append(sp)
             held[stage] = dict(sp.held)
-            points[stage] = trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]]
-    results = [final_predictions(r, sp.problem, sp.state, params)
+            points[stage] = trailer.iloc[sp.rows][
+                ["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
+                + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+    results = [final_predictions(r, sp.problem, sp.state, params, sp.omega)
                for r, sp in zip(results, problems)]
     settings = {"seed": seed, "fittyp": fittyp, "use_mode": FIT_MODE, "n_lhs": n_lhs,
                 "max_nfev": MAX_NFEV, "passes": passes, "stages": list(stages),
