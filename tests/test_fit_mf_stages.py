@@ -197,10 +197,10 @@ def test_geometry_stage_model_is_evaluates_re(truth, data):
                                   pts["Vx"].to_numpy() / pts["omega"].to_numpy())
 
 
-def test_geometry_stage_recovers_breff_with_four_loads(truth):
-    """Four load levels identify BREFF too (three: held, see NEEDS); the vertical stiffness
-    VERTICAL_STIFFNESS, PFZ1 is held at the start values."""
-    points = _sweeps(loads=(2500.0, 4000.0, 5500.0, 7000.0))
+def test_geometry_stage_recovers_breff_with_four_loads_at_one_pressure(truth):
+    """Four load levels identify BREFF at one pressure too (three need the pressure scaling of
+    Cz', see NEEDS); the vertical stiffness VERTICAL_STIFFNESS, PFZ1 is held at the start."""
+    points = _sweeps(pressures=(2.5,), loads=(2500.0, 4000.0, 5500.0, 7000.0))
     data = _simulate(truth, points[points["run"].str.startswith(("lat", "rr"))])
     free = stage_problem("geometry", data, truth).problem.free
     assert set(free) == {"Q_RE0", "Q_V1", "DREFF", "FREFF", "BREFF"}
@@ -217,8 +217,17 @@ def test_geometry_stage_recovers_breff_with_four_loads(truth):
 
 
 def test_geometry_stage_holds_and_skips(truth, data):
-    held = stage_problem("geometry", data, truth).held
-    assert held == {"BREFF": "data: 3 load level(s), 4 needed"}
+    # three loads at three pressures: all five free (BREFF through the pressure scaling of Cz')
+    assert stage_problem("geometry", data, truth).held == {}
+    one_pressure = data[data["p"] == 2.5e5]
+    for P in (truth, dict(truth, PFZ1=0.0)):  # no pressure scaling: BREFF is not separable
+        for d in (one_pressure, data):
+            why = stage_problem("geometry", d, P).held.get("BREFF", "")
+            assert why.startswith("sensitivity: not separable") == (P is not truth or
+                                                                     d is one_pressure)
+    two_loads = data[data["Fz"] < 6000.0]
+    assert stage_problem("geometry", two_loads, truth).held["FREFF"] == \
+        "data: 2 load level(s), 3 needed"
     one_speed = data[data["Vx"] == 16.7]
     assert stage_problem("geometry", one_speed, truth).held["Q_V1"] == "data: one speed"
     # no wheel-speed channel: the stage is skipped with the reason, the others still fit

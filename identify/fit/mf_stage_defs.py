@@ -83,7 +83,7 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
 DEFAULT_STAGES = ("geometry", "Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
 
 _NEEDS_TEXT = """
-Q_V1 speed; DREFF load; FREFF load2; BREFF load3;
+Q_V1 speed; DREFF load; FREFF load2; BREFF load2;
 PDX2 load; PDX3 camber; PEX2 load; PEX3 load2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
 PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2; PPX3 pressure; PPX4 pressure2;
 PDY2 load; PDY3 camber; PEY2 load; PEY3 alpha_sign; PEY4 camber alpha_sign; PEY5 camber;
@@ -106,10 +106,13 @@ NEEDS: dict[str, tuple[str, ...]] = {
 three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches,
 PKX2 = +-a, and a local solve from near one branch can end on the other), ``pressure``/
 ``pressure2`` >= 2/3 pressures, ``speed``/``speed2`` >= 2/3 speeds, ``camber`` a camber
-variation, ``kappa_sign``/``alpha_sign`` slip of both signs. Geometry: Re - R0 Q_RE0 is
-DREFF atan(BREFF x) + FREFF x at the data's loads x = Fz/Fz0 (scaled per pressure by the held
-Cz'), so n load levels determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); Q_V1
-needs free rolling at two speeds (omega^2 term)."""
+variation, ``kappa_sign``/``alpha_sign`` slip of both signs. Geometry: R0 Q_RE0 - Re is
+(Fz0/Cz') (DREFF atan(BREFF x) + FREFF x) at the data's loads x = Fz/Fz0, so at one pressure n
+load levels determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); with three loads
+BREFF is separable from Q_RE0 only through the pressure scaling of that term by the held
+Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more pressures with PFZ1 != 0 (the
+sensitivity screen holds it otherwise, and the value then rests on the CFz relation's PFZ1);
+Q_V1 needs free rolling at two speeds (omega^2 term)."""
 
 Values = Mapping[str, float]
 Model = Callable[[Values], np.ndarray]
