@@ -1,6 +1,7 @@
 """The whole fit of one measurement folder: load -> extract -> fit -> outputs.
 
-``fit_folder`` runs the MF stages on trailer data (when present), then every relation of the
+``fit_folder`` runs the MF stages on trailer data (when present; the CFz relation that supplies
+the vertical stiffness of their geometry stage is fitted before them), then every relation of the
 plan whose characteristics are present (extracted from raw Flatplank runs and/or given as
 tables), optionally MCMC, and writes ``fits/<tyre id>/`` as in docs/contracts-fit.md. Every file
 is written to a temporary name and renamed; the measurement folder is only read.
@@ -32,6 +33,10 @@ from identify.report.jsonsafe import json_default
 from identify.report.tir import format_tir
 
 Progress = Callable[[str], None]
+
+GEOMETRY_INPUTS = ("VERTICAL_STIFFNESS", "PFZ1")
+""".tir keys the MF geometry stage holds: a plan entry writing them is fitted before the MF
+stages."""
 
 
 @dataclass(frozen=True)
@@ -187,6 +192,27 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     rows: list[pd.DataFrame] = []
     wanted = (lambda name: not settings.only or name in settings.only)
 
+    # the MF geometry stage holds the vertical stiffness Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi)
+    # of the Re equation (trailer files carry no deflection): fit the relation that supplies it
+    # (CFz, Flatplank) first; the plan loop below reuses that fit
+    prefit: dict[tuple[str, str], tuple] = {}
+    if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
+        ctx0 = Context(fz0=float(tyre.nominal_load_N),
+                       p0_bar=float(tyre.nominal_pressure_Pa) / 1e5, tir=_numeric(tir))
+        for entry in PLAN:
+            if not wanted(entry.relation) or not set(entry.writes) & set(GEOMETRY_INPUTS):
+                continue
+            problem = entry.build(chars, ctx0)
+            if problem is None:
+                continue
+            _say(progress, f"fit: {entry.relation} [{entry.form}] (vertical stiffness for the "
+                           "MF geometry stage)")
+            result = fit(problem, seed=settings.seed)
+            prefit[(entry.relation, entry.form)] = (problem, result)
+            if result.converged:
+                tir.update({k: result.parameters[k] for k in entry.writes
+                            if k in result.parameters})
+
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
         from identify.fit.mf_stages import fit_mf
 
@@ -215,11 +241,14 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     for entry in PLAN:
         if not wanted(entry.relation):
             continue
-        problem = entry.build(chars, ctx)
-        if problem is None:
-            continue
-        _say(progress, f"fit: {entry.relation} [{entry.form}]")
-        result = fit(problem, seed=settings.seed)
+        if (entry.relation, entry.form) in prefit:
+            problem, result = prefit[(entry.relation, entry.form)]
+        else:
+            problem = entry.build(chars, ctx)
+            if problem is None:
+                continue
+            _say(progress, f"fit: {entry.relation} [{entry.form}]")
+            result = fit(problem, seed=settings.seed)
         if settings.mcmc:
             _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
             chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
