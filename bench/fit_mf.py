@@ -1,6 +1,6 @@
 """Wall time of the Magic Formula stages on the bundled sample folder's trailer data.
 
-Fits Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to the trailer
+Fits geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to the trailer
 runs of ``measurements/sample-225-50R17`` and prints, per stage: points, free and held
 coefficients, global-search statistics, seconds and the thesis error (total and per pressure).
 The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
@@ -63,12 +63,12 @@ def main() -> None:
 
     print(f"{args.folder.name}: {len(trailer)} trailer points, start = {args.start}, "
           f"load {t_load:.1f} s (not counted)")
-    head = f"{'stage':6} {'points':>7} {'free':>5} {'held':>5} {'best':>6} {'s':>7} {'thesis %':>9}"
+    head = f"{'stage':8} {'points':>7} {'free':>5} {'held':>5} {'best':>6} {'s':>7} {'thesis %':>9}"
     print(head + "   per pressure [bar: %]")
     rows = []
     for r in mf.results:
         by_p = "  ".join(f"{p:g}: {e:.3f}" for p, e in r.error_by_pressure_pct.items())
-        print(f"{r.form:6} {r.n_points:7d} {len(r.free):5d} {len(mf.held[r.form]):5d} "
+        print(f"{r.form:8} {r.n_points:7d} {len(r.free):5d} {len(mf.held[r.form]):5d} "
               f"{r.starts_at_best:>2}/{r.n_starts:<3} {r.seconds:7.2f} {r.error_total_pct:9.3f}"
               f"   {by_p}" + ("" if r.converged else "   NOT CONVERGED: " + r.message))
         rows.append({"stage": r.form, "points": r.n_points, "free": len(r.free),
