@@ -1,7 +1,7 @@
 """Wall time of the Magic Formula stages on the bundled sample folder's trailer data.
 
-Fits geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to the trailer
-runs of ``measurements/sample-225-50R17`` and prints, per stage: points, free and held
+Fits geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to
+the trailer runs of ``measurements/sample-225-50R17`` and prints, per stage: points, free and held
 coefficients, global-search statistics, seconds and the thesis error (total and per pressure).
 The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
 
