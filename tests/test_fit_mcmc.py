@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from identify.fit.mcmc import _Posterior, run_mcmc
-from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
@@ -53,13 +52,14 @@ def test_mcmc_ar1_noise_model_runs_and_estimates_phi():
 def _walker_problems():
     """Every relation and MF stage the calibration trials sample (tests/test_fit_calibration*)."""
     from tests.test_fit_calibration import CASES
+    from tests.test_fit_calibration_mf import SLIP_STAGES
     from tests.test_fit_mf_stages import _simulate, _sweeps, _truth
 
     for case in CASES:
         yield case.name, case.trial(np.random.default_rng(0))[0]
     truth = _truth()
     data = _simulate(truth, _sweeps(pressures=(1.9, 3.0), loads=(3000.0, 7000.0)))
-    for stage in STAGES:
+    for stage in SLIP_STAGES:
         yield f"MF-{stage}", stage_problem(stage, data, truth).problem
 
 

@@ -2,7 +2,9 @@
 
 Posterior: uniform priors on the parameter bounds (flat where a bound is open), uniform prior
 on log(sigma), Gaussian likelihood of the weighted residuals r_i = w_i (model_i - meas_i) with
-the noise level sigma as a parameter; optionally AR(1) noise along each sweep (innovations
+the noise level sigma as a parameter, w_i from the problem's noise model
+(FitProblem.noise_weights: the relations' characteristics have relative noise, sigma the noise
+level as a fraction; the MF stages' channels noise relative to each sweep's RMS); optionally AR(1) noise along each sweep (innovations
 e_t - phi e_(t-1) ~ N(0, sigma^2), stationary start), phi in (-0.99, 0.99).
 
 Walkers >= max(32, 2 x parameters); the chain runs in chunks until it is longer than 50
@@ -56,7 +58,7 @@ class _Posterior:
         self.problem = problem
         self.free = problem.free
         self.lo, self.hi = problem.bounds()
-        self.w = problem.weights()
+        self.w = problem.noise_weights()
         self.meas = problem.measured
         self.ar1 = ar1
         sweeps = problem.sweeps if problem.sweeps is not None else np.zeros(self.meas.size)
@@ -128,8 +130,9 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     free = problem.free
     k = len(free)
     xb = np.array([result.parameters[n] for n in free])
-    r = problem.residuals(xb)
-    sigma0 = max(float(np.sqrt(np.mean(r ** 2))), 1e-12)
+    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
+    r = r[np.isfinite(r)]
+    sigma0 = max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
     ndim = k + 1 + int(ar1)
     nw = max(32, 2 * ndim, n_walkers or 0)
     nw += nw % 2

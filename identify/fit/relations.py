@@ -62,6 +62,12 @@ def _add(P: lmfit.Parameters, name: str, value: float, vary: bool = True,
     P.add(name, value=float(np.clip(value, lo, hi)), vary=vary, min=lo, max=hi)
 
 
+def _problem(*args, **kwargs) -> FitProblem:
+    """A relation's FitProblem: characteristics are measured to a relative accuracy, so the
+    MCMC likelihood's noise is relative (FitProblem.noise)."""
+    return FitProblem(*args, noise="relative", **kwargs)
+
+
 def _select(chars: pd.DataFrame, quantity: str) -> pd.DataFrame:
     return chars[chars["quantity"] == quantity].reset_index(drop=True)
 
@@ -104,7 +110,7 @@ def cfz(chars: pd.DataFrame, ctx: Context, form: str = "mf") -> FitProblem | Non
             return rel.cfz_qfz_at_load(fz, dp, q1, v["Q_FZ2"] * fz0 / r0 ** 2, v["PFZ1"])
     else:
         raise ValueError(f"unknown CFz form {form!r}")
-    return FitProblem("CFz", form, P, model, d["value"], d["pi_bar"], unit="N/m",
+    return _problem("CFz", form, P, model, d["value"], d["pi_bar"], unit="N/m",
                       extra=_extra(d, "CFz"))
 
 
@@ -126,7 +132,7 @@ def _stiffness(chars, ctx, quantity, keys, form) -> FitProblem | None:
 
     def model(v):
         return rel.load_pressure_stiffness(fz, dp, v[nom], v[k1], v[k2], v[k3], fz0)
-    return FitProblem(quantity, form, P, model, d["value"], d["pi_bar"], unit="N/m",
+    return _problem(quantity, form, P, model, d["value"], d["pi_bar"], unit="N/m",
                       extra=_extra(d, quantity))
 
 
@@ -180,7 +186,7 @@ def cfy(chars, ctx, form="linear_load", *, cofit_kya: bool | None = None,
         return np.abs(k) / c
     cons = (Constraint("PCFY2 <= 0", lambda v: np.array([-v["PCFY2"]])),) \
         if pcfy2_nonpositive else ()
-    return FitProblem("CFy", "relaxation", P, model, d["value"], d["pi_bar"], unit="m",
+    return _problem("CFy", "relaxation", P, model, d["value"], d["pi_bar"], unit="m",
                       constraints=cons, extra=_extra(d, "sigma_y"))
 
 
@@ -204,7 +210,7 @@ def cmz(chars, ctx, form="T1", *, nonnegative: bool = True) -> FitProblem | None
 
         def model(v):
             return rel.cmz_t1(fz, dp, v["YAW_STIFFNESS"], v["PCMZ1"], fz0)
-        return FitProblem("CMz", "T1", P, model, d["value"], pi, unit="N*m/rad",
+        return _problem("CMz", "T1", P, model, d["value"], pi, unit="N*m/rad",
                           extra=_extra(d, "CMz"))
     if form != "T2":
         raise ValueError(f"unknown CMz form {form!r}")
@@ -225,7 +231,7 @@ def cmz(chars, ctx, form="T1", *, nonnegative: bool = True) -> FitProblem | None
                           fz0).ravel() / max(abs(v["YAW_STIFFNESS"]), 1.0)
     cons = (Constraint(f"CMz >= 0 for Fz in [{CMZ_MIN_LOAD_N:g}, {2 * fz.max():g}] N",
                        positive),) if nonnegative else ()
-    return FitProblem("CMz", "T2", P, model, d["value"], pi, unit="N*m/rad", constraints=cons,
+    return _problem("CMz", "T2", P, model, d["value"], pi, unit="N*m/rad", constraints=cons,
                       extra=_extra(d, "CMz"))
 
 
@@ -261,7 +267,7 @@ def rolling_resistance(chars, ctx, form="new") -> FitProblem | None:
 
     def model(v):
         return moments.my({**t, **v}, state, fx) / r0
-    return FitProblem("RR", form, P, model, d["value"], d["pi_bar"], unit="N",
+    return _problem("RR", form, P, model, d["value"], d["pi_bar"], unit="N",
                       extra=_extra(d, "FxRR"))
 
 
@@ -319,7 +325,7 @@ def camber(chars, ctx, quantity: str, *, vx: float = 0.05,
     def model(v):
         out = _evaluate_walkers({**t, **v}, output, fz2, zeros, zeros, g2, v2, p2, CAMBER_MODE)
         return out[..., :n] - out[..., n:]
-    return FitProblem("camber", quantity, P, model, d["value"], d["pi_bar"],
+    return _problem("camber", quantity, P, model, d["value"], d["pi_bar"],
                       unit="N" if output == "Fy" else "N*m", extra=_extra(d, quantity))
 
 
@@ -353,6 +359,6 @@ def sidewall(chars, ctx, mode: str, form: str = "scaling") -> FitProblem | None:
             return v[f"F0_{mode.upper()}"] * np.sqrt(ring / ring0)
     else:
         raise ValueError(f"unknown sidewall form {form!r}")
-    return FitProblem("sidewall", f"{form}_{mode}", P, model, d["value"], pi, unit="Hz",
+    return _problem("sidewall", f"{form}_{mode}", P, model, d["value"], pi, unit="Hz",
                       extra=_extra(d, "f_nat"))
 
