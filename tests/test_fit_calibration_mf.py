@@ -1,0 +1,131 @@
+"""Calibration of the MCMC credible intervals of the MF slip-coefficient stages (issue 5,
+acceptance 3), behind the trials marker.
+
+Per stage: 40 seeded trailer data sets from known coefficients (the recovery truth of
+tests/test_fit_mf_stages.py) with 1 % noise -- the simulator's definition, a standard deviation
+of 1 % of each channel's RMS over its sweep (identify.simulate.artefacts) -- each fitted as
+``mfid fit`` does (fit_mf, one stage, the other stages' coefficients at the truth) and sampled
+with stage_mcmc; the 90 % credible interval must hold the true coefficient in >= 85 % of
+(trials x free coefficients) and every chain must pass 50 autocorrelation times.
+
+Design per trial (modest, like one trailer session): 3 pressures x 3 loads (as the recovery
+tests); longitudinal kappa sweeps at 2 cambers, lateral alpha sweeps at 3 cambers, combined
+kappa sweeps at 2 slip angles (21 points each, denser near zero slip where the slip
+stiffnesses are measured), free rolling at 3 speeds; each sweep is a run.
+
+Run: ``pytest -m trials tests/test_fit_calibration_mf.py -s``.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from identify.fit.mf_stages import fit_mf, stage_mcmc
+from identify.model.evaluate import evaluate
+from tests.test_fit_calibration import LEVEL, MIN_RATE, N_TRIALS
+from tests.test_fit_mf_stages import _truth
+
+SLIP_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
+"""The slip-coefficient stages (the geometry stage fits Re, not a slip coefficient)."""
+NOISE = 0.01
+PRESSURES_BAR = (1.9, 2.5, 3.0)
+LOADS_N = (3000.0, 5000.0, 7000.0)
+N_KAPPA = 21
+N_ALPHA = 21
+
+
+def design(pressures=PRESSURES_BAR, loads=LOADS_N, n_kappa=N_KAPPA,
+           n_alpha=N_ALPHA) -> pd.DataFrame:
+    """Operating points of one trailer session; one run per sweep."""
+    d = np.deg2rad
+
+    def sweep(limit, n):  # denser near zero slip, where the slip stiffness is measured
+        x = np.linspace(-1.0, 1.0, n)
+        return limit * x * np.abs(x)
+    kappa, alpha = sweep(0.3, n_kappa), d(sweep(12.0, n_alpha))
+    frames = []
+
+    def add(run, **cols):
+        frames.append(pd.DataFrame({"run": run, "Vx": 16.7, "kappa": 0.0, "alpha": 0.0,
+                                    "gamma": 0.0, **cols}))
+
+    for pb in pressures:
+        for fz in loads:
+            tag = f"p{pb:g}_fz{fz:g}"
+            for g in (0.0, 4.0):
+                add(f"long_{tag}_g{g:g}", p=pb * 1e5, Fz=fz, kappa=kappa, gamma=d(g))
+            for g in (-5.0, 0.0, 5.0):
+                add(f"lat_{tag}_g{g:g}", p=pb * 1e5, Fz=fz, alpha=alpha, gamma=d(g))
+            for a in (-3.0, 6.0):
+                add(f"comb_{tag}_a{a:g}", p=pb * 1e5, Fz=fz,
+                    kappa=sweep(0.25, n_kappa), alpha=d(a))
+            add(f"rr_{tag}", p=pb * 1e5, Fz=fz, Vx=np.array([5.0, 15.0, 25.0]))
+    return pd.concat(frames, ignore_index=True)
+
+
+def simulate(P, points: pd.DataFrame) -> pd.DataFrame:
+    out = evaluate(P, points["Fz"].to_numpy(), points["kappa"].to_numpy(),
+                   points["alpha"].to_numpy(), points["gamma"].to_numpy(),
+                   points["Vx"].to_numpy(), p=points["p"].to_numpy(), mode=211)
+    return points.assign(**{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
+
+
+def add_noise(clean: pd.DataFrame, rng: np.random.Generator) -> pd.DataFrame:
+    """Noise of 1 % of each channel's RMS over its run (sweep)."""
+    out = clean.copy()
+    for q in ("Fx", "Fy", "Mz", "Mx", "My"):
+        rms = np.sqrt(clean.groupby("run", sort=False)[q].transform(lambda x: np.mean(x ** 2)))
+        out[q] = clean[q] + NOISE * rms.to_numpy() * rng.standard_normal(len(clean))
+    return out
+
+
+def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
+                    points: pd.DataFrame | None = None, verbose: bool = False) -> dict:
+    truth = _truth()
+    clean = simulate(truth, design() if points is None else points)
+    t0 = time.perf_counter()
+    hits = total = converged = 0
+    steps, taus, misses, free_sizes, n_points = [], [], {}, [], 0
+    for seed in range(n_trials):
+        noisy = add_noise(clean, np.random.default_rng(seed0 + seed))
+        mf = fit_mf(noisy, truth, stages=(stage,), seed=seed)
+        result = stage_mcmc(noisy, mf, stage, seed=seed)
+        m = result.mcmc
+        n_points = result.n_points
+        converged += m.converged
+        steps.append(m.n_steps)
+        taus.append(max(m.tau.values()))
+        free_sizes.append(len(result.free))
+        for name in result.free:
+            lo, hi = m.interval(name, LEVEL)
+            inside = lo <= truth[name] <= hi
+            hits += inside
+            total += 1
+            if not inside:
+                misses[name] = misses.get(name, 0) + 1
+        if verbose:
+            print(f"  trial {seed}: {len(result.free)} free, {m.n_steps} steps, tau "
+                  f"{max(m.tau.values()):.0f}, acceptance {m.acceptance:.2f}, "
+                  f"{m.seconds:.0f} s mcmc, {result.seconds:.0f} s fit, hits so far "
+                  f"{hits}/{total}", flush=True)
+    seconds = time.perf_counter() - t0
+    summary = dict(case=f"MF-{stage}", hits=hits, total=total, rate=hits / total,
+                   converged=converged, trials=n_trials, median_steps=float(np.median(steps)),
+                   median_tau=float(np.median(taus)), seconds=seconds, misses=misses,
+                   n_points=n_points, n_free=int(np.median(free_sizes)))
+    print(f"\nMF-{stage} ({n_points} points, {summary['n_free']} free): {hits}/{total} = "
+          f"{hits / total:.1%} of {LEVEL:.0%} intervals hold the truth; {converged}/{n_trials} "
+          f"chains past 50 tau (median {np.median(steps):.0f} steps, tau {np.median(taus):.0f});"
+          f" {seconds:.0f} s; misses by coefficient {misses}")
+    return summary
+
+
+@pytest.mark.trials
+@pytest.mark.parametrize("stage", SLIP_STAGES)
+def test_stage_credible_intervals_cover_the_truth(stage):
+    s = calibrate_stage(stage)
+    assert s["converged"] == s["trials"], "a chain stopped before 50 autocorrelation times"
+    assert s["rate"] >= MIN_RATE
