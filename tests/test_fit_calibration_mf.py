@@ -10,7 +10,7 @@ with stage_mcmc; the 90 % credible interval must hold the true coefficient in >=
 
 Design per trial (modest, like one trailer session): 3 pressures x 3 loads (as the recovery
 tests); longitudinal kappa sweeps at 2 cambers, lateral alpha sweeps at 3 cambers, combined
-kappa sweeps at 2 slip angles (21 points each, denser near zero slip where the slip
+kappa sweeps at 4 slip angles and 2 cambers (as the recovery tests; 21 points each, denser near zero slip where the slip
 stiffnesses are measured), free rolling at 3 speeds; each sweep is a run.
 
 Run: ``pytest -m trials tests/test_fit_calibration_mf.py -s``.
@@ -18,6 +18,7 @@ Run: ``pytest -m trials tests/test_fit_calibration_mf.py -s``.
 from __future__ import annotations
 
 import time
+import zlib
 
 import numpy as np
 import pandas as pd
@@ -59,9 +60,10 @@ def design(pressures=PRESSURES_BAR, loads=LOADS_N, n_kappa=N_KAPPA,
                 add(f"long_{tag}_g{g:g}", p=pb * 1e5, Fz=fz, kappa=kappa, gamma=d(g))
             for g in (-5.0, 0.0, 5.0):
                 add(f"lat_{tag}_g{g:g}", p=pb * 1e5, Fz=fz, alpha=alpha, gamma=d(g))
-            for a in (-3.0, 6.0):
-                add(f"comb_{tag}_a{a:g}", p=pb * 1e5, Fz=fz,
-                    kappa=sweep(0.25, n_kappa), alpha=d(a))
+            for g in (0.0, 4.0):
+                for a in (-3.0, 2.0, 5.0, 9.0):
+                    add(f"comb_{tag}_g{g:g}_a{a:g}", p=pb * 1e5, Fz=fz,
+                        kappa=sweep(0.25, n_kappa), alpha=d(a), gamma=d(g))
             add(f"rr_{tag}", p=pb * 1e5, Fz=fz, Vx=np.array([5.0, 15.0, 25.0]))
     return pd.concat(frames, ignore_index=True)
 
@@ -73,12 +75,18 @@ def simulate(P, points: pd.DataFrame) -> pd.DataFrame:
     return points.assign(**{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
 
 
-def add_noise(clean: pd.DataFrame, rng: np.random.Generator) -> pd.DataFrame:
-    """Noise of 1 % of each channel's RMS over its run (sweep)."""
+def add_noise(clean: pd.DataFrame, seed: int) -> pd.DataFrame:
+    """Noise of 1 % of each channel's RMS over its run (sweep). Each run draws from its own
+    generator, seeded by (seed, run name), so a stage's data do not change when runs it does
+    not use are added to the design."""
     out = clean.copy()
-    for q in ("Fx", "Fy", "Mz", "Mx", "My"):
-        rms = np.sqrt(clean.groupby("run", sort=False)[q].transform(lambda x: np.mean(x ** 2)))
-        out[q] = clean[q] + NOISE * rms.to_numpy() * rng.standard_normal(len(clean))
+    channels = ["Fx", "Fy", "Mz", "Mx", "My"]
+    for run, rows in clean.groupby("run", sort=False).indices.items():
+        rng = np.random.default_rng([seed, zlib.crc32(str(run).encode())])
+        x = clean[channels].to_numpy(float)[rows]
+        rms = np.sqrt(np.mean(x ** 2, axis=0))
+        out.iloc[rows, [out.columns.get_loc(c) for c in channels]] = (
+            x + NOISE * rms * rng.standard_normal(x.shape))
     return out
 
 
@@ -90,7 +98,7 @@ def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
     hits = total = converged = 0
     steps, taus, misses, free_sizes, n_points = [], [], {}, [], 0
     for seed in range(n_trials):
-        noisy = add_noise(clean, np.random.default_rng(seed0 + seed))
+        noisy = add_noise(clean, seed0 + seed)
         mf = fit_mf(noisy, truth, stages=(stage,), seed=seed)
         result = stage_mcmc(noisy, mf, stage, seed=seed)
         m = result.mcmc
