@@ -11,7 +11,7 @@ Noise: each measured characteristic is multiplied by (1 + 0.01 N(0, 1)).
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Callable
 
 import numpy as np
@@ -47,35 +47,59 @@ def _noisy(frame: pd.DataFrame, rng: np.random.Generator) -> pd.DataFrame:
     return out
 
 
+@dataclass
+class Tally:
+    """Running count over trials of the LEVEL credible intervals that hold the true value."""
+
+    hits: int = 0
+    total: int = 0
+    converged: int = 0
+    trials: int = 0
+    steps: list = field(default_factory=list)
+    taus: list = field(default_factory=list)
+    misses: dict = field(default_factory=dict)
+
+    def add(self, mcmc, names, truth: dict[str, float]) -> None:
+        """Count one trial's chain: its convergence and, per name in ``truth``, a hit."""
+        self.trials += 1
+        self.converged += mcmc.converged
+        self.steps.append(mcmc.n_steps)
+        self.taus.append(max(mcmc.tau.values()))
+        for name in names:
+            if name not in truth:
+                continue
+            lo, hi = mcmc.interval(name, LEVEL)
+            inside = lo <= truth[name] <= hi
+            self.hits += inside
+            self.total += 1
+            if not inside:
+                self.misses[name] = self.misses.get(name, 0) + 1
+
+    def summary(self, case: str, seconds: float) -> dict:
+        return dict(case=case, hits=self.hits, total=self.total, rate=self.hits / self.total,
+                    converged=self.converged, trials=self.trials,
+                    median_steps=float(np.median(self.steps)),
+                    median_tau=float(np.median(self.taus)), seconds=seconds,
+                    misses=self.misses)
+
+    def line(self) -> str:
+        return (f"{self.hits}/{self.total} = {self.hits / self.total:.1%} of {LEVEL:.0%} "
+                f"intervals hold the truth; {self.converged}/{self.trials} chains past 50 tau "
+                f"(median {np.median(self.steps):.0f} steps, tau {np.median(self.taus):.0f})")
+
+
 def calibrate(case: Case, n_trials: int = N_TRIALS, seed0: int = 1000) -> dict:
     """Run the trials of one case; return the counts (and print them)."""
     t0 = time.perf_counter()
-    hits = total = converged = 0
-    steps, taus, misses = [], [], {}
+    tally = Tally()
     for seed in range(n_trials):
         problem, truth = case.trial(np.random.default_rng(seed0 + seed))
         result = run_mcmc(problem, fit(problem, seed=seed), seed=seed)
-        m = result.mcmc
-        converged += m.converged
-        steps.append(m.n_steps)
-        taus.append(max(m.tau.values()))
-        for name in problem.free:
-            if name not in truth:
-                continue
-            lo, hi = m.interval(name, LEVEL)
-            inside = lo <= truth[name] <= hi
-            hits += inside
-            total += 1
-            if not inside:
-                misses[name] = misses.get(name, 0) + 1
+        tally.add(result.mcmc, problem.free, truth)
     seconds = time.perf_counter() - t0
-    summary = dict(case=case.name, hits=hits, total=total, rate=hits / total,
-                   converged=converged, trials=n_trials, median_steps=float(np.median(steps)),
-                   median_tau=float(np.median(taus)), seconds=seconds, misses=misses)
-    print(f"\n{case.name}: {hits}/{total} = {hits / total:.1%} of {LEVEL:.0%} intervals hold "
-          f"the truth; {converged}/{n_trials} chains past 50 tau (median {np.median(steps):.0f} "
-          f"steps, tau {np.median(taus):.0f}); {seconds:.0f} s; misses by coefficient {misses}")
-    return summary
+    print(f"\n{case.name}: {tally.line()}; {seconds:.0f} s; misses by coefficient "
+          f"{tally.misses}")
+    return tally.summary(case.name, seconds)
 
 
 # ----- cases -----------------------------------------------------------------------------------
