@@ -86,6 +86,8 @@ def test_single_csv_with_nominal_conditions_and_no_report(tmp_path):
     (["{thesis}", "--only", "sidewall"], "nothing to fit"),
     (["{thesis}", "--fittyp", "63"], "--fittyp: FITTYP must be 61 or 62, not 63"),
     (["{thesis}", "--mcmc-ar1"], "--mcmc-ar1 needs --mcmc"),
+    (["{thesis}", "--mcmc-max-steps", "5000"], "--mcmc-max-steps needs --mcmc"),
+    (["{thesis}", "--mcmc", "--mcmc-max-steps", "100"], "--mcmc-max-steps must be at least 500"),
     (["{tmp}/bad.csv"], "bad.csv:2: value: not a number: 'abc'"),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, args, message):

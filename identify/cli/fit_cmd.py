@@ -94,7 +94,7 @@ def summary_table(doc: dict) -> Table:
 
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
-                  no_report, fittyp) -> str:
+                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -102,6 +102,10 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args += ["--reports", str(reports)]
     if mcmc:
         args.append("--mcmc")
+    if mcmc_ar1:
+        args.append("--mcmc-ar1")
+    if mcmc_max_steps is not None:
+        args += ["--mcmc-max-steps", str(mcmc_max_steps)]
     if seed:
         args += ["--seed", str(seed)]
     for o in only:
@@ -130,6 +134,11 @@ def fit_command(
                                                     "report's corner plots and traces."),
     mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1",
                                   help="With --mcmc: AR(1) noise along each sweep."),
+    mcmc_max_steps: Optional[int] = typer.Option(
+        None, "--mcmc-max-steps", metavar="N",
+        help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
+             "is longer than 50 autocorrelation times; if the cap comes first its summary "
+             "says converged = false."),
     seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
     only: list[str] = typer.Option([], "--only", metavar="NAME",
                                    help="Fit only these relations (repeat or separate with "
@@ -150,10 +159,11 @@ def fit_command(
     Exit 0 on success; 1 when a fit failed (outputs are still written, marked as failed);
     2 on bad input.
     """
+    from identify.fit.mcmc import CHUNK
     from identify.fit.pipeline import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
-                            nominal_load, no_report, fittyp)
+                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps)
     failure: FitError | None = None
     started = time.time()
     try:
@@ -161,8 +171,15 @@ def fit_command(
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
         if mcmc_ar1 and not mcmc:
             raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
+        if mcmc_max_steps is not None and not mcmc:
+            raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
+        if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
+            raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
+                                   f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
-                               only=only_names(only), fittyp=fittyp)
+                               only=only_names(only), fittyp=fittyp,
+                               **({} if mcmc_max_steps is None
+                                  else {"mcmc_max_steps": mcmc_max_steps}))
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

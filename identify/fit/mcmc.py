@@ -38,6 +38,8 @@ from identify.fit.result import FitResult, MCMCSummary
 
 TAU_FACTOR = 50
 CHUNK = 500
+MAX_STEPS = 40000
+"""Default cap on a chain [steps] (it stops earlier, at 50 tau)."""
 MOVES = ("de", "stretch")
 
 
@@ -112,7 +114,7 @@ class _Posterior:
 
 
 def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool = False,
-             n_walkers: int | None = None, max_steps: int = 40000,
+             n_walkers: int | None = None, max_steps: int = MAX_STEPS,
              chain_file: str | Path | None = None, moves: str = "de") -> FitResult:
     """Sample the posterior around a least-squares result; return the result with ``mcmc`` set.
 

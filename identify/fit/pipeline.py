@@ -22,7 +22,7 @@ import pandas as pd
 
 from identify import __version__
 from identify.errors import FitError, InputError
-from identify.fit.mcmc import run_mcmc
+from identify.fit.mcmc import MAX_STEPS, run_mcmc
 from identify.fit.optimize import fit
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
@@ -51,7 +51,8 @@ class FitSettings:
     save_chains : bool     keep MCMC chains as HDF5 under fits/<id>/mcmc/
     only : tuple of str    relation names to fit (empty = all)
     fittyp : int           61 or 62 for the written .tir
-    mf_mcmc_max_steps : int  cap on the MCMC chain of each MF stage (relations run to 50 tau)
+    mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
+                           and its summary says converged = false if the cap came first
     """
 
     seed: int = 0
@@ -60,7 +61,7 @@ class FitSettings:
     save_chains: bool = False
     only: tuple[str, ...] = ()
     fittyp: int = 61
-    mf_mcmc_max_steps: int = 3000
+    mcmc_max_steps: int = MAX_STEPS
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -225,10 +226,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
 
                 _say(progress, f"mcmc: MF [{r.form}]")
                 chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
-                # MF stages have up to ~30 coefficients and the model does not broadcast over
-                # walkers: the chain is capped, and its summary says whether it reached 50 tau
                 r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
-                               ar1=settings.mcmc_ar1, max_steps=settings.mf_mcmc_max_steps,
+                               ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
                                chain_file=chain)
             results.append(r)
             for k in r.free:
@@ -253,7 +252,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
             _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
             chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
             result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
-                              chain_file=chain)
+                              max_steps=settings.mcmc_max_steps, chain_file=chain)
         results.append(result)
         rows.append(_csv_rows(result, problem))
         for key in entry.writes:
