@@ -134,12 +134,18 @@ def test_help_lists_fit_and_report():
 
 # ----------------------------------------------------------------- interruption
 
+def _default_sigint() -> None:
+    # a shell without job control starts background jobs (`make test &`) with SIGINT ignored,
+    # and children inherit that; give mfid the disposition of a foreground command
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _start(args, tmp_path):
     env = dict(os.environ, PYTHONUNBUFFERED="1", MPLBACKEND="Agg")
     return subprocess.Popen([str(MFID), "fit", *map(str, args), "--out", str(tmp_path / "fits"),
                              "--reports", str(tmp_path / "reports")],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-                            cwd=tmp_path)
+                            cwd=tmp_path, preexec_fn=_default_sigint)
 
 
 def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0) -> str:
