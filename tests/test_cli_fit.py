@@ -64,6 +64,25 @@ def test_fit_thesis_writes_outputs_and_summary(tmp_path):
     assert not _leftovers(tmp_path)
 
 
+def test_mcmc_stopped_at_the_cap_is_a_warning_with_the_cap_that_suffices(tmp_path):
+    """A 500-step cap stops the CFx chains (tau ~ 20) short of 50 tau: the run succeeds, and
+    stderr names each short chain, its tau and a --mcmc-max-steps that would suffice."""
+    result = _fit(tmp_path, THESIS, "--only", "CFx", "--mcmc", "--mcmc-max-steps", "500",
+                  "--no-report")
+    assert result.exit_code == 0, result.output
+    doc = json.loads((tmp_path / "fits" / "thesis-225-50R17" / "fit.json").read_text())
+    short = [f for f in doc["fits"] if not f["mcmc"]["converged"]]
+    assert short and all(f["mcmc"]["n_steps"] == 500 for f in short)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == len(short), result.stderr
+    for fit, line in zip(short, lines):
+        tau = max(fit["mcmc"]["tau"].values())
+        assert line.startswith(f"warning: CFx [{fit['form']}]: MCMC chain shorter than 50 "
+                               f"autocorrelation times (500 steps, largest tau {tau:.0f}")
+        cap = int(re.search(r"--mcmc-max-steps (\d+) ", line).group(1))
+        assert 50 * tau < cap <= 55 * tau + 1000
+
+
 def test_single_csv_with_nominal_conditions_and_no_report(tmp_path):
     csv = tmp_path / "cfx.csv"
     lines = (THESIS / "characteristics.csv").read_text().splitlines()

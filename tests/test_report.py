@@ -276,7 +276,9 @@ def test_tables_total_first_and_intervals(full_fit):
         ("short_run", "ends at 2.1 sigma")]
     diags = T.fit_diagnostics(fd.doc)
     assert any("on a bound" in d for d in diags) and any("Ex <= 1" in d for d in diags)
-    assert any("MCMC chain shorter" in d for d in diags)
+    # the fixture chain: 300 steps, tau 20 -> 55 tau = 1100 steps, rounded up to 2000
+    assert any("MCMC chain shorter" in d and "300 steps, largest tau 20" in d
+               and "--mcmc-max-steps 2000 " in d for d in diags)
 
 
 def test_clean_fit_says_no_flags(thesis_fit):

@@ -232,6 +232,10 @@ def _print_outputs(fit_dir: Path, report) -> None:
         out_console.print(summary_table(doc))
     else:  # a log or pipe gets the whole table rather than rich's default 80 columns
         Console(highlight=False, width=160).print(summary_table(doc))
+    from identify.report.tables import mcmc_warnings
+
+    for line in mcmc_warnings(doc):
+        err_console.print(f"warning: {line}", markup=False, highlight=False)
     tir_name = (doc.get("tir") or {}).get("path") or f"{fit_dir.name}.tir"
     out_console.print("outputs:", markup=False)
     for path in (fit_dir / tir_name, fit_dir / "fit.json", fit_dir / "measured_vs_model.csv",

@@ -215,12 +215,37 @@ def fit_diagnostics(doc: Mapping[str, Any]) -> list[str]:
                        "(possible local minimum)")
         mc = fit.get("mcmc")
         if mc:
-            if not mc.get("converged"):
-                out.append(f"{name}: MCMC chain shorter than 50 autocorrelation times")
+            short = mcmc_shortfall(mc)
+            if short:
+                out.append(f"{name}: {short}")
             acc = num(mc.get("acceptance"))
             if math.isfinite(acc) and not 0.2 <= acc <= 0.5:
                 out.append(f"{name}: MCMC acceptance fraction {acc:.2f} outside 0.2-0.5")
     return out
+
+
+def mcmc_shortfall(mc: Mapping[str, Any]) -> str:
+    """Why an MCMC summary is not converged, with the cap that would let it converge; empty
+    when the chain is longer than 50 autocorrelation times."""
+    if mc.get("converged"):
+        return ""
+    steps = int(mc.get("n_steps") or 0)
+    taus = [num(t) for t in (mc.get("tau") or {}).values()]
+    taus = [t for t in taus if math.isfinite(t)]
+    text = "MCMC chain shorter than 50 autocorrelation times"
+    if steps and taus:
+        tau = max(taus)
+        # the next 1000-step multiple above 50 tau, with 10 % margin for tau still growing
+        need = int(math.ceil(55.0 * tau / 1000.0) * 1000)
+        text += (f" ({steps} steps, largest tau {tau:.0f}: its intervals are provisional; "
+                 f"--mcmc-max-steps {need} would let it reach 50 tau)")
+    return text
+
+
+def mcmc_warnings(doc: Mapping[str, Any]) -> list[str]:
+    """The fit_diagnostics lines about MCMC chains that stopped at the cap."""
+    return [f"{label(fit)}: {mcmc_shortfall(fit['mcmc'])}" for fit in doc.get("fits") or []
+            if fit.get("mcmc") and mcmc_shortfall(fit["mcmc"])]
 
 
 def chunks(rows: Iterable, size: int) -> list[list]:
