@@ -159,7 +159,7 @@ def fit_command(
     Exit 0 on success; 1 when a fit failed (outputs are still written, marked as failed);
     2 on bad input.
     """
-    from identify.fit.mcmc import CHUNK
+    from identify.fit.mcmc import CHUNK, MAX_STEPS
     from identify.fit.pipeline import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
@@ -178,8 +178,7 @@ def fit_command(
                                    f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
-                               **({} if mcmc_max_steps is None
-                                  else {"mcmc_max_steps": mcmc_max_steps}))
+                               mcmc_max_steps=mcmc_max_steps or MAX_STEPS)
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -227,13 +226,13 @@ def _fresh(path: Path, since: float) -> bool:
 def _print_outputs(fit_dir: Path, report) -> None:
     import json
 
+    from identify.report.tables import mcmc_warnings
+
     doc = json.loads((fit_dir / "fit.json").read_text(encoding="utf-8"))
     if out_console.is_terminal:
         out_console.print(summary_table(doc))
     else:  # a log or pipe gets the whole table rather than rich's default 80 columns
         Console(highlight=False, width=160).print(summary_table(doc))
-    from identify.report.tables import mcmc_warnings
-
     for line in mcmc_warnings(doc):
         err_console.print(f"warning: {line}", markup=False, highlight=False)
     tir_name = (doc.get("tir") or {}).get("path") or f"{fit_dir.name}.tir"

@@ -244,8 +244,8 @@ def mcmc_shortfall(mc: Mapping[str, Any]) -> str:
 
 def mcmc_warnings(doc: Mapping[str, Any]) -> list[str]:
     """The fit_diagnostics lines about MCMC chains that stopped at the cap."""
-    return [f"{label(fit)}: {mcmc_shortfall(fit['mcmc'])}" for fit in doc.get("fits") or []
-            if fit.get("mcmc") and mcmc_shortfall(fit["mcmc"])]
+    return [f"{label(fit)}: {short}" for fit in doc.get("fits") or []
+            if fit.get("mcmc") and (short := mcmc_shortfall(fit["mcmc"]))]
 
 
 def chunks(rows: Iterable, size: int) -> list[list]:
