@@ -8,10 +8,11 @@ of 1 % of each channel's RMS over its sweep (identify.simulate.artefacts) -- eac
 with stage_mcmc; the 90 % credible interval must hold the true coefficient in >= 85 % of
 (trials x free coefficients) and every chain must pass 50 autocorrelation times.
 
-Design per trial (modest, like one trailer session): 3 pressures x 3 loads (as the recovery
-tests; Fy0 five loads of 0.4-2 Fz0, see STAGE_LOADS_N); longitudinal kappa sweeps at 2 cambers, lateral alpha sweeps at 3 cambers, combined
-kappa sweeps at 4 slip angles and 2 cambers (as the recovery tests; 21 points each, denser near zero slip where the slip
-stiffnesses are measured), free rolling at 3 speeds; each sweep is a run.
+Design per trial (modest, like one trailer session): 3 pressures x 3 loads, as the recovery
+tests (Fy0: five loads of 0.4-2 Fz0, see STAGE_LOADS_N); longitudinal kappa sweeps at 2
+cambers, lateral alpha sweeps at 3 cambers, combined kappa sweeps at 4 slip angles and 2
+cambers as in the recovery tests (21 points each, denser near zero slip where the slip stiffnesses are measured), free
+rolling at 3 speeds; each sweep is a run.
 
 Run: ``pytest -m trials tests/test_fit_calibration_mf.py -s``.
 """
@@ -124,6 +125,44 @@ def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
     print(f"\nMF-{stage} ({n_points} points, {n_free} free): {tally.line()}; {seconds:.0f} s;"
           f" misses by coefficient {tally.misses}")
     return dict(tally.summary(f"MF-{stage}", seconds), n_points=n_points, n_free=n_free)
+
+
+def exact_linear_posterior(problem, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and sd of the flat-prior posterior of a problem that is linear in its free
+    coefficients (the combined Mz stage in SSZ1..4): the generalised least-squares estimate
+    and s^2 (A'A)^-1, A the noise-weighted design matrix (columns by unit steps from ``x0``,
+    exact for a linear model), s^2 the residual variance. With ~1000 points the Student-t of
+    the unknown noise level is Gaussian to < 0.1 %."""
+    w, f0 = problem.noise_weights(), problem.predict(x0)
+    a = np.column_stack([problem.predict(x0 + e) - f0 for e in np.eye(x0.size)]) * w[:, None]
+    b = (problem.measured - f0) * w
+    beta = np.linalg.lstsq(a, b, rcond=None)[0]
+    r = b - a @ beta
+    return x0 + beta, np.sqrt(r @ r / (b.size - x0.size) * np.diag(np.linalg.inv(a.T @ a)))
+
+
+@pytest.mark.trials
+def test_exact_posterior_of_the_linear_mz_stage_covers_at_the_nominal_rate():
+    """The Mz stage's exact 90 % intervals over 200 seeds (the MCMC trials use the first 40):
+    their coverage is the design's own, the yardstick for the MCMC's count on 40 seeds."""
+    from identify.fit.mf_stages import stage_problem
+
+    truth, n_seeds, z90 = _truth(), 200, 1.6448536269514722
+    clean = simulate(truth, design())
+    inside = []
+    for seed in range(n_seeds):
+        problem = stage_problem("Mz", add_noise(clean, 2000 + seed), truth).problem
+        x0 = np.array([truth[n] for n in problem.free])
+        mean, sd = exact_linear_posterior(problem, x0)
+        inside.append(np.abs(mean - x0) <= z90 * sd)
+    inside = np.array(inside)
+    first = inside[:N_TRIALS]
+    per_name = {n: round(100 * float(c), 1) for n, c in zip(problem.free, inside.mean(axis=0))}
+    print(f"\nMz exact 90 % intervals: seeds 0-{N_TRIALS - 1} {first.sum()}/{first.size} = "
+          f"{first.mean():.1%}; {n_seeds} seeds {inside.sum()}/{inside.size} = "
+          f"{inside.mean():.1%}; per coefficient {per_name} %")
+    # 800 intervals, binomial sd 1.1 %; the four per seed share the noise, so allow ~3 sd
+    assert abs(inside.mean() - 0.90) < 0.035
 
 
 @pytest.mark.trials

@@ -78,36 +78,29 @@ def test_posterior_width_is_exact_on_a_linear_problem():
 
 def test_mf_stage_posterior_is_the_exact_one_of_a_linear_stage():
     """The combined Mz stage is linear in SSZ1..4 (the moment arm s of Fx; Fx and Fy held):
-    with flat priors its posterior is Gaussian about the generalised least-squares estimate
-    with covariance s^2 (A'A)^-1, A the noise-weighted design matrix (n = 1440 points, so the
-    Student-t of the unknown noise level is Gaussian to < 0.1 %). stage_mcmc -- stage problem,
-    sweep-relative noise weights, walkers in one call -- must reproduce it: medians within
-    0.15 posterior sd (Monte Carlo error ~0.03 sd for ~2000 effective samples), 68 % half
-    widths within 8 % (~3 % Monte Carlo error)."""
+    with flat priors its posterior is Gaussian and known exactly (exact_linear_posterior,
+    n = 1440 points). stage_mcmc -- stage problem, sweep-relative noise weights, walkers in
+    one call -- must reproduce it: medians within 0.15 posterior sd (Monte Carlo error ~0.03 sd
+    for ~2000 effective samples), 68 % half widths within 8 % (~3 % Monte Carlo error)."""
     from identify.fit.mf_stages import fit_mf, stage_mcmc
-    from tests.test_fit_calibration_mf import add_noise, design, simulate
+    from tests.test_fit_calibration_mf import (add_noise, design, exact_linear_posterior,
+                                               simulate)
     from tests.test_fit_mf_stages import _truth
 
     truth = _truth()
     noisy = add_noise(simulate(truth, design()), 2000)
     problem = stage_problem("Mz", noisy, truth).problem
     names = list(problem.free)
-    x0 = np.array([truth[n] for n in names])
-    w, f0 = problem.noise_weights(), problem.predict(x0)
-    design_matrix = np.column_stack([problem.predict(x0 + e) - f0 for e in np.eye(x0.size)])
-    a, b = design_matrix * w[:, None], (problem.measured - f0) * w
-    beta = np.linalg.lstsq(a, b, rcond=None)[0]
-    r = b - a @ beta
-    sd = np.sqrt(r @ r / (b.size - x0.size) * np.diag(np.linalg.inv(a.T @ a)))
+    mean, sd = exact_linear_posterior(problem, np.array([truth[n] for n in names]))
 
     mf = fit_mf(noisy, truth, stages=("Mz",))
     m = stage_mcmc(noisy, mf, "Mz", seed=0).mcmc
     assert m.converged
     median = np.array([m.median[n] for n in names])
     half = np.array([(m.q84[n] - m.q16[n]) / 2 for n in names])
-    print("median offset [sd]", np.round((median - (x0 + beta)) / sd, 3), "half width ratio",
+    print("median offset [sd]", np.round((median - mean) / sd, 3), "half width ratio",
           np.round(half / sd, 3))
-    np.testing.assert_array_less(np.abs(median - (x0 + beta)) / sd, 0.15)
+    np.testing.assert_array_less(np.abs(median - mean) / sd, 0.15)
     np.testing.assert_allclose(half / sd, 1.0, atol=0.08)
 
 
