@@ -5,7 +5,13 @@ the trailer runs of ``measurements/sample-225-50R17`` and prints, per stage: poi
 coefficients, global-search statistics, seconds and the thesis error (total and per pressure).
 The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
 
-    python bench/fit_mf.py [--folder DIR] [--start defaults|truth] [--json out.json]
+    python bench/fit_mf.py [--folder DIR] [--start defaults|truth] [--stages S ...]
+                           [--mcmc STAGE] [--json out.json]
+
+``--stages`` fits only those stages (the others stay at the start values). ``--mcmc STAGE``
+then samples that stage's posterior as ``mfid fit --mcmc`` does (identify.fit.mf_stages.
+stage_mcmc, seed 0, the default chain cap) and prints its steps, largest autocorrelation time,
+acceptance, seconds and, if the cap stopped it, the cap that would let it reach 50 tau.
 
 ``--start defaults`` (default) starts where ``mfid fit`` starts: the MFeval defaults with the
 folder's nominal load, pressure and radius. ``--start truth`` starts from the .tir the
@@ -23,7 +29,7 @@ import json  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from identify.fit.mf_stages import fit_mf  # noqa: E402
+from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_mcmc  # noqa: E402
 from identify.load.folder import load_folder  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
 
@@ -49,6 +55,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--folder", type=Path, default=FOLDER)
     ap.add_argument("--start", choices=("defaults", "truth"), default="defaults")
+    ap.add_argument("--stages", nargs="+", choices=DEFAULT_STAGES, default=DEFAULT_STAGES)
+    ap.add_argument("--mcmc", choices=DEFAULT_STAGES, help="sample this stage's posterior")
     ap.add_argument("--json", type=Path, help="write the numbers to this file")
     args = ap.parse_args()
 
@@ -58,7 +66,7 @@ def main() -> None:
     trailer = mset.trailer
     base = _base(mset, args.start, args.folder)
     t1 = time.perf_counter()
-    mf = fit_mf(trailer, base)
+    mf = fit_mf(trailer, base, stages=tuple(args.stages))
     t_fit = time.perf_counter() - t1
 
     print(f"{args.folder.name}: {len(trailer)} trailer points, start = {args.start}, "
@@ -81,10 +89,23 @@ def main() -> None:
     print(f"MF stages: {t_fit:.1f} s wall ({stage_s:.1f} s in the optimiser, the rest is data "
           f"selection, identifiability screens and constraint grids); budget about "
           f"{BUDGET_S:.0f} s of bench/fit.py's 60 s")
+    mcmc = None
+    if args.mcmc:
+        from identify.report.tables import mcmc_shortfall
+
+        r = stage_mcmc(trailer, mf, args.mcmc)
+        mcmc = r.mcmc.to_dict()
+        tau, name = max((t, n) for n, t in r.mcmc.tau.items())
+        print(f"MCMC {args.mcmc}: {r.n_points} points, {len(r.free)} free, "
+              f"{r.mcmc.n_walkers} walkers x {r.mcmc.n_steps} steps, largest tau {tau:.0f} "
+              f"({name}), acceptance {r.mcmc.acceptance:.2f}, {r.mcmc.seconds:.0f} s, "
+              f"converged {r.mcmc.converged}" + (f"; {mcmc_shortfall(mcmc)}"
+                                                  if not r.mcmc.converged else ""))
     if args.json:
         args.json.write_text(json.dumps({"folder": str(args.folder), "start": args.start,
                                          "load_seconds": t_load, "fit_seconds": t_fit,
-                                         "stages": rows}, indent=2))
+                                         "stages": rows, "mcmc": mcmc}, indent=2,
+                                        default=float))
 
 
 if __name__ == "__main__":
