@@ -62,10 +62,23 @@ def fit_build_up(x: np.ndarray, y: np.ndarray) -> dict:
                            bounds=(math.log(grid[k - 1]), math.log(grid[k + 1])),
                            options={"xatol": 1e-10})
     sigma = float(np.exp(best.x))
-    sse_best, fss = _sse(x, y, sigma)
-    fss, sse_best = float(fss[0]), max(float(sse_best[0]), 0.0)
+    fss = float(_sse(x, y, sigma)[1][0])
+    # Brent on the sum of squares stops where it is flat to round-off (sigma to ~1e-7
+    # relative); Gauss-Newton steps on the residuals themselves reach the round-off of sigma
+    def sse_at(f: float, s: float) -> float:
+        return float(np.sum((y - f * (1.0 - np.exp(-x / s))) ** 2))
+
+    for _ in range(4):
+        e = np.exp(-x / sigma)
+        jac = np.stack([1.0 - e, -fss * x / sigma ** 2 * e], axis=1)
+        step = np.linalg.lstsq(jac, y - fss * (1.0 - e), rcond=None)[0]
+        f1, s1 = fss + float(step[0]), sigma + float(step[1])
+        if not (np.isfinite(f1) and s1 > 0 and sse_at(f1, s1) <= sse_at(fss, sigma)):
+            break
+        fss, sigma = f1, s1
     e = np.exp(-x / sigma)
     jac = np.stack([1.0 - e, -fss * x / sigma ** 2 * e], axis=1)
+    sse_best = float(np.sum((y - fss * (1.0 - e)) ** 2))
     s2 = sse_best / max(x.size - 2, 1)
     try:
         cov = s2 * np.linalg.inv(jac.T @ jac)
