@@ -2,7 +2,7 @@
 
 Times :func:`identify.extract.extract_folder` on the loaded sample folder
 (measurements/sample-225-50R17: 735 Flatplank runs, 5 pressures x 3 loads) and, separately,
-loading the folder (:func:`identify.load.folder.load_folder`). Target: extraction < 10 s.
+loading the folder (:func:`identify.io.folder.load_folder`). Target: extraction < 10 s.
 
     .venv/bin/python bench/extract.py [--folder PATH] [--repeat R]
 """
@@ -16,7 +16,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from identify.extract import extract_folder  # noqa: E402
-from identify.load.folder import load_folder  # noqa: E402
+from identify.io.folder import load_folder  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 TARGET_S = 10.0

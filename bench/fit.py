@@ -22,8 +22,8 @@ from pathlib import Path  # noqa: E402
 from identify.fit import relations as R  # noqa: E402
 from identify.fit.mcmc import run_mcmc  # noqa: E402
 from identify.fit.optimize import fit  # noqa: E402
-from identify.fit.pipeline import FitSettings, fit_folder  # noqa: E402
-from identify.load.folder import load_folder  # noqa: E402
+from identify.workflows.fit import FitSettings, fit_folder  # noqa: E402
+from identify.io.folder import load_folder  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

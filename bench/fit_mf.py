@@ -30,7 +30,7 @@ import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_mcmc  # noqa: E402
-from identify.load.folder import load_folder  # noqa: E402
+from identify.io.folder import load_folder  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

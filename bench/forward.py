@@ -26,7 +26,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from identify.load.tir import read_tir  # noqa: E402
+from identify.io.tir import read_tir  # noqa: E402
 from identify.model.evaluate import evaluate  # noqa: E402
 from identify.model.kernel import evaluate_fused  # noqa: E402
 

@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 from identify.model.evaluate import SolverOptions, evaluate
 
 SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec" / "data"

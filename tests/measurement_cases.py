@@ -13,8 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.load.hdf5 import RawRun, write_hdf5
-from identify.load.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
+from identify.io.hdf5 import RawRun, write_hdf5
+from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
 TRAILER_NAMES = ("RUNTIME", "LONGVEL", "WHROTSPD", "SLIPANGL", "LONGSLIP", "INCLANGL",

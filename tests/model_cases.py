@@ -5,7 +5,7 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 
 TIR_DIR = Path(__file__).parent / "data" / "tir"
 

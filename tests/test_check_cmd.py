@@ -18,10 +18,10 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
-from identify.errors import InputError
-from identify.load.folder import load_folder
-from identify.load.hdf5 import RawRun, write_hdf5
-from identify.load.trailer import read_channels
+from identify.core.errors import InputError
+from identify.io.folder import load_folder
+from identify.io.hdf5 import RawRun, write_hdf5
+from identify.io.trailer import read_channels
 from tests.measurement_cases import trailer_channels, write_good_folder
 
 runner = CliRunner()

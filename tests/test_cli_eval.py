@@ -8,7 +8,7 @@ import pandas as pd
 import pytest
 from typer.testing import CliRunner
 
-from identify import __version__
+from identify.core.version import __version__
 from identify.cli.app import app
 from identify.model.evaluate import OUTPUT_COLUMNS, evaluate
 from tests.model_cases import TIR_DIR, params, random_points

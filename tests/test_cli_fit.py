@@ -202,7 +202,7 @@ def test_sigint_leaves_no_partial_output(tmp_path, stage):
     if stage == "fit":
         assert tirs == [] and not list(fits.rglob("*.json")) if fits.exists() else True
     else:
-        from identify.load.tir import read_tir
+        from identify.io.tir import read_tir
 
         assert len(tirs) == 1 and read_tir(tirs[0]).params()["LONGITUDINAL_STIFFNESS"] > 0
         doc = json.loads((tirs[0].parent / "fit.json").read_text())

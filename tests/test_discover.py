@@ -13,7 +13,7 @@ from identify.discover.noise import choose_noise, fit_ar1, sweep_index, variogra
 from identify.discover.scenarios import Matrix, make_problem
 from identify.discover.score import ambiguity_groups, canonical_cosines, holm, score_candidates
 from identify.discover.search import Settings, discover
-from identify.errors import InputError
+from identify.core.errors import InputError
 from identify.fit.problem import FitProblem
 
 SMALL = Matrix(density=0.3)

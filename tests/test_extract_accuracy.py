@@ -25,8 +25,8 @@ import pandas as pd
 import pytest
 
 from identify.extract import extract_folder
-from identify.load.folder import load_folder
-from identify.load.tir import read_tir
+from identify.io.folder import load_folder
+from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 
 #: Issue 4 tolerances (relative) at the default artefact level.

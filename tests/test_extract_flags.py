@@ -20,8 +20,8 @@ from dataclasses import replace
 import pytest
 
 from identify.extract import extract_folder
-from identify.load.folder import load_folder
-from identify.load.tir import read_tir
+from identify.io.folder import load_folder
+from identify.io.tir import read_tir
 from identify.simulate import DEFAULT_RIG, FULL, default_tir_path, simulate_folder
 
 #: Full sample density, 3 pressures x 2 loads, camber at +-2, 5 and 15 deg.

@@ -18,8 +18,8 @@ from identify.extract.parking import branches
 from identify.extract.relaxation import distance_63, fit_build_up
 from identify.extract.stiffness import locked_hub_run
 from identify.extract.vertical import cfz_at_load, fit_quadratic
-from identify.load.characteristics import read_characteristics
-from identify.load.tir import read_tir
+from identify.io.characteristics import read_characteristics
+from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 
 

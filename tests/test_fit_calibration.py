@@ -22,7 +22,7 @@ from identify.fit import relations as R
 from identify.fit.mcmc import run_mcmc
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 from identify.model import relations as rel
 from tests.test_fit_relations import CTX, FZ0, LOADS, P0_BAR, PRESSURES, TIR, _cases, _grid
 

@@ -16,10 +16,10 @@ import pytest
 
 from identify.fit.mf_constraints import validity_grid
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
-from identify.load.tir import read_tir
-from identify.load.trailer import read_trailer
+from identify.io.tir import read_tir
+from identify.io.trailer import read_trailer
 from identify.model.evaluate import evaluate
-from identify.report.tir import write_tir
+from identify.io.tir import write_tir
 
 ROOT = Path(__file__).resolve().parents[1]
 TIR = ROOT / "identify" / "simulate" / "data" / "tyre_225_50R17.tir"
@@ -340,7 +340,7 @@ def test_recovery_from_other_perturbations(seed, truth, data, free_sets):
 def test_bundled_sample_all_stages_from_the_defaults():
     """What ``mfid fit`` does with the bundled folder's trailer runs: MFeval defaults with the
     folder's nominal conditions as the start; every stage converges to the 1 % noise."""
-    from identify.load.folder import load_folder
+    from identify.io.folder import load_folder
     from identify.model.parameters import defaults
 
     mset = load_folder(SAMPLE.parent)

@@ -11,7 +11,7 @@ from scipy.optimize import differential_evolution
 
 from identify.fit import relations as R
 from identify.fit.optimize import fit
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 from identify.model import relations as rel
 from identify.model.parameters import defaults
 from tests.spec_data import SPEC_DIR, needs_spec

@@ -7,8 +7,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from identify.load.axes import c_to_w, sae_to_iso_w, to_iso_w
-from identify.load.flatplank import hub_to_contact
+from identify.io.axes import c_to_w, sae_to_iso_w, to_iso_w
+from identify.io.flatplank import hub_to_contact
 from tests.spec_data import GOLDEN_DIR
 
 

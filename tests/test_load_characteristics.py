@@ -7,10 +7,10 @@ import shutil
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
-from identify.load.common import Problems
-from identify.load.folder import check_folder, load_folder
+from identify.core.errors import InputError
+from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
+from identify.io.common import Problems
+from identify.io.folder import check_folder, load_folder
 from tests.measurement_cases import CHARACTERISTICS, EIGEN
 
 

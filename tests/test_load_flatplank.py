@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.flatplank import FLATPLANK_COLUMNS, hub_to_contact, read_flatplank
+from identify.core.errors import InputError
+from identify.io.flatplank import FLATPLANK_COLUMNS, hub_to_contact, read_flatplank
 from tests.measurement_cases import flatplank_channels, write_csv
 
 A, B = 0.08, 0.05

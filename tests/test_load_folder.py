@@ -8,11 +8,11 @@ import math
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.characteristics import CHARACTERISTICS_COLUMNS
-from identify.load.flatplank import FLATPLANK_COLUMNS
-from identify.load.folder import MeasurementSet, check_folder, load_folder
-from identify.load.trailer import TRAILER_COLUMNS
+from identify.core.errors import InputError
+from identify.io.characteristics import CHARACTERISTICS_COLUMNS
+from identify.io.flatplank import FLATPLANK_COLUMNS
+from identify.io.folder import MeasurementSet, check_folder, load_folder
+from identify.io.trailer import TRAILER_COLUMNS
 from tests.measurement_cases import trailer_channels, write_good_folder
 
 

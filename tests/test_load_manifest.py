@@ -5,9 +5,9 @@ import json
 
 import pytest
 
-from identify.errors import InputError
-from identify.load.common import Problems
-from identify.load.manifest import Manifest, RunSpec, read_manifest
+from identify.core.errors import InputError
+from identify.io.common import Problems
+from identify.io.manifest import Manifest, RunSpec, read_manifest
 from tests.measurement_cases import TOML
 
 

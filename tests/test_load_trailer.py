@@ -5,10 +5,10 @@ import h5py
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.common import Problems
-from identify.load.hdf5 import RawRun, write_hdf5
-from identify.load.trailer import (TRAILER_COLUMNS, channels_to_tidy, read_channels,
+from identify.core.errors import InputError
+from identify.io.common import Problems
+from identify.io.hdf5 import RawRun, write_hdf5
+from identify.io.trailer import (TRAILER_COLUMNS, channels_to_tidy, read_channels,
                                    read_trailer, write_channels)
 from tests.measurement_cases import TRAILER_NAMES, trailer_channels, write_csv
 

@@ -4,10 +4,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.common import Problems
-from identify.load.trailer import read_channels, read_trailer
-from identify.load.tydex import (TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex,
+from identify.core.errors import InputError
+from identify.io.common import Problems
+from identify.io.trailer import read_channels, read_trailer
+from identify.io.tydex import (TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex,
                                  write_tydex)
 from tests.measurement_cases import trailer_channels, write_csv
 

@@ -1,4 +1,4 @@
-"""Unit conversion to SI (identify.load.units)."""
+"""Unit conversion to SI (identify.core.units)."""
 from __future__ import annotations
 
 import math
@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from identify.errors import InputError
-from identify.load.units import SI_UNITS, UNITS, normalize_unit, same_unit, to_si, unit_problem
+from identify.core.errors import InputError
+from identify.core.units import SI_UNITS, UNITS, normalize_unit, same_unit, to_si, unit_problem
 
 
 @pytest.mark.parametrize("value,unit,expected", [

@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 from identify.model.evaluate import SolverOptions, evaluate
 from tests.spec_data import GOLDEN_DIR, needs_spec
 

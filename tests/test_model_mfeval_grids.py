@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from identify.load.tir import read_tir
+from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
 from tests.spec_data import MFEVAL_DIR, needs_spec
 

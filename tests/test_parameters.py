@@ -7,6 +7,7 @@ import re
 
 import pytest
 
+from identify.core.units import dimension_factor
 from identify.model import parameters as P
 
 MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
@@ -94,7 +95,7 @@ def test_dimensions_parse_and_strings_are_strings():
             assert not p.vary
         else:
             assert isinstance(p.default, float)
-            assert P.dimension_factor(p.dimension, {}) == 1.0
+            assert dimension_factor(p.dimension, {}) == 1.0
 
 
 @pytest.mark.parametrize("name,dimension", [
@@ -109,15 +110,15 @@ def test_dimension_column(name, dimension):
 
 def test_dimension_factor():
     mm_kn = {"L": 1e-3, "F": 1e3, "A": math.pi / 180, "P": 1e9}
-    assert P.dimension_factor("F/L", mm_kn) == pytest.approx(1e6, rel=1e-15)
-    assert P.dimension_factor("F*L/A", mm_kn) == pytest.approx(180 / math.pi, rel=1e-15)
-    assert P.dimension_factor("M*L^2", {"M": 1e-3, "L": 1e-3}) == pytest.approx(1e-9)
-    assert P.dimension_factor("1/T", {"T": 1e-3}) == pytest.approx(1e3)
-    assert P.dimension_factor("1", mm_kn) == 1.0
+    assert dimension_factor("F/L", mm_kn) == pytest.approx(1e6, rel=1e-15)
+    assert dimension_factor("F*L/A", mm_kn) == pytest.approx(180 / math.pi, rel=1e-15)
+    assert dimension_factor("M*L^2", {"M": 1e-3, "L": 1e-3}) == pytest.approx(1e-9)
+    assert dimension_factor("1/T", {"T": 1e-3}) == pytest.approx(1e3)
+    assert dimension_factor("1", mm_kn) == 1.0
     with pytest.raises(ValueError):
-        P.dimension_factor("str", mm_kn)
+        dimension_factor("str", mm_kn)
     with pytest.raises(ValueError):
-        P.dimension_factor("L+F", mm_kn)
+        dimension_factor("L+F", mm_kn)
 
 
 def test_bounds_ordered_and_thesis_bounds():

@@ -20,12 +20,12 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
-from identify.errors import InputError
-from identify.fit.pipeline import FitSettings, fit_folder
-from identify.load.tir import read_tir
+from identify.core.errors import InputError
+from identify.workflows.fit import FitSettings, fit_folder
+from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
 from identify.report import tables as T
-from identify.report.fitdir import read_fit_dir
+from identify.io.fitdir import read_fit_dir
 from identify.report.curves import mf_slip_pages
 from identify.report.pdf import write_report
 

@@ -12,8 +12,8 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
-from identify.errors import InputError
-from identify.load.tir import read_tir
+from identify.core.errors import InputError
+from identify.io.tir import read_tir
 from identify.simulate import SMALL, default_tir_path, simulate_folder
 from identify.simulate.default_tyre import default_tyre_values
 from identify.simulate.rig import FLATPLANK_CHANNELS

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from identify.errors import InputError
-from identify.load.tir import read_tir
+from identify.core.errors import InputError
+from identify.io.tir import read_tir
 
 BAD = Path(__file__).resolve().parent / "data" / "tir_bad"
 _FITTYP = "(mfid evaluates MF 6.1 = 61 and MF 6.2 = 62)"
@@ -45,7 +45,7 @@ EXPECTED = {
 }
 
 _MODEL_READY = all(importlib.util.find_spec(m) is not None
-                   for m in ("identify.model.evaluate", "identify.load.points"))
+                   for m in ("identify.model.evaluate", "identify.io.points"))
 needs_model = pytest.mark.xfail(not _MODEL_READY, reason="model not yet available",
                                 strict=False)
 

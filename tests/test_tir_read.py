@@ -12,9 +12,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from identify.load.tir import TirFile, read_tir
+from identify.io.tir import TirFile, read_tir
 from identify.model.parameters import PARAMETERS, defaults
-from identify.report.tir import write_tir
+from identify.io.tir import write_tir
 
 MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 

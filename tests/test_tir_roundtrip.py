@@ -13,12 +13,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from identify import __version__
-from identify.errors import InputError
-from identify.load.tir import read_tir
+from identify.core.version import __version__
+from identify.core.errors import InputError
+from identify.io.tir import read_tir
 from identify.model.parameters import PARAMETERS, defaults
-from identify.report.atomic import atomic_write_csv, atomic_write_text
-from identify.report.tir import format_tir, format_value, write_tir
+from identify.io.atomic import atomic_write_csv, atomic_write_text
+from identify.io.tir import format_tir, format_value, write_tir
 
 _SPEC = Path(__file__).resolve().parents[1].parent / "shared" / "spec"
 _TIRS = sorted(str(p.relative_to(_SPEC)) for p in _SPEC.rglob("*.tir")) if _SPEC.is_dir() else []

@@ -10,8 +10,8 @@ import sys
 import typer
 from rich.console import Console
 
-from identify import __version__
-from identify.errors import MfidError
+from identify.core.version import __version__
+from identify.core.errors import MfidError
 
 app = typer.Typer(no_args_is_help=True, add_completion=False,
                   help="mfid: Magic Formula tyre-model identification workbench.")

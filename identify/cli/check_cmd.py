@@ -22,7 +22,7 @@ def check_command(
 
     The folder is only read, never modified.
     """
-    from identify.load.folder import scan_folder
+    from identify.io.folder import scan_folder
 
     found, problems = scan_folder(folder, nominal_pressure_Pa=nominal_pressure,
                                   nominal_load_N=nominal_load)

@@ -7,15 +7,15 @@ from typing import List, Optional
 import typer
 
 from identify.cli.app import app, fail, out_console
-from identify.errors import InputError, MfidError
+from identify.core.errors import InputError, MfidError
 
 _FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
 
 
 def _manifest_run(src: Path):
     """The manifest run that names ``src`` (tyre.toml in its folder or the one above), or None."""
-    from identify.load.common import Problems
-    from identify.load.manifest import MANIFEST_NAME, read_manifest
+    from identify.io.common import Problems
+    from identify.io.manifest import MANIFEST_NAME, read_manifest
 
     for folder in (src.parent, src.parent.parent):
         toml = folder / MANIFEST_NAME
@@ -53,7 +53,7 @@ def convert_command(
 
     Units: --unit, else the manifest run that lists SRC, else the file. Atomic write.
     """
-    from identify.load.trailer import read_channels, write_channels
+    from identify.io.trailer import read_channels, write_channels
 
     try:
         if dst.exists() and src.exists() and dst.resolve() == src.resolve():

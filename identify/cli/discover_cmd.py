@@ -9,7 +9,7 @@ from typing import Optional
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
-from identify.errors import InputError, MfidError
+from identify.core.errors import InputError, MfidError
 
 
 @app.command("discover")
@@ -44,7 +44,7 @@ def discover_command(
     repeat until nothing passes. Prints the plain conclusion; writes discovery.json,
     discovery.pdf, the enriched .tir and fit.json.
     """
-    from identify.discover.run import discover_folder
+    from identify.workflows.discover import discover_folder
     from identify.discover.search import Settings
 
     try:

@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from identify.cli.app import app, fail, out_console
-from identify.errors import InputError, MfidError
+from identify.core.errors import InputError, MfidError
 
 
 class Engine(str, Enum):
@@ -39,11 +39,11 @@ def eval_command(
     Rl, 2b, Mzr, Cx, Cy, Cz, Kya, sigmax, sigmay, Kxk (ISO-W, SI). Fz and omega hold the
     model's values (load after the negative clip; spin rate used).
     """
-    from identify.load.points import read_points
-    from identify.load.tir import read_tir
+    from identify.io.points import read_points
+    from identify.io.tir import read_tir
     from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
     from identify.model.modes import UseMode
-    from identify.report.atomic import atomic_write_csv
+    from identify.io.atomic import atomic_write_csv
 
     try:
         try:

@@ -21,7 +21,7 @@ from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
-from identify.errors import FitError, InputError, MfidError
+from identify.core.errors import FitError, InputError, MfidError
 
 
 class StageProgress:
@@ -68,7 +68,7 @@ class StageProgress:
 def tyre_id_of(folder: Path) -> str:
     """The tyre id ``mfid fit`` names the fit directory after (manifest id, or the CSV's
     stem)."""
-    from identify.load.manifest import MANIFEST_NAME, read_manifest
+    from identify.io.manifest import MANIFEST_NAME, read_manifest
 
     toml = folder / MANIFEST_NAME if folder.is_dir() else folder
     if toml.name == MANIFEST_NAME:
@@ -160,7 +160,7 @@ def fit_command(
     2 on bad input.
     """
     from identify.fit.mcmc import CHUNK, MAX_STEPS
-    from identify.fit.pipeline import FitSettings, fit_folder, only_names
+    from identify.workflows.fit import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps)

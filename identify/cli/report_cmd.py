@@ -7,7 +7,7 @@ from typing import Optional
 import typer
 
 from identify.cli.app import app, fail, out_console
-from identify.errors import MfidError
+from identify.core.errors import MfidError
 
 
 @app.command("report")
@@ -19,7 +19,7 @@ def report_command(
 ) -> None:
     """Rebuild the PDF fit report from FITDIR alone (fit.json, measured_vs_model.csv, the
     .tir, extraction.json and saved MCMC chains)."""
-    from identify.report.fitdir import read_fit_dir
+    from identify.io.fitdir import read_fit_dir
     from identify.report.pdf import default_report_path, write_report
 
     try:

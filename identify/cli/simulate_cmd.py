@@ -7,7 +7,7 @@ from pathlib import Path
 import typer
 
 from identify.cli.app import app, fail, out_console
-from identify.errors import InputError, MfidError
+from identify.core.errors import InputError, MfidError
 
 
 class GridChoice(str, Enum):
@@ -69,7 +69,7 @@ def simulate_command(
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace a non-empty OUTDIR."),
 ) -> None:
     """Simulate every Flatplank and trailer test of a tyre into a measurement folder."""
-    from identify.load.tir import read_tir
+    from identify.io.tir import read_tir
     from identify.simulate import default_tir_path, simulate_folder
 
     try:

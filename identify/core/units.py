@@ -8,13 +8,17 @@ symbols read as ``*``, surrounding brackets dropped (``"[N m]"`` -> ``"n*m"``).
 from __future__ import annotations
 
 import math
+import re
+from functools import cache
 from pathlib import Path
+from typing import Mapping
 
 import numpy as np
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
-__all__ = ["UNITS", "SI_UNITS", "normalize_unit", "unit_problem", "same_unit", "to_si"]
+__all__ = ["UNITS", "SI_UNITS", "normalize_unit", "unit_problem", "same_unit", "to_si",
+           "unit_factor", "dimension_factor", "DIMENSION_SYMBOLS"]
 
 _DEG = math.pi / 180.0
 _LBF = 4.4482216152605
@@ -43,21 +47,27 @@ UNITS: dict[str, tuple[float, float, str]] = {
     **_names("km/h kph kmh km/hr", 1.0 / 3.6, "speed"),
     **_names("mph", 1609.344 / 3600.0, "speed"),
     **_names("n newton newtons", 1.0, "force"),
-    **_names("kn", 1e3, "force"),
-    **_names("lbf", _LBF, "force"),
+    **_names("kn kilonewton kilonewtons", 1e3, "force"),
+    **_names("lbf pound_force", _LBF, "force"),
     **_names("kgf", 9.80665, "force"),
     **_names("n*m nm m*n", 1.0, "moment"),
     **_names("kn*m knm", 1e3, "moment"),
     **_names("lbf*ft ft*lbf lb*ft ft*lb", _LBF * 12 * _IN, "moment"),
     **_names("lbf*in in*lbf", _LBF * _IN, "moment"),
     **_names("m meter meters metre metres", 1.0, "length"),
-    **_names("mm", 1e-3, "length"),
-    **_names("cm", 1e-2, "length"),
+    **_names("mm millimeter millimeters millimetre millimetres", 1e-3, "length"),
+    **_names("cm centimeter centimeters centimetre centimetres", 1e-2, "length"),
+    **_names("km", 1e3, "length"),
     **_names("in inch inches", _IN, "length"),
-    **_names("ft", 12 * _IN, "length"),
+    **_names("ft foot feet", 12 * _IN, "length"),
+    **_names("kg kilogram kilograms", 1.0, "mass"),
+    **_names("g gram grams", 1e-3, "mass"),
+    **_names("tonne tonnes", 1e3, "mass"),
+    **_names("lbm", 0.45359237, "mass"),
     **_names("s sec second seconds", 1.0, "time"),
-    **_names("ms", 1e-3, "time"),
-    **_names("min", 60.0, "time"),
+    **_names("ms millisecond milliseconds", 1e-3, "time"),
+    **_names("min minute minutes", 60.0, "time"),
+    **_names("h hour hours", 3600.0, "time"),
     **_names("rad/s", 1.0, "angular_velocity"),
     **_names("deg/s", _DEG, "angular_velocity"),
     **_names("rpm 1/min rev/min", 2.0 * math.pi / 60.0, "angular_velocity"),
@@ -77,6 +87,7 @@ SI_UNITS: dict[str, str] = {
     "ratio": "-", "angle": "rad", "pressure": "Pa", "speed": "m/s", "force": "N",
     "moment": "N*m", "length": "m", "time": "s", "angular_velocity": "rad/s",
     "stiffness": "N/m", "torsional_stiffness": "N*m/rad", "frequency": "Hz", "temperature": "K",
+    "mass": "kg",
 }
 
 
@@ -155,3 +166,57 @@ def to_si(values, unit: str | None, *, dimension: str | None = None,
     if offset != 0.0:
         out += offset
     return out
+
+
+def unit_factor(unit: str, dimension: str) -> float:
+    """SI value of one ``unit`` of ``dimension`` (no offset units); KeyError if unknown."""
+    factor, offset, dim = UNITS[normalize_unit(unit)]
+    if dim != dimension or offset != 0.0:
+        raise KeyError(unit)
+    return factor
+
+
+#: Symbols of the dimension expressions of the parameter table (``"F*T/L"``, ``"M*L^2"``).
+DIMENSION_SYMBOLS = {"L": "length", "F": "force", "M": "mass", "T": "time", "A": "angle",
+                     "P": "pressure"}
+_DIM_FACTOR = re.compile(r"([LFMTAP])(?:\^(-?\d+))?")
+
+
+@cache
+def _dimension_powers(dimension: str) -> tuple[tuple[str, int], ...]:
+    if dimension == "str":
+        raise ValueError("string keys have no dimension")
+    powers: dict[str, int] = {}
+    numerator, *denominators = dimension.split("/")
+    for sign, part in [(1, numerator)] + [(-1, d) for d in denominators]:
+        for factor in part.split("*"):
+            factor = factor.strip()
+            if factor == "1":
+                continue
+            m = _DIM_FACTOR.fullmatch(factor)
+            if m is None:
+                raise ValueError(f"bad dimension expression {dimension!r}")
+            powers[m.group(1)] = powers.get(m.group(1), 0) + sign * int(m.group(2) or 1)
+    return tuple(sorted((k, v) for k, v in powers.items() if v))
+
+
+def dimension_factor(dimension: str, scales: Mapping[str, float]) -> float:
+    """Factor that converts a value of ``dimension`` from file units to SI.
+
+    Parameters
+    ----------
+    dimension : str
+        Dimension expression such as ``"F*T/L"`` or ``"M*L^2"`` (``"1"`` gives 1).
+    scales : mapping
+        SI value of one file unit per symbol, e.g. ``{"L": 1e-3, "F": 1e3}`` for mm and kN;
+        missing symbols count as 1.
+
+    Returns
+    -------
+    float
+        Multiply the file value by this to get SI.
+    """
+    factor = 1.0
+    for symbol, power in _dimension_powers(dimension):
+        factor *= scales.get(symbol, 1.0) ** power
+    return factor

@@ -16,5 +16,5 @@ Modules:
 
 Entry points: :func:`identify.discover.search.discover` (FitProblems in, a
 :class:`~identify.discover.result.Discovery` out) and
-:func:`identify.discover.run.discover_folder`.
+:func:`identify.workflows.discover.discover_folder`.
 """

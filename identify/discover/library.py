@@ -15,7 +15,7 @@ from importlib.resources import files
 from pathlib import Path
 from typing import Iterable, Mapping
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
 __all__ = ["Candidate", "BaseForm", "Library", "load_library"]
 

@@ -61,7 +61,7 @@ class Matrix:
 
 @lru_cache(maxsize=1)
 def _default_tir() -> tuple:
-    from identify.load.tir import read_tir
+    from identify.io.tir import read_tir
     from identify.simulate import default_tir_path
 
     params = read_tir(default_tir_path()).params()

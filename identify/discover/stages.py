@@ -6,7 +6,7 @@ MF coefficients, and every other key taken from a base .tir. The model reads the
 (``{**tir, **values}``), so any .tir key can be added as a parameter (a library candidate held at
 its neutral value). The operating-point pre-processing is done once per problem.
 
-The trailer table (``identify.load.trailer`` columns ``Fz, kappa, alpha, gamma, Vx, p`` and the
+The trailer table (``identify.io.trailer`` columns ``Fz, kappa, alpha, gamma, Vx, p`` and the
 measured ``Fx, Fy, Mx, My, Mz``) gets a ``sweep`` id, a ``kind`` (cornering, braking_driving,
 combined, camber, rolling_resistance) and a ``shape`` (what the sweep varies: ``alpha``,
 ``kappa``, ``gamma``, ``alpha@gamma``, ``kappa@alpha``, ``speed``) by :func:`label_sweeps`.

@@ -10,8 +10,8 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from identify.load.characteristics import QUANTITIES
-from identify.load.units import SI_UNITS
+from identify.core.quantities import QUANTITIES
+from identify.core.units import SI_UNITS
 
 __all__ = ["FLAG_NAMES", "Flag", "RunDiagnostic", "Part", "row", "json_safe"]
 

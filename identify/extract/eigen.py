@@ -33,7 +33,7 @@ def pass_through(table: pd.DataFrame, extracted: list[dict]) -> tuple[list[dict]
     Parameters
     ----------
     table : pandas.DataFrame
-        The folder's characteristic table (``identify.load``; SI values, ``pi_bar`` in bar).
+        The folder's characteristic table (``identify.io``; SI values, ``pi_bar`` in bar).
     extracted : list of dict
         Rows extracted from raw runs.
 

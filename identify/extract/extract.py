@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify import __version__
+from identify.core.version import __version__
 from identify.extract.camber import extract_camber
 from identify.extract.diagnostics import Flag, Part, RunDiagnostic, json_safe
 from identify.extract.eigen import pass_through
@@ -114,7 +114,7 @@ def extract_folder(measurement_set, thresholds: Thresholds | None = None) -> Ext
     Parameters
     ----------
     measurement_set : MeasurementSet
-        A loaded folder (:func:`identify.load.folder.load_folder`).
+        A loaded folder (:func:`identify.io.folder.load_folder`).
     thresholds : Thresholds, optional
         Flag thresholds and window settings (defaults: :class:`Thresholds`).
 

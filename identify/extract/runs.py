@@ -90,7 +90,7 @@ def collect_runs(flatplank: pd.DataFrame, conditions: Mapping[str, Mapping[str, 
     Parameters
     ----------
     flatplank : pandas.DataFrame
-        Tidy Flatplank table (``identify.load``), one row per sample.
+        Tidy Flatplank table (``identify.io``), one row per sample.
     conditions : mapping
         Run id -> declared conditions (manifest ``[[runs]].conditions``).
 

@@ -1,6 +1,6 @@
 """Trailer points for the MF stages: selection, pressure groups, sweeps and data coverage.
 
-The input is the tidy trailer table of ``identify.load.folder.load_folder(path).trailer``:
+The input is the tidy trailer table of ``identify.io.folder.load_folder(path).trailer``:
 columns run, t, Vx, omega, alpha, kappa, gamma, p, Fx, Fy, Fz, Mx, My, Mz (SI, ISO-W).
 Nothing here modifies the table.
 

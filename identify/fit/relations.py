@@ -1,6 +1,6 @@
 """The pressure relations as fit problems (pressure-relations.md).
 
-Each builder turns a characteristic table (SI, identify.load.characteristics schema) into a
+Each builder turns a characteristic table (SI, identify.io.characteristics schema) into a
 :class:`~identify.fit.problem.FitProblem` whose parameters carry the .tir key names where MF has
 one (PCFY1, QSY7, PPY5, ...), so results go straight into the .tir and the discovery library
 can free and test them by name. Forms that leave a coefficient out hold it fixed at its neutral

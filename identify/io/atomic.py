@@ -11,7 +11,7 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Iterator
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd

@@ -13,24 +13,14 @@ from pathlib import Path
 
 import pandas as pd
 
-from identify.load.common import Problems
-from identify.load.units import SI_UNITS, to_si, unit_problem
+from identify.io.common import Problems
+from identify.core.quantities import CHARACTERISTICS_COLUMNS, MODES, QUANTITIES
+from identify.core.units import SI_UNITS, to_si, unit_problem
 
 __all__ = ["QUANTITIES", "MODES", "CHARACTERISTICS_COLUMNS", "read_characteristics"]
 
-#: Quantity -> dimension of its value.
-QUANTITIES: dict[str, str] = {
-    "CFz": "stiffness", "CFx": "stiffness", "CFy": "stiffness",
-    "CMz": "torsional_stiffness", "sigma_y": "length", "sigma_x": "length", "Re": "length",
-    "FxRR": "force", "Fy_gamma": "force", "Mz_gamma": "moment", "Mx_gamma": "moment",
-    "f_nat": "frequency"}
-#: Eigenmodes named in the ``mode`` column of ``f_nat`` rows.
-MODES = ("x", "y", "z", "theta", "gamma", "psi")
 _REQUIRED = ("quantity", "pi_bar", "Fz_N", "value", "unit")
 _OPTIONAL = ("Vx_mps", "gamma_deg", "mode")
-#: Columns of the tidy characteristics table.
-CHARACTERISTICS_COLUMNS = ("run", "quantity", "pi_bar", "p_Pa", "Fz_N", "value", "unit",
-                           "Vx_mps", "gamma_deg", "mode")
 
 
 def _number(problems: Problems, path: Path, line: int, key: str, text: str, *,

@@ -4,7 +4,7 @@ Numeric CSV files may be gzip-compressed (recognised from the content, whatever 
 Flatplank and trailer logs are often kept that way, and the bundled sample folder is.
 
 Every loader reports what is wrong through a :class:`Problems` collector. In strict mode (what
-``load_*`` functions use) the first problem is raised as :class:`~identify.errors.InputError`;
+``load_*`` functions use) the first problem is raised as :class:`~identify.core.errors.InputError`;
 otherwise (``mfid check``) every problem is collected, so one pass lists them all.
 """
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any, Iterable
 import numpy as np
 import pandas as pd
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip", "open_text"]

@@ -15,7 +15,7 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
 SCHEMA = "mfid.fit/1"
 CSV_NAME = "measured_vs_model.csv"
@@ -191,7 +191,7 @@ def read_fit_dir(path: str | Path) -> FitDir:
     tir_path = root / Path(str(tir_name)).name
     tir = None
     if tir_path.is_file():
-        from identify.load.tir import read_tir
+        from identify.io.tir import read_tir
 
         try:
             tir = read_tir(tir_path).params()

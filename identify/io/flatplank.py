@@ -3,7 +3,7 @@
 The hub transform is exactly the one of flatplank.md (TU Eindhoven Flatplank, thesis
 appendix A): five bridges Gx1, Gx2, Gy, Gz1, Gz2 give hub forces K and moments T, which are
 moved to the contact patch with the camber gamma = phi_wheel + phi_plank and the loaded radius.
-It agrees with the general C -> W conversion :func:`identify.load.axes.c_to_w` (tested).
+It agrees with the general C -> W conversion :func:`identify.io.axes.c_to_w` (tested).
 """
 from __future__ import annotations
 
@@ -13,8 +13,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from identify.load.common import Problems, check_declared, check_increasing, read_numeric_csv
-from identify.load.units import same_unit, to_si, unit_problem
+from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
+from identify.core.units import same_unit, to_si, unit_problem
 
 __all__ = ["RAW_COLUMNS", "FLATPLANK_COLUMNS", "CONSTANT_LOAD_TESTS", "hub_to_contact",
            "read_flatplank"]

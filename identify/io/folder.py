@@ -1,7 +1,7 @@
 """A measurement folder (``tyre.toml`` + data files) -> one :class:`MeasurementSet`.
 
 :func:`check_folder` lists every problem of a folder (``mfid check``); :func:`load_folder`
-raises :class:`~identify.errors.InputError` on the first. Both only read: no command ever
+raises :class:`~identify.core.errors.InputError` on the first. Both only read: no command ever
 writes into a measurement folder. A single characteristics CSV also counts as a folder (no
 manifest; the nominal pressure and load come from the options or from the table).
 """
@@ -16,11 +16,11 @@ from typing import Any, Mapping
 import numpy as np
 import pandas as pd
 
-from identify.load.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
-from identify.load.common import Problem, Problems, sha256_file
-from identify.load.flatplank import FLATPLANK_COLUMNS, read_flatplank
-from identify.load.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
-from identify.load.trailer import TRAILER_COLUMNS, channels_to_tidy, read_channels
+from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
+from identify.io.common import Problem, Problems, sha256_file
+from identify.io.flatplank import FLATPLANK_COLUMNS, read_flatplank
+from identify.io.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
+from identify.io.trailer import TRAILER_COLUMNS, channels_to_tidy, read_channels
 
 __all__ = ["MeasurementSet", "load_folder", "check_folder", "scan_folder", "IMPLICIT_TABLE"]
 

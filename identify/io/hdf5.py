@@ -13,8 +13,8 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from identify.load.common import Problems, starts_with
-from identify.report.atomic import atomic_path
+from identify.io.common import Problems, starts_with
+from identify.io.atomic import atomic_path
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
 

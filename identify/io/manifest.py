@@ -14,9 +14,9 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from identify.load.axes import AXES
-from identify.load.common import Problems
-from identify.load.units import unit_problem
+from identify.io.axes import AXES
+from identify.io.common import Problems
+from identify.core.units import unit_problem
 
 __all__ = ["Manifest", "TyreInfo", "RigInfo", "RunSpec", "read_manifest", "KINDS", "TESTS",
            "MANIFEST_NAME"]

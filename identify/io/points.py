@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 
 REQUIRED = ("Fz", "kappa", "alpha", "gamma", "Vx", "p")
 OPTIONAL = ("phit", "omega")

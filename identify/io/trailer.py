@@ -19,14 +19,14 @@ from typing import Any, Mapping, Sequence
 import numpy as np
 import pandas as pd
 
-from identify.errors import InputError
-from identify.load.axes import AXES, to_iso_w
-from identify.load.common import Problems, check_declared, check_increasing, read_numeric_csv
-from identify.load.hdf5 import RawRun, is_hdf5, read_hdf5, write_hdf5
-from identify.load.tydex import TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex
-from identify.load.tydex import write_tydex
-from identify.load.units import SI_UNITS, UNITS, normalize_unit, same_unit, to_si, unit_problem
-from identify.report.atomic import atomic_write_text
+from identify.core.errors import InputError
+from identify.io.axes import AXES, to_iso_w
+from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
+from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5, write_hdf5
+from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex
+from identify.io.tydex import write_tydex
+from identify.core.units import SI_UNITS, UNITS, normalize_unit, same_unit, to_si, unit_problem
+from identify.io.atomic import atomic_write_text
 
 __all__ = ["CHANNELS", "ALIASES", "TRAILER_COLUMNS", "Channels", "read_channels",
            "channels_to_tidy", "read_trailer", "write_channels"]

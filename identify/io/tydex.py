@@ -22,8 +22,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.load.common import Problems
-from identify.report.atomic import atomic_write_text
+from identify.io.common import Problems
+from identify.io.atomic import atomic_write_text
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
 

@@ -12,7 +12,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from identify.errors import InputError
+from identify.core.errors import InputError
 from identify.model import aligning, lateral, longitudinal, moments, vertical
 from identify.model.modes import UseMode
 from identify.model.state import prepare

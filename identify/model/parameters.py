@@ -63,7 +63,7 @@ from functools import cache
 from importlib.resources import files
 
 __all__ = ["ParameterSpec", "PARAMETERS", "SECTIONS", "PRESSURE_KEYS", "STRING_KEYS",
-           "spec", "defaults", "bounds", "section_keys", "dimension_factor", "tir_name"]
+           "spec", "defaults", "bounds", "section_keys", "tir_name"]
 
 #: Section write order: the 21 MF 6.x sections, then mfid's own section.
 SECTIONS: tuple[str, ...] = (
@@ -77,8 +77,6 @@ SECTIONS: tuple[str, ...] = (
 #: The MF 6.1 inflation-pressure keys (identified by the pressure relations).
 PRESSURE_KEYS: tuple[str, ...] = ("PPX1", "PPX2", "PPX3", "PPX4", "PPY1", "PPY2", "PPY3", "PPY4",
                                   "PPY5", "PPZ1", "PPZ2", "PPMX1", "QSY7", "QSY8", "PFZ1")
-
-_DIM_FACTOR = re.compile(r"([LFMTAP])(?:\^(-?\d+))?")
 
 
 @dataclass(frozen=True)
@@ -209,43 +207,3 @@ def bounds(name: str, value: float | None = None) -> tuple[float, float]:
     if p.magnitude_bounds and value is not None and value < 0:
         lo, hi = -hi, -lo
     return lo, hi
-
-
-@cache
-def _dimension_powers(dimension: str) -> tuple[tuple[str, int], ...]:
-    if dimension == "str":
-        raise ValueError("string keys have no dimension")
-    powers: dict[str, int] = {}
-    numerator, *denominators = dimension.split("/")
-    for sign, part in [(1, numerator)] + [(-1, d) for d in denominators]:
-        for factor in part.split("*"):
-            factor = factor.strip()
-            if factor == "1":
-                continue
-            m = _DIM_FACTOR.fullmatch(factor)
-            if m is None:
-                raise ValueError(f"bad dimension expression {dimension!r}")
-            powers[m.group(1)] = powers.get(m.group(1), 0) + sign * int(m.group(2) or 1)
-    return tuple(sorted((k, v) for k, v in powers.items() if v))
-
-
-def dimension_factor(dimension: str, scales: Mapping[str, float]) -> float:
-    """Factor that converts a value of ``dimension`` from file units to SI.
-
-    Parameters
-    ----------
-    dimension : str
-        Dimension expression such as ``"F*T/L"`` or ``"M*L^2"`` (``"1"`` gives 1).
-    scales : mapping
-        SI value of one file unit per symbol, e.g. ``{"L": 1e-3, "F": 1e3}`` for mm and kN;
-        missing symbols count as 1.
-
-    Returns
-    -------
-    float
-        Multiply the file value by this to get SI.
-    """
-    factor = 1.0
-    for symbol, power in _dimension_powers(dimension):
-        factor *= scales.get(symbol, 1.0) ** power
-    return factor

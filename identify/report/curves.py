@@ -109,7 +109,7 @@ def _plan_entry(relation: str, form: str):
 
 
 def _chars(rows: pd.DataFrame, quantity: str, form: str, value: np.ndarray) -> pd.DataFrame:
-    """A characteristics table (identify.load.characteristics schema) for a rebuild."""
+    """A characteristics table (identify.io.characteristics schema) for a rebuild."""
     n = len(rows)
     mode = form.split("_", 1)[1] if quantity == "f_nat" and "_" in form else None
     frame = pd.DataFrame({

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from identify.discover.result import Discovery, ProblemSummary
-from identify.report.atomic import atomic_path
+from identify.io.atomic import atomic_path
 
 __all__ = ["write_pdf", "MAX_PROBLEMS"]
 

@@ -15,7 +15,7 @@ from matplotlib import colormaps
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
-from identify import __version__
+from identify.core.version import __version__
 from identify.report import tables as T
 from identify.report.curves import (X_LABEL, RelationCurves, SlipPage, group_key,
                                     relation_curves, secondary_columns)

@@ -20,9 +20,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Callable, Iterator
 
-from identify import __version__
-from identify.errors import InputError
-from identify.report.fitdir import FitDir, read_fit_dir
+from identify.core.version import __version__
+from identify.core.errors import InputError
+from identify.io.fitdir import FitDir, read_fit_dir
 
 Progress = Callable[[str], None]
 

@@ -102,7 +102,7 @@ def default_tir_path() -> Path:
 
 def write_default_tir(path: str | Path | None = None) -> Path:
     """Write the default tyre as MF 6.1 (to the bundled location unless ``path`` is given)."""
-    from identify.report.tir import write_tir
+    from identify.io.tir import write_tir
 
     target = Path(path) if path is not None else default_tir_path()
     return write_tir(target, default_tyre_values(), fittyp=61, comment_lines=(

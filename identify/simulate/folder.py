@@ -19,8 +19,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from identify import __version__
-from identify.errors import InputError
+from identify.core.version import __version__
+from identify.core.errors import InputError
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng
 from identify.simulate.coefficients import DEFAULT_RELATIONS, Relations

@@ -1,7 +1,7 @@
 """``discover_folder``: a measurement folder in, ``fits/<tyre id>/discovery/`` out.
 
 Outputs (each written atomically): ``discovery.json`` (schema in
-:mod:`identify.discover.result`), ``discovery.pdf`` (:mod:`identify.discover.report`), the
+:mod:`identify.discover.result`), ``discovery.pdf`` (:mod:`identify.report.discovery`), the
 enriched ``<tyre id>.tir`` (base .tir + every fitted and accepted coefficient) and ``fit.json``
 (the final fits, ``mfid.fit/1`` layout). The measurement folder is only read.
 """
@@ -15,17 +15,17 @@ from pathlib import Path
 from typing import Callable
 
 
-from identify import __version__
+from identify.core.version import __version__
 from identify.discover.library import load_library
 from identify.discover.problems import (Base, apply_base, base_values, relation_problems,
                                         select, trailer_problems)
 from identify.discover.result import Discovery
 from identify.discover.search import Settings, discover
-from identify.errors import InputError
+from identify.core.errors import InputError
 from identify.fit.relations import Context
 from identify.model.parameters import spec
-from identify.report.atomic import atomic_write_text
-from identify.report.jsonsafe import json_default
+from identify.io.atomic import atomic_write_text
+from identify.core.jsonsafe import json_default
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
 
@@ -56,7 +56,7 @@ class DiscoveryRun:
 def start_tir(mset, base_tir: str | Path | None) -> tuple[dict, int]:
     """(numeric .tir values, FITTYP): the given base .tir, or the bundled 225/50 R17 tyre with
     the folder's nominal load, pressure and radius (start values of the MF coefficients)."""
-    from identify.load.tir import read_tir
+    from identify.io.tir import read_tir
     from identify.simulate import default_tir_path
 
     tirfile = read_tir(base_tir if base_tir is not None else default_tir_path())
@@ -129,8 +129,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     InputError
         Bad folder, .tir, candidates file or form name, or nothing to discover (exit 2).
     """
-    from identify.load.folder import load_folder
-    from identify.report.tir import write_tir
+    from identify.io.folder import load_folder
+    from identify.io.tir import write_tir
 
     say = progress or (lambda s: None)
     if base_tir is not None and base_form is not None:
@@ -182,7 +182,7 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
            "notes": notes}
     json_path = atomic_write_text(out / "discovery.json",
                                   json.dumps(doc, indent=1, default=json_default))
-    from identify.discover.report import write_pdf
+    from identify.report.discovery import write_pdf
     pdf_path = write_pdf(d, out / "discovery.pdf")
     tir_path = write_tir(out / f"{tyre.id}.tir", _enriched(tir, d), fittyp=fittyp,
                          comment_lines=[f"mfid discover {__version__}: base {base.kind} "

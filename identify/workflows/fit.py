@@ -20,17 +20,17 @@ from typing import Any, Callable, Sequence
 import numpy as np
 import pandas as pd
 
-from identify import __version__
-from identify.errors import FitError, InputError
+from identify.core.version import __version__
+from identify.core.errors import FitError, InputError
 from identify.fit.mcmc import MAX_STEPS, run_mcmc
 from identify.fit.optimize import fit
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.model.parameters import defaults
-from identify.report.atomic import atomic_path
-from identify.report.jsonsafe import json_default
-from identify.report.tir import format_tir
+from identify.io.atomic import atomic_path
+from identify.core.jsonsafe import json_default
+from identify.io.tir import format_tir
 
 Progress = Callable[[str], None]
 
@@ -176,7 +176,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     FitError
         A fit did not converge or a constraint is infeasible (exit 1 from the CLI).
     """
-    from identify.load.folder import load_folder
+    from identify.io.folder import load_folder
 
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:

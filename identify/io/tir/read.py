@@ -6,7 +6,7 @@ or CRLF (or CR) line ends, tabs, a UTF-8 BOM, exponents such as ``5.6519e+005`` 
 empty values (``ROAD_INCREMENT =``, which then take the default), keys in any case, non-SI
 ``[UNITS]`` and tabular sections (``[SHAPE]``, ``[DEFLECTION_LOAD_CURVE]``), which are kept raw.
 
-Every problem is an :class:`identify.errors.InputError` naming file, line and key; the message
+Every problem is an :class:`identify.core.errors.InputError` naming file, line and key; the message
 texts are part of the interface (the tests assert them).
 """
 from __future__ import annotations
@@ -20,37 +20,20 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any
 
-from identify.errors import InputError
-from identify.model.parameters import PARAMETERS, dimension_factor, spec
+from identify.core.errors import InputError
+from identify.core.units import dimension_factor, unit_factor
+from identify.model.parameters import PARAMETERS, spec
 
-__all__ = ["TirFile", "read_tir", "SUPPORTED_FITTYPS", "KNOWN_FITTYPS", "UNIT_SCALES"]
+__all__ = ["TirFile", "read_tir", "SUPPORTED_FITTYPS", "KNOWN_FITTYPS", "UNIT_KEYS"]
 
 #: FITTYP values of Magic Formula files in general (5.1, 5.2, 6.0, 6.1, 6.2).
 KNOWN_FITTYPS = (5, 6, 21, 60, 61, 62)
 #: FITTYP values mfid evaluates (MF 6.1 and MF 6.2).
 SUPPORTED_FITTYPS = (61, 62)
 
-_INCH = 0.0254
-#: SI value of one unit, per [UNITS] key (strings compared in lower case).
-UNIT_SCALES: dict[str, dict[str, float]] = {
-    "LENGTH": {"meter": 1.0, "meters": 1.0, "metre": 1.0, "metres": 1.0, "m": 1.0,
-               "mm": 1e-3, "millimeter": 1e-3, "millimeters": 1e-3, "millimetre": 1e-3,
-               "millimetres": 1e-3, "cm": 1e-2, "centimeter": 1e-2, "centimeters": 1e-2,
-               "centimetre": 1e-2, "km": 1e3, "inch": _INCH, "inches": _INCH, "in": _INCH,
-               "ft": 12 * _INCH, "foot": 12 * _INCH, "feet": 12 * _INCH},
-    "FORCE": {"newton": 1.0, "newtons": 1.0, "n": 1.0, "kn": 1e3, "kilonewton": 1e3,
-              "kilonewtons": 1e3, "lbf": 4.4482216152605, "pound_force": 4.4482216152605,
-              "kgf": 9.80665},
-    "ANGLE": {"radian": 1.0, "radians": 1.0, "rad": 1.0, "deg": math.pi / 180,
-              "degree": math.pi / 180, "degrees": math.pi / 180},
-    "MASS": {"kg": 1.0, "kilogram": 1.0, "kilograms": 1.0, "g": 1e-3, "gram": 1e-3,
-             "grams": 1e-3, "tonne": 1e3, "tonnes": 1e3, "lbm": 0.45359237},
-    "TIME": {"second": 1.0, "seconds": 1.0, "sec": 1.0, "s": 1.0, "millisecond": 1e-3,
-             "milliseconds": 1e-3, "ms": 1e-3, "minute": 60.0, "minutes": 60.0, "min": 60.0,
-             "hour": 3600.0, "hours": 3600.0, "h": 3600.0},
-    "PRESSURE": {"pa": 1.0, "pascal": 1.0, "kpa": 1e3, "mpa": 1e6, "bar": 1e5,
-                 "psi": 6894.757293168361},
-}
+#: The [UNITS] keys of a .tir and the dimension of each (identify.core.units).
+UNIT_KEYS: dict[str, str] = {"LENGTH": "length", "FORCE": "force", "ANGLE": "angle",
+                             "MASS": "mass", "TIME": "time", "PRESSURE": "pressure"}
 _UNIT_SYMBOL = {"LENGTH": "L", "FORCE": "F", "ANGLE": "A", "MASS": "M", "TIME": "T",
                 "PRESSURE": "P"}
 _SI_NAME = {"LENGTH": "meter", "FORCE": "newton", "ANGLE": "radians", "MASS": "kg",
@@ -193,9 +176,17 @@ def _fmt_fittyp(value: float) -> str:
     return str(int(value)) if value.is_integer() else repr(value)
 
 
+def _unit_scale(key: str, unit: str) -> float | None:
+    """SI value of one ``unit`` given for the [UNITS] ``key``, None when unknown."""
+    try:
+        return unit_factor(unit, UNIT_KEYS[key])
+    except KeyError:
+        return None
+
+
 def _classify(section: str, key: str) -> tuple[str, str]:
     """Return (kind, name): kind is 'unit', 'known' or 'unknown'."""
-    if section == "UNITS" and key in UNIT_SCALES:
+    if section == "UNITS" and key in UNIT_KEYS:
         return "unit", key
     if key == "MASS":
         return "known", "MASS1"
@@ -276,7 +267,7 @@ def read_tir(path: str | Path) -> TirFile:
             continue  # an empty known value is missing: the default applies
         if what == "unit":
             unit, _ = _unquote(path, lineno, name, raw)
-            if unit.strip().lower() not in UNIT_SCALES[name] and unit.strip() != "default":
+            if unit.strip() != "default" and _unit_scale(name, unit) is None:
                 raise InputError(path, f"unknown unit '{unit}'", line=lineno, key=name)
             value: float | str = unit
         elif what == "known" and spec(name).is_string:
@@ -310,9 +301,8 @@ def read_tir(path: str | Path) -> TirFile:
 
 def _assemble(path: str, digest: str, entries: dict[str, _Entry],
               tables: dict[str, list[str]], warnings: list[str]) -> TirFile:
-    units = {k: str(entries[k].value) for k in UNIT_SCALES if k in entries}
-    scales = {_UNIT_SYMBOL[k]: UNIT_SCALES[k].get(u.strip().lower(), 1.0)
-              for k, u in units.items()}
+    units = {k: str(entries[k].value) for k in UNIT_KEYS if k in entries}
+    scales = {_UNIT_SYMBOL[k]: _unit_scale(k, u) or 1.0 for k, u in units.items()}
     if "PRESSURE" not in units:
         scales["P"] = scales.get("F", 1.0) / scales.get("L", 1.0) ** 2
     values: dict[str, float | str] = {}

@@ -13,9 +13,9 @@ import math
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
-from identify import __version__
+from identify.core.version import __version__
 from identify.model.parameters import PARAMETERS, SECTIONS, defaults, spec
-from identify.report.atomic import atomic_write_text
+from identify.io.atomic import atomic_write_text
 
 __all__ = ["write_tir", "format_tir", "format_value"]
 
@@ -156,7 +156,7 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
         Provenance lines for the ``!`` header (inputs, checksums, fit settings ...).
     unknown : mapping, optional
         Keys outside the table, ``"SECTION.KEY"`` -> value, written back in their sections
-        (see :attr:`identify.load.tir.TirFile.unknown`).
+        (see :attr:`identify.io.tir.TirFile.unknown`).
     tables : mapping, optional
         Raw lines of tabular sections (``[SHAPE]`` ...), written before ``[MFID_EXTENSIONS]``.
 
