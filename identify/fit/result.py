@@ -90,11 +90,16 @@ class FitResult:
     wls : float                             sum of squared weighted residuals
     n_points : int
     converged : bool
-    message : str
+    message : str                           the best start's solver message
     n_starts, starts_at_best : int          multi-start global search statistics
     correlations : Mapping[str, float]      "a|b" -> correlation of the estimates
     predicted, measured, pressure_bar : ndarray  per point (kept for CSVs and reports)
+    seconds : float                         wall time of the fit [s]
     mcmc : MCMCSummary or None
+    nfev : int                              model evaluations of the whole search (every start,
+                                            Jacobians included), as scipy's OptimizeResult counts
+    status : int                            the best start's solver status (scipy's codes:
+                                            > 0 converged, 0 budget exhausted, < 0 failed)
     """
 
     relation: str
@@ -120,6 +125,8 @@ class FitResult:
     pressure_bar: np.ndarray = field(repr=False, compare=False)
     seconds: float = 0.0
     mcmc: MCMCSummary | None = None
+    nfev: int = 0
+    status: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict in the fit.json schema."""
@@ -138,7 +145,7 @@ class FitResult:
             "message": self.message, "n_starts": self.n_starts,
             "starts_at_best": self.starts_at_best,
             "correlations": {k: _num(v) for k, v in self.correlations.items()},
-            "seconds": self.seconds,
+            "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         }
 
