@@ -1,13 +1,22 @@
-"""Trailer channel files (CSV, HDF5, TYDEX) -> tidy tables in SI units and ISO-W axes.
+"""Trailer channel files (CSV, HDF5, TYDEX, TTC .mat/.dat) -> tidy tables in SI and ISO-W.
 
 Channels carry TYDEX names (docs/contracts-issue3.md): RUNTIME, LONGVEL, WHROTSPD, SLIPANGL,
-LONGSLIP, INCLANGL, INFLPRES, FX, FYW, FZW, MXW, MZW, optionally MYW and RLOADED (loaded radius,
-needed for TYDEX-C data unless the run declares ``loaded_radius_m``). Wheel-centre channels may
-be named FXC .. MZC. Units come from the manifest, else from the file (CSV header
-``NAME [unit]``, HDF5 ``units`` attribute, TYDEX unit column), else SI.
+LONGSLIP, INCLANGL, INFLPRES, FX, FYW, FZW, MXW, MZW, optionally MYW, RLOADED (loaded radius,
+needed for TYDEX-C data unless the run declares ``loaded_radius_m``), REFFECT (effective
+rolling radius) and the temperatures TTREADI, TTREADC, TTREADO (tread inner, centre, outer),
+TROAD and TAMBIENT. Wheel-centre channels may be named FXC .. MZC. A file with the Tire Test
+Consortium's names (ET, V, N, SA, IA, SL, P, FX .. MZ, RL, RE, TSTC ...; identify.io.ttc) is
+read with those names; its default axes are SAE. Units come from the manifest, else from the
+file (CSV header ``NAME [unit]``, HDF5 ``units`` attribute, TYDEX unit column, TTC channel
+list), else SI (a TTC channel without a unit is a problem).
 
 The format is detected from the content: ``**HEADER`` -> TYDEX, the HDF5 signature -> HDF5,
-anything else -> CSV. :func:`read_trailer` works without a manifest for quick use.
+a MATLAB header -> TTC .mat, a ``.dat`` file (or TTC names on line 2) -> TTC .dat, anything
+else -> CSV. :func:`read_trailer` works without a manifest for quick use.
+
+Real-data quirks (repeated time stamps, dropouts, spikes, NaN stretches, implausible channels)
+are cleaned by :func:`identify.io.quirks.clean_run` after the unit and axis conversion and
+reported as :class:`~identify.io.quirks.DataWarning` records (``warnings=`` list).
 """
 from __future__ import annotations
 
@@ -21,15 +30,17 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.io.axes import AXES, to_iso_w
-from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
+from identify.io.common import Problems, check_declared, read_numeric_csv
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5, write_hdf5
+from identify.io.quirks import DataWarning, clean_run
+from identify.io.ttc import TTC_TO_TYDEX, is_ttc_dat, is_ttc_mat, is_ttc_naming, read_ttc
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex
 from identify.io.tydex import write_tydex
 from identify.core.units import SI_UNITS, UNITS, normalize_unit, same_unit, to_si, unit_problem
 from identify.io.atomic import atomic_write_text
 
-__all__ = ["CHANNELS", "ALIASES", "TRAILER_COLUMNS", "Channels", "read_channels",
-           "channels_to_tidy", "read_trailer", "write_channels"]
+__all__ = ["CHANNELS", "ALIASES", "TRAILER_COLUMNS", "OPTIONAL_COLUMNS", "Channels",
+           "read_channels", "channels_to_tidy", "read_trailer", "write_channels"]
 
 #: TYDEX name -> (tidy column, dimension, long name, required).
 CHANNELS: dict[str, tuple[str, str, str, bool]] = {
@@ -47,6 +58,12 @@ CHANNELS: dict[str, tuple[str, str, str, bool]] = {
     "MYW": ("My", "moment", "rolling resistance moment", False),
     "MZW": ("Mz", "moment", "self-aligning moment", True),
     "RLOADED": ("rl", "length", "loaded radius", False),
+    "REFFECT": ("re", "length", "effective rolling radius", False),
+    "TTREADI": ("T_tread_in", "temperature", "tread temperature inner", False),
+    "TTREADC": ("T_tread_centre", "temperature", "tread temperature centre", False),
+    "TTREADO": ("T_tread_out", "temperature", "tread temperature outer", False),
+    "TROAD": ("T_road", "temperature", "road surface temperature", False),
+    "TAMBIENT": ("T_ambient", "temperature", "ambient temperature", False),
 }
 #: Other names of the same channels (C-axis names for TYDEX-C files).
 ALIASES: dict[str, tuple[str, ...]] = {
@@ -57,9 +74,14 @@ _CANONICAL = {alias: name for name, aliases in ALIASES.items() for alias in alia
 #: Columns of the tidy trailer table.
 TRAILER_COLUMNS = ("run", "t", "Vx", "omega", "alpha", "kappa", "gamma", "p",
                    "Fx", "Fy", "Fz", "Mx", "My", "Mz")
+#: Columns appended to the tidy table when the file has the channel: radii [m], temperatures [K].
+OPTIONAL_COLUMNS = ("rl", "re", "T_tread_in", "T_tread_centre", "T_tread_out", "T_road",
+                    "T_ambient")
 
 
-def _canonical(name: str) -> str | None:
+def _canonical(name: str, ttc: bool = False) -> str | None:
+    if ttc:
+        return TTC_TO_TYDEX.get(name)
     return name if name in CHANNELS else _CANONICAL.get(name)
 
 
@@ -68,7 +90,9 @@ class Channels:
     """The channels of one run [SI where the unit is known], before the axis conversion.
 
     ``first_line`` is the line of the first sample in a text file (None for HDF5); ``axes`` is
-    the axis system the file itself declares (HDF5 group attribute ``axes``), if any.
+    the axis system the file itself declares (HDF5 group attribute ``axes``; SAE for TTC
+    files), if any; ``attrs`` holds what else the file says about itself (a TTC file's
+    ``source``, ``testid``, ``tireid``; its ``format``).
     """
 
     run: str
@@ -78,16 +102,22 @@ class Channels:
     long_names: Mapping[str, str] = field(default_factory=dict)
     first_line: int | None = None
     axes: str | None = None
+    attrs: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("data", "units", "long_names"):
+        for name in ("data", "units", "long_names", "attrs"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
+
+    @property
+    def ttc(self) -> bool:
+        """True when the channels have the Tire Test Consortium's names (ET, FZ, ...)."""
+        return is_ttc_naming(self.data)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-safe summary (channel names, units, number of samples)."""
         n = len(next(iter(self.data.values()))) if self.data else 0
         return {"run": self.run, "file": self.file, "axes": self.axes, "samples": n,
-                "units": dict(self.units)}
+                "units": dict(self.units), "attrs": dict(self.attrs)}
 
 
 def read_channels(path: str | Path, *, run: str | None = None,
@@ -115,15 +145,19 @@ def read_channels(path: str | Path, *, run: str | None = None,
         problems.add(path, "is a directory, expected a file" if path.is_dir() else "file not found")
         return None
     if is_tydex(path):
-        tdx = read_tydex(path, problems)
+        tdx = read_tydex(path, problems, allow_nan=True)
         measid = next((e.value for e in tdx.header if e.key == "MEASID"), "") if tdx else ""
         raws = None if tdx is None else [(_from_tydex(tdx, run or measid or path.stem),
                                           tdx.data_line)]
     elif is_hdf5(path):
-        found = read_hdf5(path, problems, run=run)
+        found = read_hdf5(path, problems, run=run, allow_nan=True)
         raws = None if found is None else [(raw, None) for raw in found]
+    elif is_ttc_mat(path) or is_ttc_dat(path):
+        raw = read_ttc(path, problems, run=run)
+        raws = None if raw is None else [(raw, 4 if raw.attrs.get("format") == "ttc-dat"
+                                          else None)]
     else:
-        table = read_numeric_csv(path, problems)
+        table = read_numeric_csv(path, problems, allow_nan=True)
         raws = None if table is None else [(RawRun(run or path.stem, {
             k: table[0][k].to_numpy() for k in table[0].columns}, table[1]), 2)]
     if raws is None:
@@ -149,14 +183,15 @@ def _from_tydex(tdx: TydexFile, run: str) -> RawRun:
 
 def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, str],
            problems: Problems) -> Channels:
-    known = set(raw.data) | {_canonical(n) for n in raw.data}
+    ttc = is_ttc_naming(raw.data)
+    known = set(raw.data) | {_canonical(n, ttc) for n in raw.data}
     for key in manifest:
         if key not in known:
             problems.add(path, "the manifest gives a unit for a channel that is not in the file",
                          key=key)
     data, units = {}, {}
     for name, values in raw.data.items():
-        canon = _canonical(name)
+        canon = _canonical(name, ttc)
         dim = CHANNELS[canon][1] if canon else None
         declared = manifest.get(name) or (manifest.get(canon) if canon else None)
         in_file = raw.units.get(name) or None
@@ -164,6 +199,10 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
             problems.add(path, f"unit conflict: the manifest says '{declared}', the file says "
                                f"'{in_file}'", key=name)
         unit = declared or in_file
+        if unit is None and dim and str(raw.attrs.get("format", "")).startswith("ttc"):
+            problems.add(path, "no unit for this channel in the file (give it with --units)",
+                         key=name)
+            continue
         if unit is None:
             data[name], units[name] = values, SI_UNITS[dim] if dim else ""
             continue
@@ -176,16 +215,19 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
             continue
         data[name] = to_si(values, unit, dimension=dim)
         units[name] = SI_UNITS[UNITS[normalize_unit(unit)][2]]
-    long_names = {n: raw.long_names.get(n) or (CHANNELS[_canonical(n)][2] if _canonical(n)
-                                               else n) for n in data}
+    long_names = {n: raw.long_names.get(n) or (CHANNELS[_canonical(n, ttc)][2]
+                                               if _canonical(n, ttc) else n) for n in data}
     return Channels(raw.name, data, units, str(path), long_names, first_line,
-                    raw.attrs.get("axes") or None)
+                    raw.attrs.get("axes") or None,
+                    {k: str(v) for k, v in raw.attrs.items() if k != "axes"})
 
 
 def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                      conditions: Mapping[str, float] | None = None,
-                     problems: Problems | None = None) -> pd.DataFrame | None:
-    """The tidy table (:data:`TRAILER_COLUMNS`, SI, ISO-W) of one run.
+                     problems: Problems | None = None,
+                     warnings: list[DataWarning] | None = None) -> pd.DataFrame | None:
+    """The tidy table (:data:`TRAILER_COLUMNS` + present :data:`OPTIONAL_COLUMNS`, SI, ISO-W)
+    of one run, with its quirks cleaned (:func:`identify.io.quirks.clean_run`).
 
     Parameters
     ----------
@@ -193,19 +235,22 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         The run's channels in SI.
     axes : {"ISO-W", "SAE", "TYDEX-C"}, optional
         The data's axis system; default: what the file declares, else TYDEX-C when C-axis
-        channels (FYC ...) are present, else ISO-W.
+        channels (FYC ...) are present, else SAE for TTC channel names, else ISO-W.
     conditions : mapping, optional
         Declared ``pressure_Pa`` and ``load_N`` (medians further than 15 % are problems) and
         ``loaded_radius_m`` (for TYDEX-C without an RLOADED channel).
     problems : Problems, optional
         Collector; strict by default.
+    warnings : list, optional
+        Receives a :class:`~identify.io.quirks.DataWarning` per quirk found and cleaned.
     """
     problems = problems if problems is not None else Problems(strict=True)
     conditions = conditions or {}
     start = problems.total
-    c_names = sorted(n for n in ch.data if n in _C_NAMES)
+    ttc = ch.ttc
+    c_names = sorted(n for n in ch.data if n in _C_NAMES and not ttc)
     if axes is None:
-        axes = ch.axes or ("TYDEX-C" if c_names else "ISO-W")
+        axes = ch.axes or ("TYDEX-C" if c_names else "SAE" if ttc else "ISO-W")
     elif ch.axes and ch.axes != axes:
         problems.add(ch.file, f"the file declares axes '{ch.axes}', the manifest '{axes}'",
                      key=ch.run)
@@ -216,18 +261,26 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if c_names and axes != "TYDEX-C":
         problems.add(ch.file, f"a wheel-centre (C-axis) channel, but the run's axes are "
                               f"'{axes}' (use TYDEX-C)", key=c_names[0])
+    by_canon: dict[str, list[str]] = {}
+    for name in ch.data:
+        canon = _canonical(name, ttc)
+        if canon:
+            by_canon.setdefault(canon, []).append(name)
+    file_names = {canon: canon for canon in CHANNELS}  # tidy column -> name in the file
+    if ttc:
+        file_names.update({v: k for k, v in TTC_TO_TYDEX.items()})
     cols: dict[str, np.ndarray] = {}
+    names: dict[str, str] = {}
     for canon, (col, _, _, required) in CHANNELS.items():
-        names = sorted((canon,) + ALIASES.get(canon, ()),
+        found = sorted(by_canon.get(canon, []),
                        key=lambda n: (n not in _C_NAMES) if axes == "TYDEX-C" else 0)
-        found = next((n for n in names if n in ch.data), None)
-        if found is not None:
-            cols[col] = ch.data[found]
+        if found:
+            cols[col], names[col] = ch.data[found[0]], found[0]
         elif required or (axes == "TYDEX-C" and canon == "MYW"):
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
-                if canon == "MYW" else ""), key=canon)
-    rl = cols.pop("rl", None)
+                if canon == "MYW" else ""), key=file_names[canon])
+    rl = cols.get("rl")
     if axes == "TYDEX-C":
         rl = rl if rl is not None else conditions.get("loaded_radius_m")
         if rl is None:
@@ -235,31 +288,46 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                                   "or conditions.loaded_radius_m", key="RLOADED")
     if problems.total > start:
         return None
-    check_increasing(problems, ch.file, "RUNTIME", cols["t"], ch.first_line)
     n = cols["t"].size
-    frame = pd.DataFrame({c: cols.get(c, np.full(n, np.nan)) for c in TRAILER_COLUMNS[1:]},
-                         copy=False)  # no 2-D consolidation: one block per channel is faster
+    extra = [c for c in OPTIONAL_COLUMNS if c in cols]
+    frame = pd.DataFrame({c: cols.get(c, np.full(n, np.nan)) for c in TRAILER_COLUMNS[1:]
+                          + tuple(extra)}, copy=False)  # one block per channel is faster
     frame.insert(0, "run", ch.run)
     frame = to_iso_w(frame, axes, loaded_radius=rl)
-    check_declared(problems, ch.file, "INFLPRES", frame["p"].to_numpy(),
+    cleaned = clean_run(frame, file=ch.file, run=ch.run, names=names,
+                        first_line=ch.first_line)
+    if warnings is not None:
+        warnings.extend(cleaned.warnings)
+    for col, message, row in cleaned.errors:
+        where = ({"line": ch.first_line + row} if ch.first_line is not None and row is not None
+                 else {})
+        problems.add(ch.file, message, key=names.get(col, col), **where)
+    if cleaned.frame is None:
+        return None
+    frame = cleaned.frame
+    check_declared(problems, ch.file, names.get("p", "INFLPRES"), frame["p"].to_numpy(),
                    conditions.get("pressure_Pa"), "pressure", "Pa")
     fz = frame["Fz"].to_numpy()
-    check_declared(problems, ch.file, "FZW", fz, conditions.get("load_N"), "load Fz", "N")
+    check_declared(problems, ch.file, names.get("Fz", "FZW"), fz, conditions.get("load_N"),
+                   "load Fz", "N")
     if "load_N" not in conditions and np.median(fz) < 0:
         problems.add(ch.file, f"median Fz is negative ({np.median(fz):.6g} N): in ISO-W Fz is "
-                              "positive up (are the axes right?)", key="FZW")
+                              "positive up (are the axes right?)", key=names.get("Fz", "FZW"))
     return frame if problems.total == start else None
 
 
 def read_trailer(path: str | Path, *, run: str | None = None, axes: str | None = None,
                  units: Mapping[str, str] | None = None,
-                 conditions: Mapping[str, float] | None = None) -> pd.DataFrame:
+                 conditions: Mapping[str, float] | None = None,
+                 warnings: list[DataWarning] | None = None) -> pd.DataFrame:
     """Read a trailer file into one tidy table (all its runs), raising on the first problem.
 
-    See :func:`read_channels` and :func:`channels_to_tidy` for the arguments.
+    See :func:`read_channels` and :func:`channels_to_tidy` for the arguments; the warnings of
+    the cleaning go to ``warnings`` when given.
     """
     runs = read_channels(path, run=run, units=units)
-    frames = [channels_to_tidy(ch, axes=axes, conditions=conditions) for ch in runs]
+    frames = [channels_to_tidy(ch, axes=axes, conditions=conditions, warnings=warnings)
+              for ch in runs]
     return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=True)
 
 
