@@ -51,6 +51,7 @@ __all__ = [
     "DataWarning",
     "clean_run",
     "runs_of",
+    "unused_slip_warning",
 ]
 
 #: Fraction of out-of-order time stamps above which the time channel is an error.
@@ -201,13 +202,14 @@ def _time(frame: pd.DataFrame, report: _Report, errors: list) -> pd.DataFrame:
             return frame
         repeated = int((t[bad] == before[bad]).sum())
         report.add("time-order", ["t"], n, f"{repeated} repeated and {n - repeated} earlier "
-                   f"time stamp(s), first at sample {int(frame.index[i])}: {t[i]!r} after "
-                   f"{before[i]!r}", "samples dropped", int(frame.index[i]))
+                   f"time stamp(s), first at sample {int(frame.index[i])}: {float(t[i])!r} "
+                   f"after {float(before[i])!r}", "samples dropped", int(frame.index[i]))
         frame, t = frame[~bad], t[~bad]
     if t.size > 2:
         dt = np.diff(t)
         step = float(np.median(dt))
-        gaps = dt > 1.5 * step
+        # a step over a dropped time stamp is that sample's, not a gap in the logging
+        gaps = (dt > 1.5 * step) & (np.diff(frame.index.to_numpy()) == 1)
         if gaps.any():
             missing = float(np.sum(dt[gaps]) - step * gaps.sum())
             report.add("time-gap", ["t"], int(gaps.sum()),
@@ -357,6 +359,19 @@ def _spikes(frame: pd.DataFrame, cols: list[str], report: _Report) -> None:
         report.add("spike", list(counts), sum(counts.values()),
                    f"isolated spike(s) (Hampel filter, 7 samples, {SPIKE_SIGMAS:g} sigma): "
                    f"{_per_channel(report, counts)} samples", "set NaN", first)
+
+
+def unused_slip_warning(values: np.ndarray, *, file: str, run: str, channel: str,
+                        first_line: int | None = None) -> DataWarning | None:
+    """A warning when a slip-ratio channel the loader does not use (a TTC file's SR, based on
+    the loaded radius) is pinned at +-1 in more than half of its samples, else None."""
+    x = np.asarray(values, dtype=float)
+    pinned = np.abs(x) >= 0.999
+    if pinned.sum() <= 0.5 * x.size:
+        return None
+    return DataWarning(file, run, "implausible", (channel,), int(pinned.sum()), x.size,
+                       f"slip ratio pinned at {np.median(x[pinned]):+.3g} (not used: kappa "
+                       "comes from SL)", "channel dropped")
 
 
 def clean_run(frame: pd.DataFrame, *, file: str, run: str,

@@ -32,7 +32,7 @@ from identify.core.errors import InputError
 from identify.io.axes import AXES, to_iso_w
 from identify.io.common import Problems, check_declared, read_numeric_csv
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5, write_hdf5
-from identify.io.quirks import DataWarning, clean_run
+from identify.io.quirks import DataWarning, clean_run, unused_slip_warning
 from identify.io.ttc import TTC_TO_TYDEX, is_ttc_dat, is_ttc_mat, is_ttc_naming, read_ttc
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, is_tydex, read_tydex
 from identify.io.tydex import write_tydex
@@ -111,7 +111,7 @@ class Channels:
     @property
     def ttc(self) -> bool:
         """True when the channels have the Tire Test Consortium's names (ET, FZ, ...)."""
-        return is_ttc_naming(self.data)
+        return str(self.attrs.get("format", "")).startswith("ttc") or is_ttc_naming(self.data)
 
     def to_dict(self) -> dict[str, Any]:
         """A JSON-safe summary (channel names, units, number of samples)."""
@@ -183,7 +183,7 @@ def _from_tydex(tdx: TydexFile, run: str) -> RawRun:
 
 def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, str],
            problems: Problems) -> Channels:
-    ttc = is_ttc_naming(raw.data)
+    ttc = str(raw.attrs.get("format", "")).startswith("ttc") or is_ttc_naming(raw.data)
     known = set(raw.data) | {_canonical(n, ttc) for n in raw.data}
     for key in manifest:
         if key not in known:
@@ -298,6 +298,9 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                         first_line=ch.first_line)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
+        sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
+            if ttc and "SR" in ch.data else None
+        warnings.extend([sr] if sr else [])
     for col, message, row in cleaned.errors:
         where = ({"line": ch.first_line + row} if ch.first_line is not None and row is not None
                  else {})

@@ -93,9 +93,9 @@ TTC_TO_TYDEX: dict[str, str] = {k: c.tydex for k, c in TTC_CHANNELS.items() if c
 
 
 def is_ttc_naming(names) -> bool:
-    """True when channel names are TTC's (``ET`` and ``FZ``, no ``RUNTIME``)."""
+    """True when channel names are TTC's (``ET`` and two more TTC names, no ``RUNTIME``)."""
     names = set(names)
-    return {"ET", "FZ"} <= names and "RUNTIME" not in names
+    return "ET" in names and "RUNTIME" not in names and len(names & TTC_CHANNELS.keys()) >= 3
 
 
 def is_ttc_mat(path: str | Path) -> bool:
