@@ -21,6 +21,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import scipy.io
 
 from identify.core.errors import InputError
@@ -39,7 +40,7 @@ __all__ = ["RUNS", "TESTID", "TtcSession", "simulate_ttc"]
 TESTID = "SIM1"
 #: (run number, test) of the two runs of a session.
 RUNS = ((4, "cornering"), (7, "drive_brake"))
-#: Significant decimals of each .dat column (as TTC writes a fixed number of decimals).
+#: Decimals of each .dat column (a TTC .dat has a fixed resolution per channel).
 _DECIMALS = {"ET": 2, "V": 3, "N": 3, "SA": 4, "IA": 4, "RL": 4, "RE": 4, "P": 3, "FX": 2,
              "FY": 2, "FZ": 2, "MX": 3, "MZ": 3, "NFX": 5, "NFY": 5, "RST": 2, "TSTI": 2,
              "TSTC": 2, "TSTO": 2, "AMBTMP": 2, "SR": 5, "SL": 5, "RUN": 0}
@@ -61,7 +62,7 @@ def _write_mat(path: Path, ch: Mapping[str, np.ndarray], units: Mapping[str, str
     content["channel"] = {"name": np.array(names, dtype=object),
                           "units": np.array([units[n] for n in names], dtype=object)}
     content.update(strings)
-    scipy.io.savemat(path, content, format="5", do_compression=True, oned_as="column")
+    scipy.io.savemat(path, content, format="5", oned_as="column")
     # the header holds a creation time: write a fixed one so equal seeds give equal files
     with open(path, "r+b") as fh:
         fh.write(b"MATLAB 5.0 MAT-file, Platform: mfid, Created on: simulated".ljust(116))
@@ -70,12 +71,13 @@ def _write_mat(path: Path, ch: Mapping[str, np.ndarray], units: Mapping[str, str
 def _write_dat(path: Path, title: str, ch: Mapping[str, np.ndarray],
                units: Mapping[str, str]) -> None:
     names = list(ch)
-    data = np.column_stack([ch[n] for n in names])
-    fmt = "\t".join(f"%.{_DECIMALS.get(n, 6)}f" for n in names)
+    table = pd.DataFrame({n: np.round(ch[n], _DECIMALS.get(n, 6)) for n in names})
+    table["RUN"] = table["RUN"].astype(np.int64)
     with open(path, "w", encoding="utf-8", newline="\n") as fh:
         fh.write(f"{title}\n" + "\t".join(names) + "\n" + "\t".join(units[n] for n in names)
                  + "\n")
-        np.savetxt(fh, data, fmt=fmt, delimiter="\t")
+        table.to_csv(fh, sep="\t", header=False, index=False, na_rep="NaN",
+                     lineterminator="\n")
 
 
 def _segments(prog, et: np.ndarray) -> list[dict]:

@@ -4,8 +4,8 @@ A TTC session on a flat-belt machine has a cornering run and a drive/brake run, 
 pressure blocks (:data:`PRESSURE_FACTORS` of NOMPRES, the nominal pressure first, as the TTC
 runs 12, 10, 14 psi). A block starts with the belt speeding up (first block) or with the tyre
 lifted while the pressure is changed (the tread cools), then a warm-up (the slip angle
-oscillating at a load that is not a set point; short in the last block, so that its first
-sweep starts on a cold tread), then per camber step the load steps, each with a continuous
+oscillating at a load that is not a set point; a mere second in the last block, so that its
+first sweep starts on a cold tread), then per camber step the load steps, each with a continuous
 sweep between a ramp (transition) and a short settle at zero slip:
 
 - cornering: camber 0, 2, 4 deg, loads :data:`LOAD_FACTORS` of FNOMIN in TTC's shuffled order,
@@ -145,7 +145,7 @@ def _block_start(prog: Programme, plan: SessionPlan, b: int, p_set: float,
         prog.add("pressure_change", 10.0 * j, p=(prog.state["p"], p_set), set_pressure=True)
         prog.add("pressure_change", 2.0 * j)
         prog.add("pressure_change", 2.0 * j, fz=(plan.lifted_load_N, plan.warmup_load_N))
-    seconds = 40.0 if b == 0 else rng.uniform(1.5, 3.0) if last else rng.uniform(12.0, 25.0)
+    seconds = 40.0 if b == 0 else rng.uniform(0.5, 1.0) if last else rng.uniform(12.0, 25.0)
     t = np.arange(samples(seconds)) / RATE
     prog.add("warmup", seconds, alpha=4.0 * np.sin(2 * np.pi * 0.4 * t))
 

@@ -7,7 +7,7 @@ file's units and SAE axes:
   wheel's eccentricity adds a once-per-revolution load ripple (0.8 % of Fz);
 - temperatures: the tread centre follows a first-order lag (10 s) towards a target per segment
   kind (70 degC in the warm-up, 55 degC rolling, ambient while the tyre is lifted); the
-  inflation gas follows the tread at 30 % of its rise with a 60 s lag, and the pressure, set
+  inflation gas follows the tread at 20 % of its rise with a 60 s lag, and the pressure, set
   cold at the end of each pressure change, rises with the gas temperature (ideal gas,
   constant volume: a few kPa);
 - the Magic Formula (identify.model through :class:`~identify.simulate.model.TyreModel`) at
@@ -58,7 +58,7 @@ def actual_conditions(prog: Programme, rng: np.random.Generator) -> dict[str, np
     kinds = {code: name for name, code in KIND_CODES.items()}
     target = np.array([_TARGET_C[kinds[c]] for c in range(len(kinds))])[sp["kind"]]
     t_centre = _lag(target, 10.0, AMBIENT_C)
-    t_gas = AMBIENT_C + 0.3 * (_lag(t_centre, 60.0, AMBIENT_C) - AMBIENT_C)
+    t_gas = AMBIENT_C + 0.2 * (_lag(t_centre, 60.0, AMBIENT_C) - AMBIENT_C)
     # the pressure is set (cold) where a segment says so: scale by the gas temperature since
     ref = np.zeros(n, dtype=int)
     for seg in prog.segments:
@@ -86,13 +86,12 @@ def ttc_channels(model: TyreModel, act: dict[str, np.ndarray], run_number: int, 
     carry it as a real wheel's would.
     """
     vx = act["vx"]
-    r0 = model.r0
-    # wheel angle from the free-rolling speed: phase of the once-per-revolution ripple
-    theta = np.cumsum(np.maximum(vx, 0.0) / (r0 * 0.97)) / RATE
-    fz = act["fz"] * (1.0 + 0.008 * np.sin(theta + 0.7))
-    fz = np.maximum(fz, 1.0)
-    out = model.mf(fz, act["p"] / 1e5, alpha=act["alpha"], gamma=act["gamma"],
-                   kappa=act["kappa"], vx=np.maximum(vx, 0.05), mode=TRAILER_MODE)
+    args = {"alpha": act["alpha"], "gamma": act["gamma"], "kappa": act["kappa"],
+            "vx": np.maximum(vx, 0.05), "mode": TRAILER_MODE}
+    # the wheel's angle (from its speed without the ripple) gives the ripple's phase
+    theta = np.cumsum(model.mf(np.maximum(act["fz"], 1.0), act["p"] / 1e5, **args)["omega"])
+    fz = np.maximum(act["fz"] * (1.0 + 0.008 * np.sin(theta / RATE + 0.7)), 1.0)
+    out = model.mf(fz, act["p"] / 1e5, **args)
     omega = out["omega"]
     rl = out["Rl"] if "Rl" in out and np.isfinite(out["Rl"]).all() else \
         model.loaded_radius(fz, act["p"] / 1e5)
