@@ -13,7 +13,7 @@ from identify.core.errors import InputError
 from identify.io.trailer import OPTIONAL_COLUMNS, TRAILER_COLUMNS, read_trailer
 from identify.io.ttc import TTC_CHANNELS
 from identify.model.evaluate import evaluate
-from tests.ttc_cases import session
+from tests.ttc_cases import UNUSABLE, session
 
 
 @pytest.fixture(scope="module")
@@ -139,48 +139,8 @@ def test_implausible_channels_are_dropped_with_the_reason(tmp_path):
 
 # ------------------------------------------------------------------ unusable files
 
-def _mat(path, drop=(), units=None, struct=True):
-    n = 200
-    t = np.arange(n) / 100.0
-    ch = {"ET": t, "V": np.full(n, 40.0), "N": np.full(n, 340.0), "SA": np.sin(t),
-          "IA": np.zeros(n), "P": np.full(n, 83.0), "FX": np.zeros(n) + 5, "FY": 500 * np.sin(t),
-          "FZ": np.full(n, -1000.0), "MX": np.ones(n), "MZ": np.ones(n), "SL": np.zeros(n)}
-    ch = {k: v for k, v in ch.items() if k not in drop}
-    names = list(ch)
-    content = {k: v.reshape(-1, 1) for k, v in ch.items()}
-    if struct:
-        u = {k: TTC_CHANNELS[k].si_unit for k in names} | dict(units or {})
-        content["channel"] = {"name": np.array(names, dtype=object),
-                              "units": np.array([u[k] for k in names], dtype=object)}
-    scipy.io.savemat(path, content, format="5")
-    return path
-
-
-def _truncated(path):
-    data = _mat(path).read_bytes()
-    path.write_bytes(data[: len(data) // 2])
-    return path
-
-
-def _short_header(path):
-    path.write_text("ET\tFZ\ns\tN\n0.0\t-1000\n0.01\t-1000\n")
-    return path
-
-
-@pytest.mark.parametrize("make,expected", [
-    (lambda p: _mat(p, drop=("FZ",)), "{p}: FZ: missing required channel"),
-    (lambda p: _mat(p, units={"FY": "furlong"}), "{p}: FY: unknown unit 'furlong'"),
-    (lambda p: _mat(p, units={"P": "N"}),
-     "{p}: P: unit 'N' is a force unit, expected a pressure unit such as 'Pa'"),
-    (lambda p: _mat(p, struct=False),
-     "{p}: channel: no 'channel' struct with the channel units (name, units)"),
-    (_truncated, "{p}: truncated or corrupt .mat file (scipy.io: ..."),
-    (lambda p: _short_header(p.with_suffix(".dat")),
-     "{p}:3: short header: a TTC .dat file has a title line, a line of channel names and a "
-     "line of units before the data (found line 3 holds numbers)"),
-], ids=["no-FZ", "unknown-unit", "wrong-dimension", "no-channel-struct", "truncated-mat",
-        "dat-short-header"])
-def test_unusable_file_is_one_line_naming_file_and_channel(tmp_path, make, expected):
+@pytest.mark.parametrize("name,make,expected", UNUSABLE, ids=[c[0] for c in UNUSABLE])
+def test_unusable_file_is_one_line_naming_file_and_channel(tmp_path, name, make, expected):
     path = make(tmp_path / "B1run1.mat")
     with pytest.raises(InputError) as err:
         read_trailer(path)

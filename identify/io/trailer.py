@@ -92,7 +92,8 @@ class Channels:
     ``first_line`` is the line of the first sample in a text file (None for HDF5); ``axes`` is
     the axis system the file itself declares (HDF5 group attribute ``axes``; SAE for TTC
     files), if any; ``attrs`` holds what else the file says about itself (a TTC file's
-    ``source``, ``testid``, ``tireid``; its ``format``).
+    ``source``, ``testid``, ``tireid``; its ``format``); ``file_units`` the unit each channel
+    had before the conversion (from the manifest or the file; absent: none was given).
     """
 
     run: str
@@ -103,9 +104,10 @@ class Channels:
     first_line: int | None = None
     axes: str | None = None
     attrs: Mapping[str, str] = field(default_factory=dict)
+    file_units: Mapping[str, str] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        for name in ("data", "units", "long_names", "attrs"):
+        for name in ("data", "units", "long_names", "attrs", "file_units"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
 
     @property
@@ -189,7 +191,7 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
         if key not in known:
             problems.add(path, "the manifest gives a unit for a channel that is not in the file",
                          key=key)
-    data, units = {}, {}
+    data, units, given = {}, {}, {}
     for name, values in raw.data.items():
         canon = _canonical(name, ttc)
         dim = CHANNELS[canon][1] if canon else None
@@ -199,6 +201,8 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
             problems.add(path, f"unit conflict: the manifest says '{declared}', the file says "
                                f"'{in_file}'", key=name)
         unit = declared or in_file
+        if unit:
+            given[name] = unit
         if unit is None and dim and str(raw.attrs.get("format", "")).startswith("ttc"):
             problems.add(path, "no unit for this channel in the file (give it with --units)",
                          key=name)
@@ -219,7 +223,7 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
                                                if _canonical(n, ttc) else n) for n in data}
     return Channels(raw.name, data, units, str(path), long_names, first_line,
                     raw.attrs.get("axes") or None,
-                    {k: str(v) for k, v in raw.attrs.items() if k != "axes"})
+                    {k: str(v) for k, v in raw.attrs.items() if k != "axes"}, given)
 
 
 def channels_to_tidy(ch: Channels, *, axes: str | None = None,

@@ -40,8 +40,9 @@ __all__ = ["binning", "cold_tread", "low_speed", "revolution_average", "set_slip
 
 
 def _numeric(frame: pd.DataFrame) -> list[str]:
+    """The measured channels (not the labels: run, sweep, segment, the level values)."""
     return [c for c in frame.columns if c not in ("run", "sweep", "segment")
-            and pd.api.types.is_float_dtype(frame[c])]
+            and not c.endswith("_level") and pd.api.types.is_float_dtype(frame[c])]
 
 
 def revolution_average(frame: pd.DataFrame, s: SegmentSettings,
@@ -125,7 +126,7 @@ def binning(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, Filt
     unbinned = frame[frame["_bin"].isna()].drop(columns="_bin")
     binned = frame[frame["_bin"].notna()]
     cols = _numeric(unbinned)
-    first = [c for c in ("run", "sweep") if c in frame]
+    first = [c for c in unbinned.columns if c not in cols and c != "segment"]
     grouped = binned.groupby(["segment", "_bin"], sort=True)
     means = grouped[cols].mean()
     means[first] = grouped[first].first()
