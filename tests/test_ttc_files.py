@@ -3,6 +3,7 @@ every quirk reported with its count, implausible channels dropped, unusable file
 from __future__ import annotations
 
 import hashlib
+import json
 from collections import Counter
 
 import numpy as np
@@ -148,3 +149,27 @@ def test_unusable_file_is_one_line_naming_file_and_channel(tmp_path, name, make,
     message = str(err.value)
     assert message.startswith(text[:-3]) if text.endswith("...") else message == text
     assert "\n" not in message
+
+
+def test_simulate_command_writes_a_ttc_session(tmp_path):
+    from typer.testing import CliRunner
+
+    from identify.cli.app import app
+
+    runner = CliRunner()
+    out = tmp_path / "ttc"
+    result = runner.invoke(app, ["simulate", "--format", "ttc", "default", str(out), "--seed",
+                                 "4", "--units", "USCS", "--cornering-only", "--implausible",
+                                 "N,RE", "--implausible", "SR"])
+    assert result.exit_code == 0, result.stderr
+    assert result.stdout.startswith(f"wrote {out}: SIM1run4 (cornering, ")
+    assert sorted(p.name for p in out.iterdir()) == ["SIM1run4.dat", "SIM1run4.mat",
+                                                      "truth.json"]
+    truth = json.loads((out / "truth.json").read_text())
+    assert truth["units"] == "USCS" and truth["implausible"] == ["N", "RE", "SR"]
+    assert truth["tir"]["FNOMIN"] == 5000.0 and truth["seed"] == 4
+    bad = runner.invoke(app, ["simulate", "--format", "ttc", "default", str(tmp_path / "x"),
+                              "--implausible", "XX"])
+    assert bad.exit_code == 2
+    assert bad.stderr.strip() == ("error: --implausible: unknown implausible channel 'XX' "
+                                  "(one of N, RE, SR)")
