@@ -9,9 +9,10 @@ Each plateau is then classified by its slip channels, smoothed over 0.25 s and t
 0.1 s (so that noise does not add up): of the two (alpha, kappa) whose 1-99 % span reaches the
 minimum, the swept variable is the one that moves (faster than 1 deg/s, 0.015/s) for more of
 the time (a slip-ratio sweep after the tail of a warm-up wiggle, or before a slip-angle ramp,
-is a slip-ratio sweep); the total variation over the span says how often it was traversed. A sweep (0 -> +A -> -A -> 0: ratio 2) goes up to
-``warmup_ratio``; more is a warm-up (the slip angle oscillating); a span below the minimum, or
-below ``sweep_fraction`` of the run's largest, is ``steady`` or ``partial``.
+is a slip-ratio sweep); the total variation over the span says how often it was traversed. A
+sweep (0 -> +A -> -A -> 0: ratio 2) goes up to ``warmup_ratio``; more is a warm-up (the slip
+angle oscillating); a span below the minimum, or below ``sweep_fraction`` of the run's
+largest, is ``steady`` or ``partial``.
 """
 from __future__ import annotations
 
