@@ -14,9 +14,7 @@ import pytest
 
 from identify.io.tir import read_tir
 from identify.model.evaluate import SolverOptions, evaluate
-from tests.spec_data import GOLDEN_DIR, needs_spec
-
-pytestmark = [pytest.mark.spec, needs_spec]
+from tests.reference_data import GOLDEN_DIR
 
 # MFeval's 30 output columns (magic-formula.md 6.8) -> our names; None = not scored
 MFEVAL_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "kappa_out", "alpha_out", "gamma", "phit_out",

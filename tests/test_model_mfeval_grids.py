@@ -14,9 +14,7 @@ import pytest
 
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
-from tests.spec_data import MFEVAL_DIR, needs_spec
-
-pytestmark = [pytest.mark.spec, needs_spec]
+from tests.reference_data import MFEVAL_DIR
 
 TYRES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 GRIDS = ("pure_lat", "pure_long", "combined", "pure_lat_mode121")
