@@ -1,4 +1,4 @@
-"""Forward model vs MFeval 4.0 sweep grids on three public .tir files (spec data/mfeval).
+"""Forward model vs MFeval 4.0 sweep grids on three public .tir files (tests/data/reference/mfeval).
 
 MFeval evaluated every row in its own call, which is what our default solver options do
 (Re iterated per point). Tolerance 1e-9 relative (|d|/max(1,|ref|)), the issue's acceptance

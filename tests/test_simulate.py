@@ -41,7 +41,7 @@ def manifest(folder: Path) -> dict:
 
 
 def to_contact(raw: pd.DataFrame, a: float, b: float) -> pd.DataFrame:
-    """The flatplank.md transform, written out here from the specification."""
+    """The Flatplank hub transform (docs/procedures.md), written out here by hand."""
     kx, ky, kz = raw.Gx1 + raw.Gx2, raw.Gy, raw.Gz1 + raw.Gz2
     tx = raw.Gz1 * (a + b) + raw.Gz2 * b
     tz = raw.Gx1 * (a + b) + raw.Gx2 * b
