@@ -6,7 +6,7 @@ differences) and evaluates in a different order, and the Magic Formula amplifies
 at most its condition number (observed worst 2e-12). MF 6.2 rho, Rl, Cz come from an iterative
 solve that both paths stop at |dFz| <= 1e-12 FNOMIN along different round-off paths; near
 the edge of the solvable region (tiny deflections, flat Fz(Rl)) that leaves up to ~6e-7, so
-they are held to the spec's 1e-6 for iterative outputs.
+they are held to the 1e-6 used for iterative outputs (tests/data/reference/PROVENANCE.md).
 """
 from __future__ import annotations
 

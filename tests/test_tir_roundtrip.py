@@ -21,9 +21,9 @@ from identify.model.parameters import PARAMETERS, defaults
 from identify.io.atomic import atomic_write_csv, atomic_write_text
 from identify.io.tir import format_tir, format_value, write_tir
 from identify.io.tir.write import DEFAULT_SOURCE, source_text
+from tests.reference_data import REFERENCE_DIR
 
-_SPEC = Path(__file__).resolve().parents[1].parent / "shared" / "spec"
-_TIRS = sorted(str(p.relative_to(_SPEC)) for p in _SPEC.rglob("*.tir")) if _SPEC.is_dir() else []
+_TIRS = sorted(str(p.relative_to(REFERENCE_DIR)) for p in REFERENCE_DIR.rglob("*.tir"))
 
 
 def _round_trip(src: Path, out: Path):
@@ -33,15 +33,13 @@ def _round_trip(src: Path, out: Path):
     return first, read_tir(out)
 
 
-@pytest.mark.spec
-def test_spec_holds_the_reference_files(spec_dir):
-    assert len(_TIRS) >= 5
+def test_reference_data_holds_the_reference_files():
+    assert len(_TIRS) == 5
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("rel", _TIRS)
-def test_spec_files_round_trip_exactly(spec_dir, tmp_path, rel):
-    first, second = _round_trip(spec_dir / rel, tmp_path / "out.tir")
+def test_reference_files_round_trip_exactly(tmp_path, rel):
+    first, second = _round_trip(REFERENCE_DIR / rel, tmp_path / "out.tir")
     assert dict(second.values) == dict(first.values)
     assert dict(second.unknown) == dict(first.unknown)
     assert dict(second.tables) == dict(first.tables)

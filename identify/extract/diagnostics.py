@@ -15,7 +15,7 @@ from identify.core.units import SI_UNITS
 
 __all__ = ["FLAG_NAMES", "Flag", "RunDiagnostic", "Part", "row", "json_safe"]
 
-#: The flag vocabulary (docs/contracts-fit.md).
+#: The flag vocabulary (docs/procedures.md, docs/fit-directory.md).
 FLAG_NAMES = ("stick_slip", "short_run", "asymmetry", "spread", "condition")
 
 
@@ -141,7 +141,7 @@ def unit_of(quantity: str) -> str:
 
 def row(quantity: str, pi_bar: float, Fz_N: float, value: float, *,
         gamma_deg: float = math.nan, Vx_mps: float = math.nan, mode: str = "") -> dict:
-    """One record of the characteristic table (docs/contracts-issue3.md)."""
+    """One record of the characteristic table (docs/loaded-tables.md)."""
     return {"quantity": quantity, "pi_bar": float(pi_bar), "Fz_N": float(Fz_N),
             "value": float(value), "unit": unit_of(quantity), "Vx_mps": float(Vx_mps),
             "gamma_deg": float(gamma_deg), "mode": mode}

@@ -16,7 +16,7 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   freed and the stage re-fitted locally), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
-* evaluates the model with useMode 211 (magic-formula.md 1.2).
+* evaluates the model with useMode 211 (docs/model.md, section 2).
 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
 up to 29 free coefficients): the carried-forward values, the parameter table's defaults, and

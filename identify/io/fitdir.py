@@ -1,4 +1,4 @@
-"""Read a fit directory (docs/contracts-fit.md) for the report: fit.json, the measured-vs-model
+"""Read a fit directory (docs/fit-directory.md) for the report: fit.json, the measured-vs-model
 table, the .tir, extraction.json and saved MCMC chains.
 
 The report is rebuilt from this directory alone; nothing here refits or writes.

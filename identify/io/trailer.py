@@ -1,6 +1,6 @@
 """Trailer channel files (CSV, HDF5, TYDEX) -> tidy tables in SI units and ISO-W axes.
 
-Channels carry TYDEX names (docs/contracts-issue3.md): RUNTIME, LONGVEL, WHROTSPD, SLIPANGL,
+Channels carry TYDEX names (docs/measurement-folder.md): RUNTIME, LONGVEL, WHROTSPD, SLIPANGL,
 LONGSLIP, INCLANGL, INFLPRES, FX, FYW, FZW, MXW, MZW, optionally MYW and RLOADED (loaded radius,
 needed for TYDEX-C data unless the run declares ``loaded_radius_m``). Wheel-centre channels may
 be named FXC .. MZC. Units come from the manifest, else from the file (CSV header

@@ -11,7 +11,7 @@ Columns of the CSV (and fields of :class:`ParameterSpec`):
 ``section``
     The .tir section; :data:`SECTIONS` gives their write order.
 ``default``
-    The value MFeval's ``readTIR`` pre-loads when the key is missing (magic-formula.md 7.4),
+    The value MFeval's ``readTIR`` pre-loads when the key is missing (docs/tir-files.md),
     a float or a string without quotes. Deviations, all for keys whose MFeval default is a
     meaningless placeholder: ``FITTYP`` is 61 here (MFeval pre-loads 0, which it rejects; the
     reader requires FITTYP in every file anyway), ``FILE_TYPE``/``FILE_FORMAT`` are 'tir'/'ASCII'
@@ -25,7 +25,7 @@ Columns of the CSV (and fields of :class:`ParameterSpec`):
     converted, whatever ``[UNITS]`` says.
 ``lower``, ``upper``
     Fit bounds, or None (unbounded). The pressure-relation bounds come from the thesis
-    (pressure-relations.md); the others are broad physical ranges.
+    (docs/relations.md); the others are broad physical ranges.
 ``vary``
     The key may be freed by a fit at all (model coefficients, scaling factors, stiffnesses).
     False for header, model switches, units, dimensions, inertia and validity ranges.

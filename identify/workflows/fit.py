@@ -3,7 +3,7 @@
 ``fit_folder`` runs the MF stages on trailer data (when present; the CFz relation that supplies
 the vertical stiffness of their geometry stage is fitted before them), then every relation of the
 plan whose characteristics are present (extracted from raw Flatplank runs and/or given as
-tables), optionally MCMC, and writes ``fits/<tyre id>/`` as in docs/contracts-fit.md. Every file
+tables), optionally MCMC, and writes ``fits/<tyre id>/`` as in docs/fit-directory.md. Every file
 is written to a temporary name and renamed; the measurement folder is only read.
 """
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Read Magic Formula tyre property files (.tir) into SI values keyed by the parameter table.
 
-The syntax follows magic-formula.md section 7: ``[SECTION]`` headers, ``KEY = VALUE $comment``
+The syntax is described in docs/tir-files.md: ``[SECTION]`` headers, ``KEY = VALUE $comment``
 lines, ``$`` and ``!`` comment lines, single- or double-quoted strings. Real files also bring LF
 or CRLF (or CR) line ends, tabs, a UTF-8 BOM, exponents such as ``5.6519e+005`` or ``1.E-3``,
 empty values (``ROAD_INCREMENT =``, which then take the default), keys in any case, non-SI

@@ -1,6 +1,6 @@
 """Write complete MF 6.1 / 6.2 tyre property files (.tir) from the parameter table.
 
-Layout (magic-formula.md 7.4): the 21 sections in the standard order, each after its
+Layout (docs/tir-files.md): the 21 sections in the standard order, each after its
 ``$----name`` comment line, ``KEY = value $meaning [unit]`` in aligned columns, SI ``[UNITS]``,
 a ``!``-comment header after the ``[MDI_HEADER]`` keys (tool, provenance, the NOMPRES warning),
 unknown keys and tabular sections carried over from an input file, and last mfid's own
