@@ -175,8 +175,9 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
     significant moves have given an effect, and re-fit locally from the optimum (the new ones
     start at their carried-forward values, so the objective can only fall). At most
-    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best and
-    its message says what was added."""
+    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best, adds
+    the re-fits' seconds and model evaluations to the search's, and its message says what was
+    added."""
     added_all: list[str] = []
     for _ in range(MAX_ROUNDS):
         moved = {n: float(result.parameters[n]) for n in result.free
@@ -199,7 +200,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         sp = trial
         result = dataclasses.replace(
             refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
-            seconds=result.seconds + refit.seconds)
+            seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
     if added_all:
         result = dataclasses.replace(
             result, message=f"{result.message} (then re-fitted from the global optimum with "
