@@ -25,9 +25,9 @@ imported (then both entry points call the numpy reference, correct and slower).
 """
 from __future__ import annotations
 
+from collections.abc import Iterable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from os import cpu_count
-from typing import Iterable, Mapping
 
 import numpy as np
 
@@ -44,8 +44,8 @@ except ImportError:  # pragma: no cover
     numba = None
     ENGINE = "numpy"
 
-__all__ = ["ENGINE", "KERNEL_COLUMNS", "FORCE_COLUMNS", "evaluate_fused", "evaluate_outputs",
-           "evaluate_fused_frame", "KERNEL_KEYS", "KernelParams", "kernel_params", "BLOCK"]
+__all__ = ["BLOCK", "ENGINE", "FORCE_COLUMNS", "KERNEL_COLUMNS", "KERNEL_KEYS", "KernelParams",
+           "evaluate_fused", "evaluate_fused_frame", "evaluate_outputs", "kernel_params"]
 
 KERNEL_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "Re", "rho", "2a", "t", "mux", "muy",
                   "omega", "Rl", "2b", "Mzr", "Cx", "Cy", "Cz", "Kya", "sigmax", "sigmay", "Kxk",
@@ -121,10 +121,10 @@ def evaluate_fused(P: Mapping[str, float], fz, kappa, alpha, gamma, vx, p=None, 
     result["Rl_converged"] = result["Rl_converged"] == 1.0
     failed = np.flatnonzero(~result["Rl_converged"])
     if failed.size:
-        # MF 6.2 points where the secant found no root: where the starting pair (0.95 R0, R0)
-        # lies outside the root's basin, the iterates jump around and round-off decides whether
-        # they come back; the numpy reference decides those (few) points, so both paths agree
-        # on which points have a loaded radius
+        # MF 6.2 points where the secant found no root (or one at Rl <= 0): where the starting
+        # pair (0.95 R0, R0) lies outside the root's basin the iterates jump around and
+        # round-off decides where they end; the numpy reference decides those (few) points, so
+        # both paths agree on them
         # (one extra point with omega = 1 keeps "omega given" when the subset's omega sum to 0)
         sub = [np.append(a[failed], a[failed[0]]) for a in arrays]
         sub[7][-1] = 1.0

@@ -156,21 +156,42 @@ def forces_block(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, what, ou
             lat = fy0(c, s, s.g_star, limits, alpha_star)
             out[0, i] = fy_combined(c, s, lat.muy, lat.fy0, limits)[0]
     else:
-        for i in range(n):
-            s = prepare(c, fz[i], kappa[i], alpha[i], gamma[i], vx[i], p[i], 0.0, limits,
-                        alpha_star)
+        _forces_with_mz(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, out)
+
+
+@numba.njit(**LOOP_JIT)
+def _forces_with_mz(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, out):
+    """Rows Fx, Fy, Mz, t, Mzr, Kya, Kxk, mux, muy, a block at a time (as full_block)."""
+    n = fz.shape[0]
+    inp = np.empty(6 * BLOCK)
+    blk = np.empty(9 * BLOCK)
+    for lo in range(0, n, BLOCK):
+        m = min(BLOCK, n - lo)
+        for i in range(m):
+            inp[i] = fz[lo + i]
+            inp[BLOCK + i] = kappa[lo + i]
+            inp[2 * BLOCK + i] = alpha[lo + i]
+            inp[3 * BLOCK + i] = gamma[lo + i]
+            inp[4 * BLOCK + i] = vx[lo + i]
+            inp[5 * BLOCK + i] = p[lo + i]
+        for i in range(m):
+            s = prepare(c, inp[i], inp[BLOCK + i], inp[2 * BLOCK + i], inp[3 * BLOCK + i],
+                        inp[4 * BLOCK + i], inp[5 * BLOCK + i], 0.0, limits, alpha_star)
             lon = fx0(c, s, limits)
             fx = gx_alpha(c, s, limits) * lon.fx0
             lat = fy0(c, s, s.g_star, limits, alpha_star)
             fy0_zero = fy0(c, s, 0.0, limits, alpha_star).fy0
             fy, gyk = fy_combined(c, s, lat.muy, lat.fy0, limits)
             al = mz(c, s, lat, fy0_zero, gyk, fy, fx, lon.kxk, limits)
-            out[0, i] = fx
-            out[1, i] = fy
-            out[2, i] = al.mz
-            out[3, i] = al.t
-            out[4, i] = al.mzr
-            out[5, i] = lat.kya
-            out[6, i] = lon.kxk
-            out[7, i] = lon.mux
-            out[8, i] = abs(lat.muy) if limits else lat.muy
+            blk[i] = fx
+            blk[BLOCK + i] = fy
+            blk[2 * BLOCK + i] = al.mz
+            blk[3 * BLOCK + i] = al.t
+            blk[4 * BLOCK + i] = al.mzr
+            blk[5 * BLOCK + i] = lat.kya
+            blk[6 * BLOCK + i] = lon.kxk
+            blk[7 * BLOCK + i] = lon.mux
+            blk[8 * BLOCK + i] = abs(lat.muy) if limits else lat.muy
+        for r in range(9):
+            for i in range(m):
+                out[r, lo + i] = blk[r * BLOCK + i]

@@ -23,14 +23,17 @@ from __future__ import annotations
 import math
 
 import numba
+import numpy as np
 from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-_JIT = dict(cache=True, fastmath=False, error_model="numpy", nogil=True)
+from identify.model import kernel_cache  # noqa: F401  (registers the kernel's cache stamp)
+
+_JIT = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True}
 # small enough for LLVM to inline into the caller's loop (then vectorised); pow (exp of log) is
 # not, so numba inlines it (its exp and log calls are then inlined by LLVM)
-_JIT_INLINE = dict(_JIT, inline="always")
+_JIT_INLINE = {**_JIT, "inline": "always"}
 
 # pi/2 in three parts: PIO2_A and PIO2_B are rounded to 33 bits so k*PIO2_A and k*PIO2_B are
 # exact for |k| < 2^20; PIO2_C carries the rest (pi/2 = A + B + C to 1e-37)
@@ -105,32 +108,31 @@ def atan(x):
     den = SQRT3 * d + n if mid else d
     r = _atan_series(num / den) + (PI_6 if mid else 0.0)
     r = PI_2 - r if big else r
-    return -r if x < 0.0 else (r if x == x else x)
+    return -r if x < 0.0 else (x if math.isnan(x) else r)
 
 
 @numba.njit(**_JIT)
 def _reduce(x):
     """x = k pi/2 + r, |r| <= pi/4 -> (r, k mod 4 as a float in {0, 1, 2, 3})."""
-    k = math.floor(x * TWO_OVER_PI + 0.5)
+    k = np.floor(x * TWO_OVER_PI + 0.5)
     r = x - k * PIO2_A
     r = r - k * PIO2_B
     r = r - k * PIO2_C
-    q = k - 4.0 * math.floor(k * 0.25)
+    q = k - 4.0 * np.floor(k * 0.25)
     return r, q
 
 
 @numba.njit(**_JIT)
 def _odd(q):
     # quadrant 1 or 3 (one comparison: short-circuit `or` would put a branch in the loop)
-    return q - 2.0 * math.floor(q * 0.5) == 1.0
+    return q - 2.0 * np.floor(q * 0.5) == 1.0
 
 
 @numba.njit(**_JIT)
 def _sin_series(r):
-    # |r| <= pi/4: sin r = r - r^3/3! + ... (terms to r^21/21!, below 1e-19)
+    # |r| <= pi/4: sin r = r - r^3/3! + ... to r^19/19! (the next term is below 2e-21)
     z = r * r
-    s = -1.0 / 51090942171709440000.0
-    s = s * z + 1.0 / 121645100408832000.0
+    s = 1.0 / 121645100408832000.0
     s = s * z - 1.0 / 355687428096000.0
     s = s * z + 1.0 / 1307674368000.0
     s = s * z - 1.0 / 6227020800.0
@@ -144,10 +146,9 @@ def _sin_series(r):
 
 @numba.njit(**_JIT)
 def _cos_series(r):
-    # |r| <= pi/4: cos r = 1 - r^2/2! + ... (terms to r^22/22!)
+    # |r| <= pi/4: cos r = 1 - r^2/2! + ... to r^20/20! (the next term is below 1e-19)
     z = r * r
-    c = -1.0 / 1124000727777607680000.0
-    c = c * z + 1.0 / 2432902008176640000.0
+    c = 1.0 / 2432902008176640000.0
     c = c * z - 1.0 / 6402373705728000.0
     c = c * z + 1.0 / 20922789888000.0
     c = c * z - 1.0 / 87178291200.0
@@ -193,7 +194,7 @@ def tan(x):
 def exp(x):
     """e^x; overflows to inf above 709.78, flushes to 0 below -745 (as libm)."""
     xc = min(max(x, -746.0), 710.0)
-    k = math.floor(xc * INV_LN2 + 0.5)
+    k = np.floor(xc * INV_LN2 + 0.5)
     r = (xc - k * LN2_HI) - k * LN2_LO
     # |r| <= ln2/2: Taylor to r^14/14!
     p = 1.0 / 87178291200.0
@@ -212,12 +213,12 @@ def exp(x):
     p = p * r + 1.0
     p = p * r + 1.0
     # 2^k in two factors so that k down to -1075 and up to 1024 stay representable
-    k1 = math.floor(k * 0.5)
+    k1 = np.floor(k * 0.5)
     k2 = k - k1
     f1 = _bits_to_float((numba.int64(k1) + 1023) << 52)
     f2 = _bits_to_float((numba.int64(k2) + 1023) << 52)
     v = p * f1 * f2
-    return v if x == x else x
+    return x if math.isnan(x) else v
 
 
 @numba.njit(**_JIT)
@@ -247,7 +248,7 @@ def log(x):
     v = ef * LN2_HI + (ef * LN2_LO + 2.0 * (s + s * z * t))
     v = math.nan if x < 0.0 else v
     v = -math.inf if x == 0.0 else v
-    v = x if (x != x or x == math.inf) else v
+    v = x if (math.isnan(x) | (x == math.inf)) else v
     # subnormal x (below 2.2e-308) is not met by the kernel; it reads as 0 here
     return v
 

@@ -8,16 +8,17 @@ from __future__ import annotations
 
 import math
 from collections import namedtuple
-from typing import Mapping
+from collections.abc import Mapping
 
 import numba
 
 from identify.model import kernel_math as km
 
-JIT = dict(cache=True, fastmath=False, error_model="numpy", nogil=True, inline="always")
+JIT = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True,
+       "inline": "always"}
 """Per-point functions: inlined into the loops at numba level (LLVM's own inliner gives up on
 functions this size, and a call inside a loop stops vectorisation)."""
-LOOP_JIT = dict(cache=True, fastmath=False, error_model="numpy", nogil=True)
+LOOP_JIT = {"cache": True, "fastmath": False, "error_model": "numpy", "nogil": True}
 """Functions with loops over points."""
 EPS = 1e-6
 
@@ -74,8 +75,8 @@ def sgn(x):
 @numba.njit(**JIT)
 def clip(x, lo, hi):
     """min(max(x, lo), hi) that keeps NaN (as np.clip)."""
-    y = lo if x < lo else x
-    return hi if y > hi else y
+    y = lo if x < lo else x  # noqa: FURB136 (a select that keeps NaN, as np.clip)
+    return hi if y > hi else y  # noqa: FURB136
 
 
 @numba.njit(**JIT)
@@ -85,7 +86,7 @@ def prepare(c, fz_in, kappa_in, alpha_in, gamma_in, vx_u, p_in, phit_in, limits,
     ``limits`` and ``alpha_star`` are the useMode digits (bool); both branches are computed and
     selected.
     """
-    fz_u = 0.0 if fz_in < 0.0 else fz_in  # NaN stays NaN
+    fz_u = 0.0 if fz_in < 0.0 else fz_in  # noqa: FURB136 (NaN stays NaN)
     vxlow = c.VXLOW
     avx = abs(vx_u)
     low = avx <= vxlow
@@ -97,8 +98,8 @@ def prepare(c, fz_in, kappa_in, alpha_in, gamma_in, vx_u, p_in, phit_in, limits,
     phit_l = -phit_l if vx_u < 0.0 else phit_l
     speed = avx + abs(tan_u * vx_u)
     alpha_l = alpha_in * speed / vxlow if speed < vxlow else alpha_in
-    fz_l = fz_u if fz_u < c.FZMAX else c.FZMAX
-    fz_low_l = c.FZMIN if fz_l < c.FZMIN else fz_l
+    fz_l = fz_u if fz_u < c.FZMAX else c.FZMAX  # noqa: FURB136 (selects keep NaN)
+    fz_low_l = c.FZMIN if fz_l < c.FZMIN else fz_l  # noqa: FURB136
     fz = fz_l if limits else fz_u
     kappa = clip(kappa_in * w_lin, c.KPUMIN, c.KPUMAX) if limits else kappa_in
     alpha = clip(alpha_l, c.ALPMIN, c.ALPMAX) if limits else alpha_in

@@ -75,9 +75,9 @@ def deflection_61(c, fx, fy, omega, dpi, fz_low):
     arg = qfz1 * qfz1 + 4 * c.Q_FZ2 * fz_low / e
     x = (-qfz1 + math.sqrt(arg)) / (2 * c.Q_FZ2)
     x = math.nan if (c.Q_FZ2 == 0.0) | (e == 0.0) | (arg < 0.0) else x
-    rho = x * r0 if x * r0 > 0.0 else 0.0  # fmax semantics: NaN -> 0
+    rho = x * r0 if x * r0 > 0.0 else 0.0  # noqa: FURB136 (fmax semantics: NaN -> 0)
     r_omega = free_radius(c, omega)
-    rl = r_omega - rho if r_omega - rho > 0.0 else 0.0
+    rl = r_omega - rho if r_omega - rho > 0.0 else 0.0  # noqa: FURB136
     rho = 1e-6 if fz_low == 0.0 else rho
     cz = fz_low / rho if rho != 0.0 else (math.inf if fz_low > 0 else math.nan)
     return rho, rl, cz
@@ -94,7 +94,7 @@ def _load62(c, qfz1, tan_gamma, fx, fy, omega, dpi, gamma, r_omega, rl):
     den = ((c.Q_CAM1 * r_omega + c.Q_CAM2 * r_omega * r_omega) * gamma) ** 2
     num = ((c.Q_CAM1 * rl + c.Q_CAM2 * rl * rl) * gamma) ** 2 * (rtw / 8) * abs(tan_gamma)
     rho_g = num / den - c.Q_CAM3 * rho_fr * abs(gamma)
-    rho_g = 0.0 if (den == 0.0) | (rho_g != rho_g) else rho_g  # 0/0 at gamma = 0 -> 0
+    rho_g = 0.0 if (den == 0.0) | math.isnan(rho_g) else rho_g  # 0/0 at gamma = 0 -> 0
     rho = max(rho_fr + rho_g, 1e-12)
     x = rho / r0
     fcorr = ((1 + c.Q_V2 * (r0 / c.LONGVL) * abs(omega) - (c.Q_FCX * fx / fz0) ** 2
@@ -104,7 +104,10 @@ def _load62(c, qfz1, tan_gamma, fx, fy, omega, dpi, gamma, r_omega, rl):
 
 @numba.njit(**JIT)
 def deflection_62(c, fx, fy, omega, dpi, gamma, fz, fz_u):
-    """MF 6.2: secant solve of Fz(Rl) = Fz -> (rho [m], Rl [m], Cz [N/m], converged)."""
+    """MF 6.2: secant solve of Fz(Rl) = Fz -> (rho [m], Rl [m], Cz [N/m], converged).
+
+    The secant of deflection_62 (starting pair 0.95 R0, R0; the better previous iterate kept).
+    """
     r0, fz0 = c.UNLOADED_RADIUS, c.FNOMIN
     qfz1 = math.sqrt((c.VERTICAL_STIFFNESS * r0 / fz0) ** 2 - 4 * c.Q_FZ2)
     tan_gamma = math.tan(gamma)
@@ -124,7 +127,9 @@ def deflection_62(c, fx, fy, omega, dpi, gamma, fz, fz_u):
                 break
     rho = _load62(c, qfz1, tan_gamma, fx, fy, omega, dpi, gamma, r_omega, x1)[1]
     rho = 1e-6 if fz == 0.0 else rho
-    return rho, x1, fz_u / rho, abs(y1) <= tol
+    # a "root" at Rl <= 0 is off the physical branch (the iterates left the root's basin):
+    # reported as not converged, so the caller hands the point to the numpy reference
+    return rho, x1, fz_u / rho, (abs(y1) <= tol) & (x1 > 0.0)
 
 
 @numba.njit(**JIT)
