@@ -45,8 +45,9 @@ class StageProgress:
     def __enter__(self) -> StageProgress:
         if self.live:
             self._progress = Progress(SpinnerColumn(finished_text="[green]done"),
-                                      TextColumn("{task.description}", markup=False), TimeElapsedColumn(),
-                                      console=self.console, transient=False)
+                                      TextColumn("{task.description}", markup=False),
+                                      TimeElapsedColumn(), console=self.console,
+                                      transient=False)
             self._progress.start()
         return self
 
@@ -192,7 +193,7 @@ def fit_command(
     except KeyboardInterrupt:
         err_console.print("interrupted: no partial output was left (files are written to a "
                           "temporary name and renamed)", markup=False)
-        raise typer.Exit(130)
+        raise typer.Exit(130) from None
     except MfidError as exc:
         fail(exc)
     _print_outputs(run, report)

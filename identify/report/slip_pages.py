@@ -190,7 +190,7 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
             if sp.ellipse:
                 na = len(sp.alphas_deg)
                 for j, fz in enumerate(panel.loads):
-                    for m, a in enumerate(sp.alphas_deg):
+                    for m in range(na):
                         for sign in (0, 1):  # +alpha and -alpha
                             xs, ys = panel.curves[(2 * j + sign) * na + m]
                             ax.plot(xs, ys, STYLES[m % len(STYLES)], color=lcol[fz], lw=1.1)
