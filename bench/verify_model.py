@@ -1,9 +1,9 @@
-"""Print the forward model's worst agreement with the spec's reference outputs.
+"""Print the forward model's worst agreement with the MFeval reference outputs.
 
 Golden tables (MFeval 4.3, one call, FITTYP 61/62, useMode 111/211, with and without omega)
 and the MFeval 4.0 sweep grids (3 tyres x 4 grids, modes 111/121; MF 6.2 rho/Rl/Cz against
 the exact roots). Metric |d|/max(1, |ref|). The tests assert the same numbers; this script
-reports them. Needs ../shared/spec.
+reports them. The reference data are in tests/data/reference (see its PROVENANCE.md).
 
     python bench/verify_model.py
 """
@@ -17,7 +17,7 @@ import pandas as pd
 from identify.io.tir import read_tir
 from identify.model.evaluate import SolverOptions, evaluate
 
-SPEC = Path(__file__).resolve().parents[2] / "shared" / "spec" / "data"
+REFERENCE = Path(__file__).resolve().parents[1] / "tests" / "data" / "reference"
 GOLDEN_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "kappa_out", "alpha_out", None, "phit_out",
                   None, "p_used", "Re", "rho", "2a", "t", "mux", "muy", "omega", "Rl", "2b",
                   "Mzr", "Cx", "Cy", "Cz", "Kya", "sigmax", "sigmay", None, "Kxk")
@@ -29,7 +29,7 @@ def _rel(a, b):
 
 def golden() -> dict[str, float]:
     worst: dict[str, float] = {}
-    g = SPEC / "golden"
+    g = REFERENCE / "golden"
     for fittyp in (61, 62):
         P = read_tir(g / f"testA_{fittyp}.tir").params()
         for mode in (111, 211):
@@ -49,7 +49,7 @@ def golden() -> dict[str, float]:
 
 def grids() -> dict[str, float]:
     worst: dict[str, float] = {}
-    m = SPEC / "mfeval"
+    m = REFERENCE / "mfeval"
     for tyre in ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters",
                  "reference_tire_tvd3"):
         P = read_tir(m / f"{tyre}.tir").params()

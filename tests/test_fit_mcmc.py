@@ -30,7 +30,7 @@ def test_mcmc_summary_is_seeded_converged_and_kept_apart(tmp_path):
     m = a.mcmc
     assert m.median == b.mcmc.median                      # same seed, same chain
     assert m.converged and m.n_steps > 50 * max(m.tau.values())
-    assert 0.2 <= m.acceptance <= 0.8                     # emcee's healthy range (design.md)
+    assert 0.2 <= m.acceptance <= 0.8                     # emcee's healthy range
     assert m.n_walkers >= 32
     assert a.parameters == result.parameters              # optimum is not overwritten
     for name in ("nom", "p1", "p3"):

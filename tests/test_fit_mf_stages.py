@@ -304,7 +304,7 @@ def test_validity_grid_follows_the_tir_limits(truth):
 
 def test_bundled_sample_longitudinal_stages():
     """The bundled folder's braking/driving and combined runs (1 % noise): Fx0 and Fx fit to
-    the noise level; the outputs follow docs/contracts-fit.md."""
+    the noise level; the outputs follow docs/fit-directory.md."""
     runs = [f"{kind}_p{p}" for kind in ("braking_driving", "combined") for p in (190, 250, 300)]
     trailer = pd.concat([read_trailer(SAMPLE / f"{r}.csv.gz", run=r) for r in runs],
                         ignore_index=True)

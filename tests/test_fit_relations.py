@@ -14,7 +14,7 @@ from identify.fit.optimize import fit
 from identify.io.tir import read_tir
 from identify.model import relations as rel
 from identify.model.parameters import defaults
-from tests.spec_data import SPEC_DIR, needs_spec
+from tests.reference_data import THESIS_CSV
 
 P0_BAR, FZ0 = 2.5, 5000.0
 PRESSURES = np.array([1.9, 2.2, 2.5, 2.7, 3.0])
@@ -46,13 +46,11 @@ def _perturbed(problem, truth, sign):
 
 # --- acceptance 1: the global optimum of the thesis metric ------------------------------------
 
-@pytest.mark.spec
-@needs_spec
 @pytest.mark.parametrize("relation,form", [("CFz", "mf"), ("CFz", "qfz"),
                                            ("CFx", "linear_load"), ("CFx", "quadratic_load"),
                                            ("CFy", "linear_load"), ("CFy", "quadratic_load")])
 def test_thesis_characteristics_reach_the_global_optimum(relation, form):
-    chars = pd.read_csv(SPEC_DIR / "data" / "thesis_characteristics.csv")
+    chars = pd.read_csv(THESIS_CSV)
     chars["p_Pa"] = chars["pi_bar"] * 1e5
     builder = {"CFz": R.cfz, "CFx": R.cfx, "CFy": R.cfy}[relation]
     problem = builder(chars, CTX, form=form)

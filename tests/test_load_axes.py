@@ -9,7 +9,7 @@ import pytest
 
 from identify.io.axes import c_to_w, sae_to_iso_w, to_iso_w
 from identify.io.flatplank import hub_to_contact
-from tests.spec_data import GOLDEN_DIR
+from tests.reference_data import GOLDEN_DIR
 
 
 def _row(**values) -> pd.DataFrame:
@@ -31,8 +31,7 @@ def test_sae_known_sign_case():
     assert sae.Fy.iloc[0] == 3194.0  # input untouched
 
 
-@pytest.mark.spec
-def test_sae_mapping_reproduces_golden_signs(spec_dir):
+def test_sae_mapping_reproduces_golden_signs():
     gold = np.loadtxt(GOLDEN_DIR / "gold_61_111.csv", delimiter=",")[0]  # P1: alpha = +0.05
     fx, fy, fz, mx, my, mz, kappa, alpha, gamma = gold[:9]
     assert alpha == 0.05 and fy < 0 and mz > 0

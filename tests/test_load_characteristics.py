@@ -12,6 +12,7 @@ from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteri
 from identify.io.common import Problems
 from identify.io.folder import check_folder, load_folder
 from tests.measurement_cases import CHARACTERISTICS, EIGEN
+from tests.reference_data import THESIS_CSV
 
 
 def test_converts_to_si_and_adds_p(tmp_path):
@@ -81,9 +82,8 @@ def test_single_csv_is_a_folder(tmp_path):
     assert check_folder(path) == []
 
 
-@pytest.mark.spec
-def test_thesis_characteristics_load(spec_dir, tmp_path):
-    src = spec_dir / "data" / "thesis_characteristics.csv"
+def test_thesis_characteristics_load(tmp_path):
+    src = THESIS_CSV
     path = shutil.copy(src, tmp_path / "thesis_characteristics.csv")
     found = load_folder(path, nominal_pressure_Pa=2.5e5, nominal_load_N=5000.0)
     table = found.characteristics

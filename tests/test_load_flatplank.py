@@ -1,4 +1,4 @@
-"""Flatplank raw runs: the flatplank.md hub -> contact-patch transform by hand, and the reader."""
+"""Flatplank raw runs: the hub -> contact-patch transform (docs/procedures.md), the reader."""
 from __future__ import annotations
 
 import math

@@ -1,8 +1,8 @@
-"""Forward model vs the golden tables (MFeval 4.3.x under Octave, magic-formula.md section 10).
+"""Forward model vs the golden tables (MFeval 4.3.x under Octave, tests/data/reference/golden).
 
 The ten points P1..P10 were evaluated by MFeval in ONE call, so these tests use
 ``SolverOptions.mfeval_call()`` (MATLAB's vector ``while`` for Re, MFeval 4.3's secant stop rule
-for the MF 6.2 loaded radius). Tolerances: 1e-9 relative (|d|/max(1,|ref|)); the spec measured
+for the MF 6.2 loaded radius). Tolerances: 1e-9 relative (|d|/max(1,|ref|)); checks measured
 <= 2e-11 between an equation-level port and MFeval, so 1e-9 leaves room only for round-off
 in a different operation order. MF 6.2 rho, Rl, Cz: 1e-6, as the secant stops at
 |dFz| <= 1e-6 FNOMIN.
@@ -14,11 +14,9 @@ import pytest
 
 from identify.io.tir import read_tir
 from identify.model.evaluate import SolverOptions, evaluate
-from tests.spec_data import GOLDEN_DIR, needs_spec
+from tests.reference_data import GOLDEN_DIR
 
-pytestmark = [pytest.mark.spec, needs_spec]
-
-# MFeval's 30 output columns (magic-formula.md 6.8) -> our names; None = not scored
+# MFeval's 30 output columns (docs/model.md, section 1, Outputs) -> our names; None = not scored
 MFEVAL_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "kappa_out", "alpha_out", "gamma", "phit_out",
                   "Vx", "p_used", "Re", "rho", "2a", "t", "mux", "muy", "omega", "Rl", "2b", "Mzr",
                   "Cx", "Cy", "Cz", "Kya", "sigmax", "sigmay", None, "Kxk")
@@ -49,7 +47,7 @@ def test_golden_tables(fittyp, mode, table, points):
 
 
 def test_golden_signs_iso_w():
-    """Sign conventions of magic-formula.md 1.3 at P1, P2, P5 (Fz = 5 kN, p = p0)."""
+    """Sign conventions of docs/model.md (section 1, Axes and signs) at P1, P2, P5 (5 kN, p0)."""
     P = read_tir(GOLDEN_DIR / "testA_61.tir").params()
     out = evaluate(P, [5000, 5000, 5000], [0, 0.05, 0], [0.05, 0, 0], [0, 0, 0.05], 16.7,
                    p=250000, mode=111)

@@ -1,4 +1,4 @@
-"""Forward model vs MFeval 4.0 sweep grids on three public .tir files (spec data/mfeval).
+"""Forward model vs MFeval 4.0 sweep grids on three public .tir files (tests/data/reference/mfeval).
 
 MFeval evaluated every row in its own call, which is what our default solver options do
 (Re iterated per point). Tolerance 1e-9 relative (|d|/max(1,|ref|)), the issue's acceptance
@@ -14,9 +14,7 @@ import pytest
 
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
-from tests.spec_data import MFEVAL_DIR, needs_spec
-
-pytestmark = [pytest.mark.spec, needs_spec]
+from tests.reference_data import MFEVAL_DIR
 
 TYRES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 GRIDS = ("pure_lat", "pure_long", "combined", "pure_lat_mode121")

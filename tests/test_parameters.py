@@ -9,13 +9,14 @@ import pytest
 
 from identify.core.units import dimension_factor
 from identify.model import parameters as P
+from tests.reference_data import MFEVAL_DIR
 
 MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 EXTENSIONS = {"F_X", "F_Y", "F_Z", "F_THETA", "F_GAMMA", "F_PSI", "PCMZ2", "PCMZ3", "CMZ_FORM"}
 
 
-def _parsed(spec_dir, stem):
-    with open(spec_dir / "data" / "mfeval" / f"{stem}__params_parsed.csv", newline="") as fh:
+def _parsed(stem):
+    with open(MFEVAL_DIR / f"{stem}__params_parsed.csv", newline="") as fh:
         rows = list(csv.reader(fh))[1:]
     out = {}
     for name, text in rows:
@@ -32,19 +33,17 @@ def test_table_size_and_unique_names():
     assert EXTENSIONS <= set(names)
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("stem", MFEVAL_FILES)
-def test_names_equal_mfeval_keys(spec_dir, stem):
-    mfeval = set(_parsed(spec_dir, stem))
+def test_names_equal_mfeval_keys(stem):
+    mfeval = set(_parsed(stem))
     ours = {p.name for p in P.PARAMETERS if p.section != "MFID_EXTENSIONS"}
     assert ours == mfeval
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("stem", MFEVAL_FILES)
-def test_defaults_equal_mfeval_defaults_for_absent_keys(spec_dir, stem):
+def test_defaults_equal_mfeval_defaults_for_absent_keys(stem):
     """Keys absent from a file took MFeval's defaults: the table must hold the same values."""
-    text = (spec_dir / "data" / "mfeval" / f"{stem}.tir").read_text(encoding="latin-1")
+    text = (MFEVAL_DIR / f"{stem}.tir").read_text(encoding="latin-1")
     present = set()
     section = ""
     for line in text.splitlines():
@@ -54,7 +53,7 @@ def test_defaults_equal_mfeval_defaults_for_absent_keys(spec_dir, stem):
         elif s and s[0] not in "$!" and "=" in s:
             key = s.split("=")[0].strip().upper()
             present.add("MASS1" if key == "MASS" and section != "UNITS" else key)
-    absent = {k: v for k, v in _parsed(spec_dir, stem).items() if k not in present}
+    absent = {k: v for k, v in _parsed(stem).items() if k not in present}
     assert absent, "every file lacks some keys (the MF 5.2-only ones at least)"
     for name, value in absent.items():
         assert P.spec(name).default == value, name

@@ -19,6 +19,7 @@ from identify.simulate.default_tyre import default_tyre_values
 from identify.simulate.rig import FLATPLANK_CHANNELS
 from identify.simulate.trailer import TRAILER_CHANNELS
 from identify.simulate.truth import UNITS
+from tests.reference_data import THESIS_CSV
 
 P = read_tir(default_tir_path()).params()
 CLEAN = dict(noise=0.0, transients=False, stick_slip=False)
@@ -40,7 +41,7 @@ def manifest(folder: Path) -> dict:
 
 
 def to_contact(raw: pd.DataFrame, a: float, b: float) -> pd.DataFrame:
-    """The flatplank.md transform, written out here from the specification."""
+    """The Flatplank hub transform (docs/procedures.md), written out here by hand."""
     kx, ky, kz = raw.Gx1 + raw.Gx2, raw.Gy, raw.Gz1 + raw.Gz2
     tx = raw.Gz1 * (a + b) + raw.Gz2 * b
     tz = raw.Gx1 * (a + b) + raw.Gx2 * b
@@ -314,8 +315,7 @@ def test_cli_simulate(tmp_path):
     assert res.exit_code == 2 and "not empty" in res.output
 
 
-@pytest.mark.spec
-def test_default_coefficients_near_the_thesis(spec_dir):
+def test_default_coefficients_near_the_thesis():
     """The simulated characteristics at the thesis grid stay close to the real tyre."""
     from identify.simulate import FULL
     from identify.simulate.coefficients import DEFAULT_RELATIONS
@@ -323,7 +323,7 @@ def test_default_coefficients_near_the_thesis(spec_dir):
     from identify.simulate.rig import DEFAULT_RIG
     from identify.simulate.truth import characteristics
 
-    thesis = pd.read_csv(spec_dir / "data" / "thesis_characteristics.csv")
+    thesis = pd.read_csv(THESIS_CSV)
     model = TyreModel(P, DEFAULT_RELATIONS, DEFAULT_RIG)
     sim_rows = pd.DataFrame(characteristics(model, FULL))
     merged = thesis.merge(sim_rows, on=["quantity", "pi_bar", "Fz_N"], suffixes=("", "_sim"))

@@ -15,6 +15,7 @@ from hypothesis import strategies as st
 from identify.io.tir import TirFile, read_tir
 from identify.model.parameters import PARAMETERS, defaults
 from identify.io.tir import write_tir
+from tests.reference_data import GOLDEN_DIR, MFEVAL_DIR
 
 MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 
@@ -37,12 +38,11 @@ def _parsed(path: Path) -> dict[str, float | str]:
     return out
 
 
-# ---------------------------------------------------------------- reference files (spec)
+# ---------------------------------------------------------------- reference files
 
-@pytest.mark.spec
 @pytest.mark.parametrize("stem", MFEVAL_FILES)
-def test_values_equal_mfeval_parse(spec_dir, stem):
-    folder = spec_dir / "data" / "mfeval"
+def test_values_equal_mfeval_parse(stem):
+    folder = MFEVAL_DIR
     tir = read_tir(folder / f"{stem}.tir")
     expected = _parsed(folder / f"{stem}__params_parsed.csv")
     assert len(expected) == 284
@@ -57,9 +57,8 @@ def test_values_equal_mfeval_parse(spec_dir, stem):
     assert tir.values["FITTYP"] == float(tir.fittyp)
 
 
-@pytest.mark.spec
-def test_tvd3_defaults_and_unknown(spec_dir):
-    tir = read_tir(spec_dir / "data" / "mfeval" / "reference_tire_tvd3.tir")
+def test_tvd3_defaults_and_unknown():
+    tir = read_tir(MFEVAL_DIR / "reference_tire_tvd3.tir")
     used = set(tir.defaults_used)
     # commented out (!GRAVITY, !MC_CONTOUR_A) or absent from the file
     for name in ("GRAVITY", "MC_CONTOUR_A", "MC_CONTOUR_B", "PROPERTY_FILE_FORMAT", "USE_MODE",
@@ -77,10 +76,9 @@ def test_tvd3_defaults_and_unknown(spec_dir):
     assert len(tir.sha256) == 64 and tir.warnings == ()
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("fittyp", [61, 62])
-def test_golden_test_a(spec_dir, fittyp):
-    folder = spec_dir / "data" / "golden"
+def test_golden_test_a(fittyp):
+    folder = GOLDEN_DIR
     tir = read_tir(folder / f"testA_{fittyp}.tir")
     assert tir.fittyp == fittyp
     overrides = json.loads((folder / "overrides.json").read_text())
@@ -92,15 +90,14 @@ def test_golden_test_a(spec_dir, fittyp):
     assert tir.unknown == {} and tir.tables == {}
 
 
-@pytest.mark.spec
-def test_lf_and_crlf_read_identically(spec_dir, tmp_path):
-    data = (spec_dir / "data" / "mfeval" / "reference_tire_tvd3.tir").read_bytes()
+def test_lf_and_crlf_read_identically(tmp_path):
+    data = (MFEVAL_DIR / "reference_tire_tvd3.tir").read_bytes()
     assert b"\r\n" in data
     lf = tmp_path / "lf.tir"
     lf.write_bytes(data.replace(b"\r\n", b"\n"))
     cr = tmp_path / "cr.tir"
     cr.write_bytes(data.replace(b"\r\n", b"\r"))
-    crlf = read_tir(spec_dir / "data" / "mfeval" / "reference_tire_tvd3.tir")
+    crlf = read_tir(MFEVAL_DIR / "reference_tire_tvd3.tir")
     for other in (read_tir(lf), read_tir(cr)):
         assert dict(other.values) == dict(crlf.values)
         assert dict(other.unknown) == dict(crlf.unknown)

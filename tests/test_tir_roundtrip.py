@@ -5,6 +5,7 @@ import numpy as np
 
 from identify.model.evaluate import OUTPUT_COLUMNS, evaluate
 from tests.model_cases import random_points
+from tests.naive_tir import naive_read
 
 import math
 import os
@@ -19,9 +20,10 @@ from identify.io.tir import read_tir
 from identify.model.parameters import PARAMETERS, defaults
 from identify.io.atomic import atomic_write_csv, atomic_write_text
 from identify.io.tir import format_tir, format_value, write_tir
+from identify.io.tir.write import DEFAULT_SOURCE, source_text
+from tests.reference_data import REFERENCE_DIR
 
-_SPEC = Path(__file__).resolve().parents[1].parent / "shared" / "spec"
-_TIRS = sorted(str(p.relative_to(_SPEC)) for p in _SPEC.rglob("*.tir")) if _SPEC.is_dir() else []
+_TIRS = sorted(str(p.relative_to(REFERENCE_DIR)) for p in REFERENCE_DIR.rglob("*.tir"))
 
 
 def _round_trip(src: Path, out: Path):
@@ -31,15 +33,13 @@ def _round_trip(src: Path, out: Path):
     return first, read_tir(out)
 
 
-@pytest.mark.spec
-def test_spec_holds_the_reference_files(spec_dir):
-    assert len(_TIRS) >= 5
+def test_reference_data_holds_the_reference_files():
+    assert len(_TIRS) == 5
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("rel", _TIRS)
-def test_spec_files_round_trip_exactly(spec_dir, tmp_path, rel):
-    first, second = _round_trip(spec_dir / rel, tmp_path / "out.tir")
+def test_reference_files_round_trip_exactly(tmp_path, rel):
+    first, second = _round_trip(REFERENCE_DIR / rel, tmp_path / "out.tir")
     assert dict(second.values) == dict(first.values)
     assert dict(second.unknown) == dict(first.unknown)
     assert dict(second.tables) == dict(first.tables)
@@ -51,7 +51,13 @@ def test_spec_files_round_trip_exactly(spec_dir, tmp_path, rel):
     again = format_tir(second.values, fittyp=second.fittyp, unknown=second.unknown,
                        tables=second.tables,
                        comment_lines=[f"source: {Path(rel).name}", f"sha256: {first.sha256}"])
-    assert again == (tmp_path / "out.tir").read_text()
+    assert again == (tmp_path / "out.tir").read_bytes().decode()
+    # the simplest line-based reader gets every value the reader got
+    naive = naive_read(tmp_path / "out.tir")
+    for p in PARAMETERS:
+        if p.name in second.values and p.tir_key in naive.get(p.section, {}):
+            got = naive[p.section][p.tir_key]
+            assert got == second.values[p.name] or (p.is_string and p.section == "UNITS"), p.name
     # and the rewritten file evaluates to identical outputs (bit for bit: same parameters)
     pts = random_points(300, seed=7)
     args = (pts["fz"], pts["kappa"], pts["alpha"], pts["gamma"], pts["vx"], pts["p"])
@@ -81,7 +87,7 @@ def test_layout_of_written_file(tmp_path):
     path = write_tir(tmp_path / "a.tir", values, fittyp=61,
                      comment_lines=["fitted from run 7", "second line"])
     raw = path.read_bytes()
-    assert b"\r" not in raw and raw.endswith(b"\n")
+    naive_read(path)  # CRLF everywhere, one '=' per data line
     text = raw.decode()
     lines = text.splitlines()
     assert lines[0].startswith("$---") and lines[0].endswith("mdi_header")
@@ -93,6 +99,7 @@ def test_layout_of_written_file(tmp_path):
     headers = [line[1:-1] for line in lines if line.startswith("[")]
     assert headers[0] == "MDI_HEADER" and headers[-1] == "MFID_EXTENSIONS"
     assert len(headers) == 22
+    assert not any("=" in line for line in lines if line[:1] in "$!")
     by_key = {line.split("=")[0].strip(): line for line in lines if "=" in line
               and line[0] not in "$!"}
     assert by_key["FITTYP"].split("$")[0].split("=")[1].strip() == "61"
@@ -108,8 +115,10 @@ def test_layout_of_written_file(tmp_path):
     for name in ("Q_FCY2", "Q_CAM1", "ENV_C1", "PTX1", "Q_A1", "LSGKP", "FUNCTION_NAME"):
         assert name not in by_key, name
     for name in ("PPX1", "PPMX1", "PFZ1", "QSY8", "PCFY3", "FREQ_LONG", "BELT_MASS",
-                 "ELLIPS_NLENGTH", "PDXP1", "F_PSI", "CMZ_FORM"):
+                 "ELLIPS_NLENGTH", "PDXP1", "MFID_F_PSI", "MFID_CMZ_FORM"):
         assert name in by_key, name
+    # extension keys cannot collide with MF keys; older files with bare names still read
+    assert "F_PSI" not in by_key and "CMZ_FORM" not in by_key
     assert any(line.startswith("$") and "ignore" in line for line in lines
                if lines.index("[MFID_EXTENSIONS]") < lines.index(line))
 
@@ -166,3 +175,26 @@ def test_atomic_write_csv_is_exact(tmp_path):
     back = pd.read_csv(path)
     assert back["a"].tolist() == df["a"].tolist() and list(back.columns) == ["a", "b"]
     assert b"\r" not in path.read_bytes()
+
+
+def test_extension_keys_of_older_files_are_read(tmp_path):
+    # mfid before the MFID_ prefix wrote the bare names in [MFID_EXTENSIONS]
+    text = format_tir({"F_X": 0.25, "CMZ_FORM": 2.0}, fittyp=61)
+    old = text.replace("MFID_F_X ", "F_X      ").replace("MFID_CMZ_FORM ", "CMZ_FORM      ")
+    (tmp_path / "old.tir").write_text(old)
+    values = read_tir(tmp_path / "old.tir").values
+    assert values["F_X"] == 0.25 and values["CMZ_FORM"] == 2.0
+
+
+def test_key_sources_in_the_comments(tmp_path):
+    values = defaults()
+    values.update({"PKY1": -18.5, "FNOMIN": 4500.0})
+    sources = {"PKY1": source_text("fitted", "MF/Fy0", 0.0123), "FNOMIN": "tyre.toml"}
+    path = write_tir(tmp_path / "s.tir", values, fittyp=61, sources=sources)
+    lines = path.read_bytes().decode().split("\r\n")
+    line = next(x for x in lines if x.startswith("PKY1 "))
+    assert line.endswith("; fitted MF/Fy0 +/- 0.0123")
+    assert next(x for x in lines if x.startswith("PDY1 ")).endswith(f"; {DEFAULT_SOURCE}")
+    assert any(x.startswith("! : COMMENT : key sources") and "1 fitted" in x for x in lines)
+    naive_read(path)
+    assert read_tir(path).values["PKY1"] == -18.5

@@ -1,4 +1,4 @@
-"""Finding the missing effect (``mfid discover``; method in ../shared/spec/discovery.md).
+"""Finding the missing effect (``mfid discover``; method in docs/discovery.md).
 
 Modules:
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 import numpy as np
 
 from identify.discover.result import Accepted, ProblemSummary
+from identify.fit.engine import covariance
 from identify.fit.metric import thesis_error_by_group
 from identify.fit.result import FitResult
 from identify.discover.working import Working, cells, final_floor, total_error_pct
@@ -16,10 +17,9 @@ UNEXPLAINED_RATIO = 1.25
 
 def _stderr(w: Working) -> dict[str, float]:
     J, r = w.sol.jac, w.sol.r
-    n, k = J.shape
-    if k == 0:
+    if J.shape[1] == 0:
         return {}
-    cov = float(r @ r) / max(n - k, 1) * np.linalg.pinv(J.T @ J)
+    cov = covariance(J, r)
     return {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(w.problem.free)}
 
 

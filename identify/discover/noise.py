@@ -18,6 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from identify.core.jsonsafe import json_float
+
 __all__ = ["NoiseModel", "sweep_index", "lag1", "variogram", "fit_ar1", "choose_noise",
            "whiten", "noise_sigma", "PHI_MIN", "MAX_LAG", "MIN_CLUSTERS"]
 
@@ -53,13 +55,9 @@ class NoiseModel:
     reason: str
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, "phi": self.phi, "rho_lag1": _f(self.rho_lag1),
-                "rho_variogram": _f(self.rho_variogram), "n_sweeps": self.n_sweeps,
+        return {"kind": self.kind, "phi": self.phi, "rho_lag1": json_float(self.rho_lag1),
+                "rho_variogram": json_float(self.rho_variogram), "n_sweeps": self.n_sweeps,
                 "reason": self.reason}
-
-
-def _f(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 def sweep_index(sweeps: np.ndarray | None, n: int) -> list[np.ndarray]:

@@ -13,9 +13,9 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 
 from identify.discover.noise import whiten
+from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
 from identify.fit.problem import FitProblem
 
 __all__ = ["Objective", "Solution", "problem_name", "with_free", "with_fixed"]
@@ -108,31 +108,35 @@ class Objective:
 
     def columns(self, x: np.ndarray, coefs: dict[str, float],
                 rel_step: float = 1e-5) -> np.ndarray:
-        """Transformed d r / d c at the coefficients' current values (central differences)."""
+        """Transformed d r / d c at the coefficients' current values ``coefs`` (their values
+        in ``x``'s parameter set): the problem's exact Jacobian when it has one, central
+        differences (step rel_step x max(|c|, 1)) otherwise."""
+        exact = self.problem.residual_jacobian(x, tuple(coefs))
+        if exact is not None:
+            return self.transform(exact)
         vals = self.problem.values(x)
         w = self.problem.weights()
-        cols = []
-        for k, c0 in coefs.items():
-            h = rel_step * max(1.0, abs(c0))
-            with np.errstate(all="ignore"):
-                up = np.asarray(self.problem.model({**vals, k: c0 + h}), dtype=float)
-                dn = np.asarray(self.problem.model({**vals, k: c0 - h}), dtype=float)
-            cols.append((up - dn) / (2 * h) * w)
-        G = np.column_stack(cols)
-        return self.transform(np.where(np.isfinite(G), G, 0.0))
+
+        def weighted_model(c: np.ndarray) -> np.ndarray:
+            return np.asarray(self.problem.model({**vals, **dict(zip(coefs, c))}),
+                              dtype=float) * w
+
+        c0 = np.array(list(coefs.values()), dtype=float)
+        return self.transform(fd_jacobian(weighted_model, c0, rel_step=rel_step, floor=1.0))
 
     def jacobian(self, x: np.ndarray) -> np.ndarray:
-        """Forward-difference Jacobian of the transformed residuals (n x p)."""
-        r0 = self.residuals(x)
-        lo, hi = self.problem.bounds()
-        cols = []
-        for j in range(x.size):
-            h = 1e-6 * max(abs(x[j]), 1e-3)
-            h = -h if x[j] + h > hi[j] else h
-            xp = x.copy()
-            xp[j] += h
-            cols.append((self.residuals(xp) - r0) / h)
-        return np.column_stack(cols) if cols else np.zeros((r0.size, 0))
+        """Jacobian of the transformed residuals (n x p) at ``x``: exact when the problem has
+        one, central differences otherwise."""
+        exact = self.problem.residual_jacobian(x)
+        if exact is not None:
+            return self.transform(exact)
+        return fd_jacobian(self.residuals, x, self.problem.bounds(), floor=1e-3)
+
+    def _exact_jacobian(self):
+        """The exact Jacobian of the transformed residuals for the solver, or None."""
+        if self.problem.jacobian is None:
+            return None
+        return lambda x: self.transform(self.problem.residual_jacobian(x))
 
     def identifiable(self, x: np.ndarray, rtol: float = 1e-5) -> np.ndarray:
         """Bool mask of the free parameters the points of this objective determine (pivoted QR
@@ -152,23 +156,15 @@ class Objective:
         return keep
 
     def solve(self, x0: np.ndarray, max_nfev: int | None = None) -> Solution:
-        """Trust-region-reflective least squares from ``x0`` within the bounds."""
+        """Least squares from ``x0`` within the bounds (the engine's solver, DISCOVERY
+        tolerances)."""
         t0 = time.perf_counter()
-        lo, hi = self.problem.bounds()
-        x0 = np.clip(np.asarray(x0, dtype=float), lo, hi)
-        if x0.size == 0:
-            r = self.residuals(x0)
-            return Solution(x0, r, np.zeros((r.size, 0)), float(r @ r), True, True,
-                            "nothing to fit", 1, time.perf_counter() - t0)
-        x0 = np.where((x0 == lo) & np.isfinite(hi), x0 + 1e-9 * (hi - lo), x0)
-        x0 = np.where((x0 == hi) & np.isfinite(lo), x0 - 1e-9 * (hi - lo), x0)
-        res = optimize.least_squares(self.residuals, x0, bounds=(lo, hi), method="trf",
-                                     x_scale="jac", ftol=1e-10, xtol=1e-10, gtol=1e-10,
-                                     max_nfev=max_nfev or 60 * (x0.size + 1))
-        r, J = res.fun, res.jac
+        est = least_squares(self.residuals, x0, self.problem.bounds(), DISCOVERY,
+                            jac=self._exact_jacobian(), max_nfev=max_nfev)
+        r, J = est.fun, est.jac
         grad = np.abs(J.T @ r)
         scale = np.linalg.norm(J, axis=0) * max(np.linalg.norm(r), 1e-300)
-        free_dir = ~(res.active_mask != 0)
+        free_dir = est.active_mask == 0
         stationary = bool(np.all(grad[free_dir] <= 1e-4 * scale[free_dir] + 1e-300))
-        return Solution(res.x, r, J, float(r @ r), bool(res.status > 0), stationary,
-                        str(res.message), int(res.nfev), time.perf_counter() - t0)
+        return Solution(est.x, r, J, float(r @ r), est.success, stationary, est.message,
+                        est.nfev, time.perf_counter() - t0)

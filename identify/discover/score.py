@@ -28,6 +28,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special, stats
 
+from identify.fit.engine import pseudo_solve
+
 __all__ = ["Score", "project_basis", "score_candidates", "canonical_cosines",
            "ambiguity_groups", "holm", "TESTABLE_REL_NORM", "AMBIGUITY_COS"]
 
@@ -114,14 +116,14 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
             continue
         s = Gt.T @ r
         A = Gt.T @ Gt
-        Ainv = np.linalg.pinv(A)
-        drop = float(s @ Ainv @ s)
-        step = tuple(float(v) for v in -(Ainv @ s))
+        z = pseudo_solve(A, s)
+        drop = float(s @ z)
+        step = tuple(float(v) for v in -z)
         if kind == "cluster" and clusters:
             C = len(clusters)
             contrib = np.array([Gt[idx].T @ r[idx] for idx in clusters])
             V = C / max(C - 1, 1) * (contrib.T @ contrib)
-            stat = float(s @ np.linalg.pinv(V) @ s) / q
+            stat = float(s @ pseudo_solve(V, s)) / q
             log_p = _log_sf("f", stat, q, max(C - 1, 1))
         else:
             dof = max(n - Q.shape[1] - q, 1)

@@ -27,6 +27,7 @@ from identify.discover.result import Accepted, CandidateRow, Discovery, Step, Tr
 from identify.discover.result import excess_explained
 from identify.discover.score import ambiguity_groups, canonical_cosines, holm, score_candidates
 from identify.discover.working import Working, prepare, renoise, total_error_pct
+from identify.fit.engine import covariance, pseudo_solve
 from identify.fit.problem import FitProblem
 
 __all__ = ["Settings", "discover"]
@@ -103,22 +104,20 @@ def _test(w: Working, ext: FitProblem, sol, cand: Candidate) -> tuple[str, float
     J, r = sol.jac, sol.r
     n, k = J.shape
     pos = [ext.free.index(c) for c in cand.coefficients]
-    bread = np.linalg.pinv(J.T @ J)
     if w.noise.kind == "cluster":
         idx = w.objective.index
         C = len(idx)
-        contrib = np.array([J[i].T @ r[i] for i in idx])
-        cov = bread @ (C / (C - 1) * contrib.T @ contrib) @ bread
+        cov = covariance(J, r, clusters=idx)
         dev = np.array([sol.x[i] - cand.coefficients[c] for i, c in zip(pos, cand.coefficients)])
         block = cov[np.ix_(pos, pos)]
-        stat = float(dev @ np.linalg.pinv(block) @ dev) / q
+        stat = float(dev @ pseudo_solve(block, dev)) / q
         p = float(stats.f.sf(stat, q, C - 1))
         return "cluster-robust Wald", stat, p, {c: float(np.sqrt(cov[i, i]))
                                                 for i, c in zip(pos, cand.coefficients)}
     dof = max(n - k, 1)
     stat = max(w.sol.rss - sol.rss, 0.0) / q / (sol.rss / dof)
     p = float(stats.f.sf(stat, q, dof))
-    cov = sol.rss / dof * bread
+    cov = covariance(J, r)  # s^2 = rss / (n - k)
     return "F", stat, p, {c: float(np.sqrt(cov[i, i])) for i, c in zip(pos, cand.coefficients)}
 
 

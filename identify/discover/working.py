@@ -24,6 +24,7 @@ from identify.discover.noise import (MIN_SWEEP, PHI_MIN, NoiseModel, choose_nois
 from identify.discover.objective import Objective, Solution, problem_name
 from identify.discover.stages import add_parameter
 from identify.fit.metric import group_weights, thesis_error, thesis_error_by_group
+from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 
 __all__ = ["Working", "prepare", "cells", "folds", "metric_groups", "total_error_pct",
@@ -218,7 +219,6 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     t0 = time.process_time()
     x0 = p.x0()
     if n_starts > 1 and x0.size:
-        from identify.fit.optimize import fit
         x0 = np.array([fit(p, n_starts=n_starts, seed=seed).parameters[k] for k in p.free])
     sol = Objective(p, index).solve(x0)
     fit_seconds = time.process_time() - t0

@@ -10,26 +10,14 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from identify.core.jsonsafe import json_safe
 from identify.core.quantities import QUANTITIES
 from identify.core.units import SI_UNITS
 
 __all__ = ["FLAG_NAMES", "Flag", "RunDiagnostic", "Part", "row", "json_safe"]
 
-#: The flag vocabulary (docs/contracts-fit.md).
+#: The flag vocabulary (docs/procedures.md, docs/fit-directory.md).
 FLAG_NAMES = ("stick_slip", "short_run", "asymmetry", "spread", "condition")
-
-
-def json_safe(value: Any) -> Any:
-    """Floats to float (NaN/inf to None), numpy scalars to Python, containers recursively."""
-    if isinstance(value, Mapping):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass(frozen=True)
@@ -141,7 +129,7 @@ def unit_of(quantity: str) -> str:
 
 def row(quantity: str, pi_bar: float, Fz_N: float, value: float, *,
         gamma_deg: float = math.nan, Vx_mps: float = math.nan, mode: str = "") -> dict:
-    """One record of the characteristic table (docs/contracts-issue3.md)."""
+    """One record of the characteristic table (docs/loaded-tables.md)."""
     return {"quantity": quantity, "pi_bar": float(pi_bar), "Fz_N": float(Fz_N),
             "value": float(value), "unit": unit_of(quantity), "Vx_mps": float(Vx_mps),
             "gamma_deg": float(gamma_deg), "mode": mode}

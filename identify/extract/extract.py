@@ -28,7 +28,7 @@ from identify.extract.vertical import extract_vertical
 
 __all__ = ["Extraction", "extract_folder", "COLUMNS", "SCHEMA"]
 
-#: Columns of the extracted characteristic table (docs/contracts-issue3.md).
+#: Columns of the extracted characteristic table (docs/loaded-tables.md).
 COLUMNS = ("quantity", "pi_bar", "Fz_N", "value", "unit", "Vx_mps", "gamma_deg", "mode")
 #: Schema tag of :meth:`Extraction.to_dict` (``extraction.json``).
 SCHEMA = "mfid.extraction/1"

@@ -32,7 +32,7 @@ from pathlib import Path
 import emcee
 import numpy as np
 
-from identify.fit.optimize import covariance
+from identify.fit.engine import problem_covariance
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult, MCMCSummary
 
@@ -143,7 +143,8 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     nw = max(32, 2 * ndim, n_walkers or 0)
     nw += nw % 2
     rng = np.random.default_rng(seed)
-    sd = np.sqrt(np.clip(np.diag(covariance(problem, xb)), 0, None)) if k else np.zeros(0)
+    sd = (np.sqrt(np.clip(np.diag(problem_covariance(problem, xb)), 0, None)) if k
+          else np.zeros(0))
     lo, hi = problem.bounds()
     span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
     scale = np.where(sd > 0, sd, 1e-4 * span)

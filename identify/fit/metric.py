@@ -1,4 +1,4 @@
-"""The thesis error metric (pressure-relations.md) and its pooled variant.
+"""The thesis error metric (docs/relations.md) and its pooled variant.
 
 For one characteristic A and one inflation pressure, over its N points::
 

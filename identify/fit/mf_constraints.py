@@ -1,4 +1,4 @@
-"""Validity constraints of Magic Formula coefficients (magic-formula.md 9, item 15).
+"""Validity constraints of Magic Formula coefficients (MFeval's ``coefficientCheck``).
 
 MFeval's ``coefficientCheck`` conditions, as :class:`~identify.fit.problem.Constraint` objects
 (``g(values) >= 0``) for the MF fitting stages:
@@ -40,7 +40,7 @@ from identify.model.state import OperatingState, prepare, sgn1
 
 GRID_POINTS = 11
 FIT_MODE = 211
-"""useMode for fitting (magic-formula.md 1.2): no limit checks, no low-speed blending."""
+"""useMode for fitting (docs/model.md, section 2): no limit checks, no low-speed blending."""
 
 
 @dataclass(frozen=True)
@@ -98,7 +98,7 @@ def _per_load(values: np.ndarray) -> np.ndarray:
     return v.reshape(v.shape[:-1] + (GRID_POINTS, -1)).min(axis=-1)
 
 
-# ----- the derived quantities (formulas of magic-formula.md 4.1-5.2) -------------------------
+# ----- the derived quantities (formulas of docs/model.md, sections 4-6) ----------------------
 
 def _ex(P, s):
     kx = s.kappa + (P["PHX1"] + P["PHX2"] * s.dfz) * P["LHX"] * s.ws

@@ -14,7 +14,7 @@ __all__ = ["MFFit", "point_columns", "CSV_COLUMNS"]
 
 CSV_COLUMNS = ("relation", "form", "quantity", "unit", "pi_bar", "Fz_N", "gamma_deg",
                "alpha_rad", "kappa", "Vx_mps", "measured", "model")
-"""Columns of measured_vs_model.csv (docs/contracts-fit.md)."""
+"""Columns of measured_vs_model.csv (docs/fit-directory.md)."""
 
 
 def point_columns(points: pd.DataFrame) -> dict[str, np.ndarray]:

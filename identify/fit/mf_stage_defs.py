@@ -1,4 +1,4 @@
-"""The MF fitting stages: which coefficients, which data, which model (design.md "Fit in stages").
+"""The MF fitting stages: which coefficients, which data, which model (docs/procedures.md).
 
 Each stage fits one measured quantity on one selection of the trailer points with only its own
 coefficients free; everything else is held at the values carried forward from the earlier
@@ -152,7 +152,7 @@ def stage_model(stage: str, base: Values, s: OperatingState,
     if stage == "geometry":
         if omega is None:
             raise ValueError("the geometry stage needs the measured wheel speed omega")
-        # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (magic-formula.md 6.3)
+        # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (docs/model.md, 10.1)
         w = np.asarray(omega, dtype=float) + np.finfo(float).eps
         return lambda v: vertical._effective_radius(merged(v), s, w)
     if stage == "Fx0":
@@ -163,8 +163,8 @@ def stage_model(stage: str, base: Values, s: OperatingState,
         return lambda v: longitudinal.gx_alpha(merged(v), s) * fx0
 
     if stage == "Fy0":
-        # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (magic-formula.md
-        # 5.2); the combined expression is evaluated only where kappa != 0
+        # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (docs/model.md,
+        # section 6); the combined expression is evaluated only where kappa != 0
         slip = np.flatnonzero(s.kappa != 0)
         s_slip = _subset(s, slip)
 

@@ -16,7 +16,7 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   freed and the stage re-fitted locally), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
-* evaluates the model with useMode 211 (magic-formula.md 1.2).
+* evaluates the model with useMode 211 (docs/model.md, section 2).
 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
 up to 29 free coefficients): the carried-forward values, the parameter table's defaults, and
@@ -175,8 +175,9 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
     significant moves have given an effect, and re-fit locally from the optimum (the new ones
     start at their carried-forward values, so the objective can only fall). At most
-    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best and
-    its message says what was added."""
+    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best, adds
+    the re-fits' seconds and model evaluations to the search's, and its message says what was
+    added."""
     added_all: list[str] = []
     for _ in range(MAX_ROUNDS):
         moved = {n: float(result.parameters[n]) for n in result.free
@@ -199,7 +200,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         sp = trial
         result = dataclasses.replace(
             refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
-            seconds=result.seconds + refit.seconds)
+            seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
     if added_all:
         result = dataclasses.replace(
             result, message=f"{result.message} (then re-fitted from the global optimum with "

@@ -1,20 +1,25 @@
 """Global-then-local constrained fitting (the fmincon equivalent).
 
-A Latin-hypercube multi-start over the bounds, each start polished by a local solver:
-``scipy.optimize.least_squares`` (trust-region reflective, bounds) for weighted least squares
-without general constraints, SLSQP (bounds + inequality constraints) otherwise. The best start
-wins; the result records how many starts reached it, which bounds and constraints are active,
-standard errors and correlations from the Jacobian at the optimum.
+A Latin-hypercube multi-start over the bounds, each start solved by the engine
+(:mod:`identify.fit.engine`): least squares (trust-region reflective, bounds) for weighted
+least squares, followed, where general constraints are violated or the objective is the thesis
+metric, by SLSQP on the true objective (bounds + inequality constraints). The best start wins;
+the result records how many starts reached it, which bounds and constraints are active,
+standard errors and correlations from the Jacobian at the optimum, and how many model
+evaluations the whole search took.
 """
 from __future__ import annotations
 
+import dataclasses
 import time
-import warnings
+from dataclasses import dataclass
 
 import numpy as np
-from scipy import optimize
 from scipy.stats import qmc
 
+from identify.fit import engine
+from identify.fit.engine import STRICT, Estimate, Tolerances
+from identify.fit.metric import thesis_error_by_group
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 
@@ -48,94 +53,208 @@ def _starts(problem: FitProblem, n_starts: int, seed: int) -> np.ndarray:
     return np.vstack([np.clip(problem.x0(), *problem.bounds()), pts])
 
 
-def _least_squares(problem: FitProblem, x0: np.ndarray, max_nfev: int | None = None):
-    lo, hi = problem.bounds()
-    return optimize.least_squares(problem.residuals, x0, bounds=(lo, hi), method="trf",
-                                  x_scale="jac", xtol=1e-15, ftol=1e-15, gtol=1e-15,
-                                  max_nfev=max_nfev or 200 * (len(x0) + 1))
+@dataclass(frozen=True)
+class Outcome:
+    """One start's local solve.
+
+    Attributes
+    ----------
+    x : ndarray          where the start ended (free parameters)
+    ok : bool            converged (and feasible)
+    message : str
+    status : int         status of the solver that produced x (Estimate.status convention)
+    lsq : Estimate       the start's least-squares solve (x is lsq.x unless ``polished``)
+    polished : bool      a polish moved x away from the least-squares solution
+    """
+
+    x: np.ndarray
+    ok: bool
+    message: str
+    status: int
+    lsq: Estimate
+    polished: bool = False
 
 
-def _polish(problem: FitProblem, x1: np.ndarray) -> tuple[np.ndarray, bool, str]:
-    """SLSQP on the true objective with bounds and constraints, from x1."""
-    lo, hi = problem.bounds()
-    scale = np.maximum(np.abs(x1), 1e-3)  # SLSQP is sensitive to scaling: optimise x / scale
-
-    def scaled(z):
-        return problem.objective_value(z * scale)
-
-    cons = ([{"type": "ineq", "fun": (lambda z: problem.constraint_values(z * scale))}]
-            if problem.constraints else [])
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)
-        out = optimize.minimize(scaled, x1 / scale, method="SLSQP",
-                                bounds=list(zip(lo / scale, hi / scale)), constraints=cons,
-                                options={"ftol": 1e-11, "maxiter": 300})
-    x = np.clip(out.x * scale, lo, hi)
-    if not problem.constraints and problem.objective_value(x) > problem.objective_value(x1):
-        return x1, True, "least-squares pre-solve kept (SLSQP did not improve)"
-    return x, bool(out.success), str(out.message)
+def _jacobian_fn(problem: FitProblem):
+    """The exact residual Jacobian for the solver, or None (finite differences)."""
+    return problem.residual_jacobian if problem.jacobian is not None else None
 
 
-def _local(problem: FitProblem, x0: np.ndarray, cache: list | None = None,
-           max_nfev: int | None = None
-           ) -> tuple[np.ndarray, bool, str]:
-    """Local solve from x0. Weighted least squares without constraints: trust-region
-    reflective. Otherwise a least-squares pre-solve (the thesis metric's smooth companion,
-    constraints ignored) followed by SLSQP on the true objective with bounds and constraints;
-    starts whose pre-solves land on the same point share one polish (``cache``)."""
-    return _finish(problem, _least_squares(problem, x0, max_nfev), cache)
+def _solve(problem: FitProblem, x0: np.ndarray, max_nfev: int | None,
+           tol: Tolerances) -> Estimate:
+    """One start's least-squares solve (the exact Jacobian when the problem has one)."""
+    return engine.least_squares(problem.residuals, x0, problem.bounds(), tol,
+                                jac=_jacobian_fn(problem), max_nfev=max_nfev)
 
 
-def _finish(problem: FitProblem, res, cache: list | None = None,
-            bound: float = np.inf) -> tuple[np.ndarray, bool, str]:
-    """The rest of :func:`_local` after the least-squares solve ``res``. Weighted least
-    squares: a pre-solve that violates no constraint is the constrained optimum; one that does
-    is polished unless its cost already reaches ``bound`` (the best feasible objective found
-    so far: polishing only raises it) or it exhausted its budget."""
+def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
+    """SLSQP on the true objective with bounds and constraints, from the least-squares x."""
+    pol = engine.polish(problem.objective_value, lsq.x, problem.bounds(), tol,
+                        constraints=problem.constraint_values if problem.constraints else None,
+                        gradient=(problem.objective_gradient if problem.jacobian is not None
+                                  else None))
+    if not problem.constraints and pol.cost > problem.objective_value(lsq.x):
+        return Outcome(lsq.x, True, "least-squares pre-solve kept (SLSQP did not improve)",
+                       lsq.status, lsq)
+    return Outcome(pol.x, pol.success, pol.message, pol.status, lsq,
+                   polished=not np.array_equal(pol.x, lsq.x))
+
+
+def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
+            tol: Tolerances) -> Outcome:
+    """A start after its least-squares solve ``lsq``. Weighted least squares: a solution that
+    violates no constraint is the constrained optimum; one that does is polished unless its
+    cost already reaches ``bound`` (the best feasible objective found so far: polishing only
+    raises it) or it exhausted its budget. The thesis metric: always polished (SLSQP on the
+    metric itself). Starts whose least-squares solves land on the same point share one
+    polish (``cache``)."""
     if problem.objective == "wls":
-        if res.status == 0 or not problem.constraints \
-                or problem.constraint_values(res.x).min(initial=0.0) >= 0.0:
-            return res.x, bool(res.status > 0), str(res.message)
-        if res.cost >= bound:
-            return res.x, False, ("not polished: infeasible least-squares optimum no better "
-                                  "than a feasible start")
-    if cache is not None:
-        for x_ls, outcome in cache:
-            if np.allclose(x_ls, res.x, rtol=1e-8, atol=1e-12):
-                return outcome
-    outcome = _polish(problem, res.x)
-    if cache is not None:
-        cache.append((res.x, outcome))
+        if lsq.status == 0 or not problem.constraints \
+                or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0:
+            return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq)
+        if lsq.cost >= bound:
+            return Outcome(lsq.x, False, "not polished: infeasible least-squares optimum no "
+                           "better than a feasible start", lsq.status, lsq)
+    for x_ls, outcome in cache:
+        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
+            return outcome
+    outcome = _polish(problem, lsq, tol)
+    cache.append((lsq.x, outcome))
     return outcome
 
 
-def _jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
-    """Central-difference Jacobian of the weighted residuals, columns = free parameters."""
+def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
+            tol: Tolerances) -> list[Outcome]:
+    """Every start's local solve: all least-squares solves first, then the polishes from the
+    lowest cost up, so that (weighted least squares) a start that cannot beat a feasible
+    optimum is not polished."""
+    pre = [_solve(problem, x0, max_nfev, tol) for x0 in points]
+    if not problem.free:
+        return [Outcome(pre[0].x, True, pre[0].message, pre[0].status, pre[0])]
+    cache: list = []
+    done: dict[int, Outcome] = {}
+    bound = np.inf
+    for i in np.argsort([e.cost for e in pre], kind="stable"):
+        out = _finish(problem, pre[i], cache, bound, tol)
+        if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
+            out = dataclasses.replace(out, ok=False, message="constraint violated: "
+                                      + out.message)
+        done[i] = out
+        if out.ok and problem.objective == "wls":
+            bound = min(bound, problem.objective_value(out.x))
+    return [done[i] for i in range(len(pre))]
+
+
+def _select(problem: FitProblem, outcomes: list[Outcome]) -> tuple[int, int]:
+    """(index of the reported start, starts at the best value). The best converged start
+    wins (the least bad one when none converged); among starts at the same best value the
+    earliest in start order is reported, so the initial values choose the branch of a
+    symmetric or multi-branch optimum, not round-off."""
+    objs = np.array([problem.objective_value(o.x) if o.ok else np.inf for o in outcomes])
+    if not np.isfinite(objs).any():
+        objs = np.array([problem.objective_value(o.x) for o in outcomes])
+    best = int(np.argmin(objs))
+    gap = np.abs(objs - objs[best])
+    at_best = int(np.sum(gap <= BEST_RTOL * abs(objs[best]) + BEST_ATOL))
+    if np.isfinite(objs[best]):
+        best = int(np.flatnonzero(gap <= BEST_RTOL * abs(objs[best]) + TIE_ATOL)[0])
+    return best, at_best
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """The reported optimum and what is known about it.
+
+    Attributes
+    ----------
+    x : ndarray                    the optimum, parameters within 1e-7 of their range from a
+                                   bound put on it exactly
+    at_bound, active : tuple of str
+    cov : ndarray                  covariance of the free parameters (k, k)
+    jacobian_source : str          "solver" (the least-squares solver's at its solution),
+                                   "exact" (FitProblem.jacobian) or "central differences"
+    """
+
+    x: np.ndarray
+    at_bound: tuple[str, ...]
+    active: tuple[str, ...]
+    cov: np.ndarray
+    jacobian_source: str
+
+
+def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
+    """Bounds hit, active constraints and the covariance at the chosen start's optimum.
+
+    The covariance comes from the least-squares solver's Jacobian when the optimum is the
+    least-squares solution itself (s^2 from its residuals); when a polish moved the point, from
+    the exact Jacobian if the problem has one, central differences otherwise.
+    """
+    free = problem.free
     lo, hi = problem.bounds()
-    cols = []
-    for j in range(len(x)):
-        h = 1e-6 * max(abs(x[j]), 1e-4)
-        xp, xm = x.copy(), x.copy()
-        xp[j] = min(x[j] + h, hi[j]) if np.isfinite(hi[j]) else x[j] + h
-        xm[j] = max(x[j] - h, lo[j]) if np.isfinite(lo[j]) else x[j] - h
-        cols.append((problem.residuals(xp) - problem.residuals(xm)) / (xp[j] - xm[j]))
-    return np.column_stack(cols) if cols else np.zeros((problem.measured.size, 0))
+    xb = out.x
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
+    xb = np.where(np.abs(xb - lo) <= 1e-7 * span, lo, xb)
+    xb = np.where(np.abs(xb - hi) <= 1e-7 * span, hi, xb)
+    at_bound = tuple(n for n, x, a, b in zip(free, xb, lo, hi) if x == a or x == b)
+    active = []
+    if problem.constraints:
+        vals = problem.values(xb)
+        for c in problem.constraints:
+            g = np.atleast_1d(np.asarray(c.fun(vals), dtype=float))
+            if g.size and g.min() <= 1e-7 * max(1.0, float(np.max(np.abs(g)))):
+                active.append(c.name)
+    sigma_known = problem.sigma is not None
+    if not free:
+        cov, source = np.zeros((0, 0)), "solver"
+    elif not out.polished:
+        cov = engine.covariance(out.lsq.jac, out.lsq.fun, sigma_known=sigma_known)
+        source = "solver"
+    else:
+        cov = engine.problem_covariance(problem, xb)
+        source = "exact" if problem.jacobian is not None else "central differences"
+    return Diagnosis(xb, at_bound, tuple(active), cov, source)
 
 
-def covariance(problem: FitProblem, x: np.ndarray) -> np.ndarray:
-    """Covariance of the free parameters: s^2 (J^T J)^-1 with s^2 = chi^2/(n - k)."""
-    r = problem.residuals(x)
-    J = _jacobian(problem, x)
-    n, k = J.shape
-    dof = max(n - k, 1)
-    # known sigma: the weights already carry the noise scale; otherwise estimate it
-    s2 = 1.0 if problem.sigma is not None else float(r @ r) / dof
-    return s2 * np.linalg.pinv(J.T @ J)
+def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: int,
+              diag: Diagnosis, counter: engine.CountingModel, t0: float) -> FitResult:
+    """The FitResult of the chosen start; ``nfev`` is the counter's total after the last
+    model evaluation (the predictions at the optimum)."""
+    free = problem.free
+    lo, hi = problem.bounds()
+    xb, cov = diag.x, diag.cov
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    corr = {}
+    for i in range(len(free)):
+        for j in range(i + 1, len(free)):
+            den = sd[i] * sd[j]
+            corr[f"{free[i]}|{free[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
+    pred = problem.predict(xb)
+    with np.errstate(invalid="ignore"):
+        r = (pred - problem.measured) * problem.weights()
+    r = np.where(np.isfinite(r), r, 1e6)  # as FitProblem.residuals, without evaluating again
+    by_p = thesis_error_by_group(pred, problem.measured, problem.pressure_bar)
+    out = outcomes[best]
+    return FitResult(
+        relation=problem.relation, form=problem.form, objective=problem.objective,
+        parameters=problem.values(xb), free=free,
+        stderr={n: float(s) for n, s in zip(free, sd)},
+        bounds={n: (float(a), float(b)) for n, a, b in zip(free, lo, hi)},
+        at_bound=diag.at_bound, active_constraints=diag.active,
+        error_total_pct=float(np.mean(list(by_p.values()))), error_by_pressure_pct=by_p,
+        wls=float(r @ r), n_points=int(problem.measured.size), converged=bool(out.ok),
+        message=out.message, n_starts=len(outcomes), starts_at_best=at_best,
+        correlations=corr, predicted=pred, measured=problem.measured,
+        pressure_bar=problem.pressure_bar, seconds=time.perf_counter() - t0, nfev=counter.calls,
+        status=out.status)
 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
-        starts: np.ndarray | None = None, max_nfev: int | None = None) -> FitResult:
-    """Solve ``problem`` globally: multi-start Latin hypercube, local polish, best of all.
+        starts: np.ndarray | None = None, max_nfev: int | None = None,
+        tol: Tolerances = STRICT) -> FitResult:
+    """Solve ``problem`` globally: multi-start Latin hypercube, local solves, best of all.
+
+    Search (every start's least-squares solve and polish), select (the best start, ties to the
+    earliest), diagnose (bounds, constraints, covariance), assemble (FitResult).
 
     Parameters
     ----------
@@ -148,76 +267,29 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         values + Latin hypercube (``n_starts`` and ``seed`` are then ignored); clipped to the
         bounds.
     max_nfev : int, optional
-        Budget of model evaluations (Jacobian ones not counted) of each start's least-squares
-        solve; default 200 * (free parameters + 1). A start that exhausts it counts as not
-        converged.
+        Budget of each start's least-squares solve, in residual evaluations (scipy's count:
+        finite-difference Jacobian evaluations are not in it); default
+        ``tol.budget(free parameters)``. A start that exhausts it counts as not converged.
+    tol : Tolerances
+        Solver tolerances (default :data:`identify.fit.engine.STRICT`).
+
+    Returns
+    -------
+    FitResult
+        ``nfev`` counts every model evaluation the fit made (every start, finite-difference
+        Jacobians, polishes, selection and diagnosis); ``status`` is the reported start's
+        solver status.
     """
     t0 = time.perf_counter()
-    free = problem.free
-    k = len(free)
-    n_starts = n_starts or max(16, 8 * k)
-    if starts is not None:
-        starts = np.clip(np.atleast_2d(np.asarray(starts, dtype=float)), *problem.bounds())
+    problem, counter = engine.counted(problem)
+    k = len(problem.free)
     if k == 0:
-        xs, oks, msgs = [np.zeros(0)], [True], ["nothing to fit"]
+        points = np.zeros((1, 0))
+    elif starts is not None:
+        points = np.clip(np.atleast_2d(np.asarray(starts, dtype=float)), *problem.bounds())
     else:
-        cache: list = []
-        # all least-squares solves first, then the polishes from the lowest cost up, so that
-        # (weighted least squares) a start that cannot beat a feasible optimum is not polished
-        pre = [_least_squares(problem, x0, max_nfev)
-               for x0 in (_starts(problem, n_starts, seed) if starts is None else starts)]
-        done: dict[int, tuple] = {}
-        bound = np.inf
-        for i in np.argsort([r.cost for r in pre], kind="stable"):
-            x, ok, msg = _finish(problem, pre[i], cache, bound)
-            feasible = problem.constraint_values(x).min(initial=0.0) >= -1e-8
-            done[i] = (x, ok and feasible, msg if feasible else "constraint violated: " + msg)
-            if ok and feasible and problem.objective == "wls":
-                bound = min(bound, problem.objective_value(x))
-        xs, oks, msgs = (list(v) for v in zip(*(done[i] for i in range(len(pre)))))
-    objs = np.array([problem.objective_value(x) if ok else np.inf for x, ok in zip(xs, oks)])
-    if not np.isfinite(objs).any():  # nothing converged: report the least bad start
-        objs = np.array([problem.objective_value(x) for x in xs])
-    best = int(np.argmin(objs))
-    gap = np.abs(objs - objs[best])
-    at_best = int(np.sum(gap <= BEST_RTOL * abs(objs[best]) + BEST_ATOL))
-    # starts that reach the same best value (a symmetric or multi-branch optimum): report the
-    # earliest in start order, so the initial values choose the branch, not round-off
-    if np.isfinite(objs[best]):
-        best = int(np.flatnonzero(gap <= BEST_RTOL * abs(objs[best]) + TIE_ATOL)[0])
-    xb = xs[best]
-    lo, hi = problem.bounds()
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
-    # a parameter within 1e-7 of its range from a bound is on it: report the bound exactly
-    xb = np.where(np.abs(xb - lo) <= 1e-7 * span, lo, xb)
-    xb = np.where(np.abs(xb - hi) <= 1e-7 * span, hi, xb)
-    at_bound = tuple(n for n, x, a, b in zip(free, xb, lo, hi) if x == a or x == b)
-    active = []
-    if problem.constraints:
-        vals = problem.values(xb)
-        for c in problem.constraints:
-            g = np.atleast_1d(np.asarray(c.fun(vals), dtype=float))
-            if g.size and g.min() <= 1e-7 * max(1.0, float(np.max(np.abs(g)))):
-                active.append(c.name)
-    cov = covariance(problem, xb) if k else np.zeros((0, 0))
-    # a parameter on an active bound has no meaningful symmetric error
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    corr = {}
-    for i in range(k):
-        for j in range(i + 1, k):
-            den = sd[i] * sd[j]
-            corr[f"{free[i]}|{free[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
-    pred = problem.predict(xb)
-    r = problem.residuals(xb)
-    by_p = problem.thesis_by_pressure(xb)
-    return FitResult(
-        relation=problem.relation, form=problem.form, objective=problem.objective,
-        parameters=problem.values(xb), free=free,
-        stderr={n: float(s) for n, s in zip(free, sd)},
-        bounds={n: (float(a), float(b)) for n, a, b in zip(free, lo, hi)},
-        at_bound=at_bound, active_constraints=tuple(active),
-        error_total_pct=float(np.mean(list(by_p.values()))), error_by_pressure_pct=by_p,
-        wls=float(r @ r), n_points=int(problem.measured.size), converged=bool(oks[best]),
-        message=msgs[best], n_starts=len(xs), starts_at_best=at_best, correlations=corr,
-        predicted=pred, measured=problem.measured, pressure_bar=problem.pressure_bar,
-        seconds=time.perf_counter() - t0)
+        points = _starts(problem, n_starts or max(16, 8 * k), seed)
+    outcomes = _search(problem, points, max_nfev, tol)
+    best, at_best = _select(problem, outcomes)
+    diag = _diagnose(problem, outcomes[best])
+    return _assemble(problem, outcomes, best, at_best, diag, counter, t0)

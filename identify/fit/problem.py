@@ -21,6 +21,13 @@ ModelFn = Callable[[Mapping[str, float | np.ndarray]], np.ndarray]
 """model(values) -> predictions [unit of the data], one per data point; values maps every
 parameter name (free and fixed) to a float (or, for MCMC, to an array of shape (walkers, 1))."""
 
+JacobianFn = Callable[[Mapping[str, float], tuple[str, ...]], np.ndarray]
+"""jacobian(values, names) -> d model / d names, shape (points, len(names)) [unit of the data
+per unit of each parameter]: the exact derivatives of the model with respect to the named
+parameters at ``values`` (every parameter name -> float). The fit asks for the free parameters
+(columns in ``FitProblem.free`` order); discovery asks for candidate coefficients that are held
+fixed as well, so the names are an argument rather than fixed when the problem is built."""
+
 
 @dataclass(frozen=True)
 class Constraint:
@@ -65,6 +72,12 @@ class FitProblem:
         Sweep id of each point (for AR(1) noise in MCMC and for diagnostics).
     unit : str
         Unit of the data, for reports.
+    jacobian : JacobianFn or None
+        Exact derivatives of ``model`` (see :data:`JacobianFn`), or None for finite
+        differences. When given, the least-squares solver uses it (``jac=``), the covariance is
+        computed from it, the constrained polish gets the exact gradient of the objective, and
+        discovery uses it for the candidates' columns. Its evaluations are not counted as model
+        evaluations (FitResult.nfev).
     noise : str
         Noise model of the MCMC likelihood (identify.fit.mcmc), i.e. how the standard
         deviation of a point scales with the one noise-level parameter sigma:
@@ -92,6 +105,7 @@ class FitProblem:
     unit: str = ""
     extra: Mapping[str, object] = field(default_factory=dict)
     noise: str = "weights"
+    jacobian: JacobianFn | None = None
 
     def __post_init__(self) -> None:
         if self.objective not in ("thesis", "wls"):
@@ -162,6 +176,48 @@ class FitProblem:
         """Weighted residuals w*(model - measured); non-finite model values are penalised."""
         r = (self.predict(x) - self.measured) * self.weights()
         return np.where(np.isfinite(r), r, 1e6)
+
+    def model_jacobian(self, x: np.ndarray | None = None,
+                       names: tuple[str, ...] | None = None) -> np.ndarray | None:
+        """Exact d model / d ``names`` (default: the free parameters) at ``x``, shape
+        (points, len(names)); None when the problem has no Jacobian."""
+        if self.jacobian is None:
+            return None
+        names = self.free if names is None else tuple(names)
+        with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
+            J = np.asarray(self.jacobian(self.values(x), names), dtype=float)
+        J = J.reshape(self.measured.size, len(names))
+        return np.where(np.isfinite(J), J, 0.0)
+
+    def residual_jacobian(self, x: np.ndarray | None = None,
+                          names: tuple[str, ...] | None = None) -> np.ndarray | None:
+        """Exact d(weighted residuals) / d ``names`` (default: the free parameters), or None
+        without a Jacobian. Non-finite derivatives are 0 (as the residuals' penalty for a
+        non-finite model value is a constant)."""
+        J = self.model_jacobian(x, names)
+        return None if J is None else J * self.weights()[:, None]
+
+    def objective_gradient(self, x: np.ndarray) -> np.ndarray | None:
+        """Exact gradient of :meth:`objective_value` with respect to the free parameters, or
+        None without a Jacobian. Thesis objective: mean over pressures of
+        100 sqrt(num_g / den_g), d/dx = mean of 100 / (2 sqrt(num_g den_g)) d num_g / dx with
+        d num_g / dx = 2 sum_(i in g) (pred_i - meas_i) d pred_i / dx (a pressure fitted
+        exactly, num_g = 0, contributes 0)."""
+        J = self.model_jacobian(x)
+        if J is None:
+            return None
+        if self.objective == "wls":
+            return J.T @ (self.residuals(x) * self.weights())
+        e = self.predict(x) - self.measured
+        if not np.all(np.isfinite(e)):
+            return np.zeros(J.shape[1])
+        num = np.bincount(self._group_index, e ** 2, minlength=self._group_den.size)
+        dnum = np.stack([np.bincount(self._group_index, 2.0 * e * J[:, j],
+                                     minlength=self._group_den.size)
+                         for j in range(J.shape[1])], axis=1).reshape(num.size, -1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            f = np.where(num > 0, 100.0 / (2.0 * np.sqrt(num * self._group_den)), 0.0)
+        return (f[:, None] * dnum).mean(axis=0)
 
     def thesis_by_pressure(self, x: np.ndarray | None = None) -> dict[float, float]:
         return thesis_error_by_group(self.predict(x), self.measured, self.pressure_bar)

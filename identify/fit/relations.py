@@ -1,4 +1,4 @@
-"""The pressure relations as fit problems (pressure-relations.md).
+"""The pressure relations as fit problems (docs/relations.md).
 
 Each builder turns a characteristic table (SI, identify.io.characteristics schema) into a
 :class:`~identify.fit.problem.FitProblem` whose parameters carry the .tir key names where MF has
@@ -334,7 +334,7 @@ def camber(chars, ctx, quantity: str, *, vx: float = 0.05,
 def sidewall(chars, ctx, mode: str, form: str = "scaling") -> FitProblem | None:
     """Eigenfrequency of one rigid-ring mode vs pressure: ``scaling`` f = f0 sqrt(1 + F dpi)
     (c_b = c_b0 (1 + F dpi)) with F_<MODE> in the .tir's MFID_EXTENSIONS; ``rotta`` f =
-    f0 sqrt(c_rotta(p)/c_rotta(p0)) with the ring data of pressure-relations.md (one scale)."""
+    f0 sqrt(c_rotta(p)/c_rotta(p0)) with the ring data of docs/relations.md (one scale)."""
     d = _select(chars, "f_nat")
     d = d[d["mode"] == mode].reset_index(drop=True) if not d.empty else d
     if d.empty or d["pi_bar"].nunique() < 2:

@@ -1,6 +1,6 @@
 """Axis systems of force and moment data, converted to ISO-W (= TYDEX W, the model's axes).
 
-ISO-W (magic-formula.md section 1.3): origin at the contact point, x forward along the line
+ISO-W (docs/model.md, section 1): origin at the contact point, x forward along the line
 where the wheel plane meets the road, z up (normal to the road), y = z x x to the left.
 
 SAE (x forward, y right, z down) is ISO-W turned half a turn about x. Vector components along y
@@ -20,7 +20,7 @@ W axes at the contact point is therefore ``F_W = R F_C`` and ``M_W = R M_C + d x
     Fy = FyC cos g - FzC sin g        My = MyC cos g - MzC sin g + r_l*FxC cos g
     Fz = FyC sin g + FzC cos g        Mz = MyC sin g + MzC cos g + r_l*FxC sin g
 
-These are exactly the Flatplank hub transform of flatplank.md with FyC = -Ky, FzC = Kz,
+These are exactly the Flatplank hub transform of docs/procedures.md with FyC = -Ky, FzC = Kz,
 MxC = -Tx, MyC = 0, MzC = Tz (a lateral force at the road, +y, gives MxC = MxW + r_l*Fy at the
 hub, hence the minus sign in Mx).
 """

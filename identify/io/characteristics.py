@@ -1,6 +1,6 @@
 """Characteristic tables (CSV) -> tidy SI tables.
 
-Schema (docs/contracts-issue3.md): ``quantity, pi_bar, Fz_N, value, unit`` and optional
+Schema (docs/measurement-folder.md): ``quantity, pi_bar, Fz_N, value, unit`` and optional
 ``Vx_mps, gamma_deg, mode``; one row per quantity, pressure and load (and speed, camber or
 mode). Values are converted to the SI unit of their quantity; ``pi_bar`` is kept and ``p_Pa``
 added. The files are small, so every row is checked and each bad cell is reported with its line.

@@ -1,6 +1,6 @@
 """Raw Flatplank runs -> tidy tables with contact-patch (ISO-W) and wheel-centre (C) forces.
 
-The hub transform is exactly the one of flatplank.md (TU Eindhoven Flatplank, thesis
+The hub transform is exactly the one of docs/procedures.md (TU Eindhoven Flatplank, thesis
 appendix A): five bridges Gx1, Gx2, Gy, Gz1, Gz2 give hub forces K and moments T, which are
 moved to the contact patch with the camber gamma = phi_wheel + phi_plank and the loaded radius.
 It agrees with the general C -> W conversion :func:`identify.io.axes.c_to_w` (tested).

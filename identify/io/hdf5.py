@@ -1,4 +1,4 @@
-"""HDF5 channel files (design.md): one group per run, one 1-D dataset per channel.
+"""HDF5 channel files (docs/measurement-folder.md): one group per run, one 1-D dataset per channel.
 
 Each dataset has the attributes ``units`` and ``long_name``; the time channel is a dimension
 scale attached to every other dataset of its group. Read with h5py (pandas' ``read_hdf`` only

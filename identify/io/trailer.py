@@ -1,6 +1,6 @@
 """Trailer channel files (CSV, HDF5, TYDEX, TTC .mat/.dat) -> tidy tables in SI and ISO-W.
 
-Channels carry TYDEX names (docs/contracts-issue3.md): RUNTIME, LONGVEL, WHROTSPD, SLIPANGL,
+Channels carry TYDEX names (docs/measurement-folder.md): RUNTIME, LONGVEL, WHROTSPD, SLIPANGL,
 LONGSLIP, INCLANGL, INFLPRES, FX, FYW, FZW, MXW, MZW, optionally MYW, RLOADED (loaded radius,
 needed for TYDEX-C data unless the run declares ``loaded_radius_m``), REFFECT (effective
 rolling radius) and the temperatures TTREADI, TTREADC, TTREADO (tread inner, centre, outer),

@@ -1,10 +1,11 @@
 """TYDEX (.tdx) measurement files: reader and writer.
 
-Layout (design.md): sections ``**HEADER``, ``**COMMENTS``, ``**CONSTANTS``, ``**MEASURCHANNELS``,
-``**MEASURDATA``, ``**END``; a line starting with ``!`` is a comment. Entry lines are fixed
-width: key (10 characters), description (30), unit (10), then the value(s). A channel line
-carries, after its unit, a conversion factor and two offsets (default 1, 0, 0); this reader
-applies them as ``value = (raw + offset1) * factor + offset2`` (in the channel's unit).
+Layout (docs/measurement-folder.md): sections ``**HEADER``, ``**COMMENTS``, ``**CONSTANTS``,
+``**MEASURCHANNELS``, ``**MEASURDATA``, ``**END``; a line starting with ``!`` is a comment.
+Entry lines are fixed width: key (10 characters), description (30), unit (10), then the
+value(s). A channel line carries, after its unit, a conversion factor and two offsets
+(default 1, 0, 0); this reader applies them as ``value = (raw + offset1) * factor + offset2``
+(in the channel's unit).
 Data rows are whitespace-separated numbers, one row per line, one column per channel.
 
 The format is detected by its first significant line (``**HEADER``), not by the extension.

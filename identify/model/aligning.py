@@ -1,4 +1,4 @@
-"""Aligning moment Mz (magic-formula.md 4.3 and 5.3: 4.E31-4.E47, 4.E71-4.E78, paper A54-A60).
+"""Aligning moment Mz (docs/model.md, section 7: 4.E31-4.E47, 4.E71-4.E78, paper A54-A60).
 
 MFeval exports only the combined form: Mz = -t*F'y + Mzr + s*Fx, even at kappa = 0.
 Pure vectorised functions; no I/O.

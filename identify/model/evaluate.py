@@ -21,7 +21,7 @@ INPUT_COLUMNS = ("Fz", "kappa", "alpha", "gamma", "Vx", "p")
 OPTIONAL_INPUT_COLUMNS = ("phit", "omega")
 OUTPUT_COLUMNS = ("Fx", "Fy", "Fz", "Mx", "My", "Mz", "Re", "rho", "2a", "t", "mux", "muy",
                   "omega", "Rl", "2b", "Mzr", "Cx", "Cy", "Cz", "Kya", "sigmax", "sigmay", "Kxk")
-"""Model outputs, named as in magic-formula.md 6.8 (a stable interface)."""
+"""Model outputs, named as in docs/model.md, section 1, Outputs (a stable interface)."""
 SUPPORTED_FITTYP = (61, 62)
 
 

@@ -36,7 +36,7 @@ class PureLateral:
 
 
 def fy0(P: Mapping[str, float], s: OperatingState, zero_camber: bool = False) -> PureLateral:
-    """Pure side-slip force Fy0 [N] (magic-formula.md 4.2).
+    """Pure side-slip force Fy0 [N] (docs/model.md, section 5).
 
     Parameters
     ----------
@@ -90,7 +90,7 @@ class CombinedLateral:
 
 
 def fy_combined(P: Mapping[str, float], s: OperatingState, pure: PureLateral) -> CombinedLateral:
-    """Combined-slip lateral force Fy [N] (magic-formula.md 5.2)."""
+    """Combined-slip lateral force Fy [N] (docs/model.md, section 6)."""
     dfz, g, a = s.dfz, s.gamma_star, s.alpha_star
     dvyk = (pure.muy * s.fz * (P["RVY1"] + P["RVY2"] * dfz + P["RVY3"] * g)
             * np.cos(np.arctan(P["RVY4"] * a)))

@@ -41,7 +41,7 @@ def magic_cosine(b, c, e, x):
 
 
 def fx0(P: Mapping[str, float], s: OperatingState) -> PureLongitudinal:
-    """Pure longitudinal slip force Fx0 [N] (magic-formula.md 4.1)."""
+    """Pure longitudinal slip force Fx0 [N] (docs/model.md, section 4)."""
     dfz, dpi, fz = s.dfz, s.dpi, s.fz
     cx = P["PCX1"] * P["LCX"]
     mux = ((P["PDX1"] + P["PDX2"] * dfz) * (1 + P["PPX3"] * dpi + P["PPX4"] * dpi ** 2)
@@ -64,7 +64,7 @@ def fx0(P: Mapping[str, float], s: OperatingState) -> PureLongitudinal:
 
 
 def gx_alpha(P: Mapping[str, float], s: OperatingState) -> np.ndarray:
-    """Combined-slip weighting G_x,alpha [-] that multiplies Fx0 (magic-formula.md 5.1)."""
+    """Combined-slip weighting G_x,alpha [-] that multiplies Fx0 (docs/model.md, section 6)."""
     cxa = P["RCX1"]
     exa = P["REX1"] + P["REX2"] * s.dfz
     if s.mode.limits:

@@ -1,7 +1,7 @@
 """Overturning moment Mx (TNO form) and rolling-resistance moment My (paper A48).
 
 Pure vectorised functions; no I/O. Both apply MFeval's low-load reductions below FZMIN with or
-without limit checks (magic-formula.md 6.1, 6.2).
+without limit checks (docs/model.md, sections 8 and 9).
 """
 from __future__ import annotations
 

@@ -11,7 +11,7 @@ Columns of the CSV (and fields of :class:`ParameterSpec`):
 ``section``
     The .tir section; :data:`SECTIONS` gives their write order.
 ``default``
-    The value MFeval's ``readTIR`` pre-loads when the key is missing (magic-formula.md 7.4),
+    The value MFeval's ``readTIR`` pre-loads when the key is missing (docs/tir-files.md),
     a float or a string without quotes. Deviations, all for keys whose MFeval default is a
     meaningless placeholder: ``FITTYP`` is 61 here (MFeval pre-loads 0, which it rejects; the
     reader requires FITTYP in every file anyway), ``FILE_TYPE``/``FILE_FORMAT`` are 'tir'/'ASCII'
@@ -25,7 +25,7 @@ Columns of the CSV (and fields of :class:`ParameterSpec`):
     converted, whatever ``[UNITS]`` says.
 ``lower``, ``upper``
     Fit bounds, or None (unbounded). The pressure-relation bounds come from the thesis
-    (pressure-relations.md); the others are broad physical ranges.
+    (docs/relations.md); the others are broad physical ranges.
 ``vary``
     The key may be freed by a fit at all (model coefficients, scaling factors, stiffnesses).
     False for header, model switches, units, dimensions, inertia and validity ranges.
@@ -43,7 +43,10 @@ Columns of the CSV (and fields of :class:`ParameterSpec`):
     keys in a 6.1 file, are written only when they differ from the default.
 
 The ``MFID_EXTENSIONS`` section holds coefficients that the Magic Formula has no key for; other
-tools ignore the section. All defaults are neutral (they reproduce plain MF-Swift):
+tools ignore the section. In a .tir file their keys carry the prefix ``MFID_`` (``MFID_F_X``,
+``MFID_CMZ_FORM``) so that they cannot collide with a key of a present or future MF version;
+the reader also takes the bare names older mfid versions wrote. All defaults are neutral (they
+reproduce plain MF-Swift):
 
 - ``F_X, F_Y, F_Z, F_THETA, F_GAMMA, F_PSI``: linear pressure scaling of the rigid-ring sidewall
   stiffnesses, ``c_b = c_b0 * (1 + f * dpi)`` (op het Veld 2007); default 0.
@@ -63,7 +66,8 @@ from functools import cache
 from importlib.resources import files
 
 __all__ = ["ParameterSpec", "PARAMETERS", "SECTIONS", "PRESSURE_KEYS", "STRING_KEYS",
-           "spec", "defaults", "bounds", "section_keys", "tir_name"]
+           "spec", "defaults", "bounds", "section_keys", "tir_name",
+           "EXTENSION_PREFIX"]
 
 #: Section write order: the 21 MF 6.x sections, then mfid's own section.
 SECTIONS: tuple[str, ...] = (
@@ -126,13 +130,23 @@ class ParameterSpec:
 
     @property
     def tir_key(self) -> str:
-        """The key as written in a .tir file (``MASS`` for ``MASS1``)."""
+        """The key as written in a .tir file (``MASS`` for ``MASS1``, ``MFID_F_X`` for
+        ``F_X``)."""
         return tir_name(self.name)
 
 
+EXTENSION_PREFIX = "MFID_"
+"""Prefix of the .tir keys of the ``MFID_EXTENSIONS`` section."""
+
+
 def tir_name(name: str) -> str:
-    """The .tir spelling of a table name: ``MASS1`` -> ``MASS``, others unchanged."""
-    return "MASS" if name == "MASS1" else name
+    """The .tir spelling of a table name: ``MASS1`` -> ``MASS``, an extension ``F_X`` ->
+    ``MFID_F_X``, others unchanged."""
+    if name == "MASS1":
+        return "MASS"
+    if name in _EXTENSIONS:
+        return EXTENSION_PREFIX + name
+    return name
 
 
 def _opt_float(text: str) -> float | None:
@@ -159,6 +173,7 @@ def _load() -> tuple[ParameterSpec, ...]:
 #: Every row of the table, in write order.
 PARAMETERS: tuple[ParameterSpec, ...] = _load()
 _BY_NAME: dict[str, ParameterSpec] = {p.name: p for p in PARAMETERS}
+_EXTENSIONS = frozenset(p.name for p in PARAMETERS if p.section == "MFID_EXTENSIONS")
 
 #: Names of the string-valued keys.
 STRING_KEYS: frozenset[str] = frozenset(p.name for p in PARAMETERS if p.is_string)

@@ -1,6 +1,6 @@
 """Inflation-pressure relations of op het Veld (2007) as pure vectorised functions.
 
-Every relation of ``shared/spec/pressure-relations.md``: vertical force and stiffness (qFz and
+Every relation of ``docs/relations.md``: vertical force and stiffness (qFz and
 Magic Formula forms), the load-and-pressure stiffness form of CFx and CFy, the yaw stiffness
 forms T1 and T2, the cornering stiffness Kya with PPY1/PPY2, the lateral relaxation length (ratio
 and carcass-chain forms), rolling resistance (new power-law form and old form), the camber
@@ -93,7 +93,7 @@ def cfz_qfz_at_load(fz, dp, qfz1, qfz2, qfz3):
 
 
 def mf_from_qfz(qfz1, qfz2, qfz3, r0, fz0):
-    """MF 6.x vertical keys (magic-formula.md 6.4) equivalent to a qFz relation.
+    """MF 6.x vertical keys (docs/model.md, section 10.2) equivalent to a qFz relation.
 
     Returns
     -------

@@ -1,4 +1,4 @@
-"""Pre-processing of operating points (magic-formula.md sections 1-3).
+"""Pre-processing of operating points (docs/model.md, sections 1-3).
 
 Turns raw input arrays into an :class:`OperatingState`: the unmodified ("_u") copies, the limited
 values the force equations use, the low-speed weights and the basic normalised variables.
@@ -14,7 +14,7 @@ import numpy as np
 from identify.model.modes import UseMode
 
 EPS = 1e-6
-"""MFeval's epsilon in denominators (magic-formula.md 1.4)."""
+"""MFeval's epsilon in denominators (docs/model.md, section 1, Notation)."""
 
 
 def sgn1(x: np.ndarray) -> np.ndarray:

@@ -1,7 +1,7 @@
 """Vertical and geometric quantities: effective rolling radius and spin rate, deflection,
 loaded radius and vertical stiffness (MF 6.1 closed form, MF 6.2 vectorised secant solve),
 contact patch, and the MF-Swift overall stiffnesses and relaxation lengths
-(magic-formula.md 6.3-6.6). Pure vectorised functions; no I/O.
+(docs/model.md, section 10). Pure vectorised functions; no I/O.
 """
 from __future__ import annotations
 
@@ -135,7 +135,7 @@ def deflection_62(P: Mapping[str, float], s: OperatingState, fx: np.ndarray, fy:
     """MF 6.2: solve Fz(Rl) = Fz for the loaded radius with a vectorised secant method.
 
     Starting guesses 0.95*R0 and R0; converged points are frozen; the better of the two
-    previous iterates is kept as the second point (magic-formula.md 6.4).
+    previous iterates is kept as the second point (docs/model.md, section 10.3).
 
     Parameters
     ----------

@@ -1,7 +1,7 @@
 """Rig simulator: complete simulated measurement folders with known truth.
 
 ``simulate_folder(tir_params, outdir, ...)`` writes Flatplank raw runs for every test type,
-trailer sweeps, eigenfrequencies, ``tyre.toml`` and ``truth.json`` (docs/contracts-issue3.md).
+trailer sweeps, eigenfrequencies, ``tyre.toml`` and ``truth.json`` (docs/measurement-folder.md).
 Modules: ``coefficients`` (default relations, thesis-calibrated), ``default_tyre`` (the bundled
 225/50 R17 .tir), ``grid``, ``rig`` (constants and the hub-transform inverse), ``artefacts``,
 ``model`` (the simulated tyre), ``flatplank`` / ``flatplank_rolling`` / ``trailer`` (runs),

@@ -83,8 +83,8 @@ def fit_all(table: pd.DataFrame) -> dict[str, dict[str, float]]:
 
 def main(argv: list[str] | None = None) -> None:
     argv = sys.argv[1:] if argv is None else argv
-    path = Path(argv[0]) if argv else (Path(__file__).resolve().parents[3] / "shared" / "spec"
-                                       / "data" / "thesis_characteristics.csv")
+    path = Path(argv[0]) if argv else (Path(__file__).resolve().parents[2] / "measurements"
+                                       / "thesis-225-50R17" / "characteristics.csv")
     table = pd.read_csv(path)
     for name, coefficients in fit_all(table).items():
         print(name, {k: float(f"{v:.6g}") for k, v in coefficients.items()})

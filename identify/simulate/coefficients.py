@@ -3,7 +3,7 @@
 The numbers of CFz, CFx, CFy (with PKY1/PKY2/PPY1/PPY2 of the default .tir) and the Re keys come
 from ``python -m identify.simulate.calibrate``: a relative least-squares fit to the real
 Flatplank characteristics of the 225/50 R17 tyre of op het Veld (2007, chapter 4;
-``shared/spec/data/thesis_characteristics.csv``). CMz and the rigid ring have no thesis table:
+``measurements/thesis-225-50R17/characteristics.csv``). CMz and the rigid ring have no thesis table:
 CMz uses the T1 form with pCMz1 = -0.55 (the thesis saw CMz fall ~12 % per +0.5 bar); the
 ring stiffnesses give MF-Swift-typical eigenfrequencies (80/42/80 Hz, 70 Hz wind-up, 50 Hz
 camber/yaw) with the pressure scalings f_x .. f_psi the thesis fitted (0.65, 0.74, 0.65, 0.69,

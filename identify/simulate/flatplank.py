@@ -1,7 +1,8 @@
 """Flatplank runs without rolling: vertical, locked-hub stiffness (x and y) and parking.
 
 Each generator returns :class:`~identify.simulate.model.Run` objects whose channels are the raw
-hub bridges (the flatplank.md transform inverted) plus the rig's motion channels.
+hub bridges (the Flatplank hub transform of docs/procedures.md inverted) plus the rig's motion
+channels.
 """
 from __future__ import annotations
 
@@ -17,7 +18,7 @@ __all__ = ["run_name", "assemble", "vertical_runs", "locked_hub_runs", "parking_
 
 
 def run_name(test: str, p_bar: float, fz: float, start: int, suffix: str = "") -> str:
-    """File stem ``<test>_p<bar*100>_fz<N>_s<start><suffix>`` (docs/contracts-issue3.md)."""
+    """File stem ``<test>_p<bar*100>_fz<N>_s<start><suffix>`` (docs/measurement-folder.md)."""
     return f"{test}_p{round(p_bar * 100)}_fz{round(fz)}_s{start}{suffix}"
 
 

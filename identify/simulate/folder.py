@@ -1,6 +1,6 @@
 """``simulate_folder``: write a complete simulated measurement folder, atomically.
 
-Layout, manifest and channel names follow docs/contracts-issue3.md. The folder is built in a
+Layout, manifest and channel names follow docs/measurement-folder.md. The folder is built in a
 temporary directory next to ``outdir`` and renamed into place only when complete, so a failure
 never leaves a partial folder.
 """

@@ -1,6 +1,6 @@
 """The simulated Flatplank rig: constants, the test physics it adds, and the hub transform inverse.
 
-The forward transform of ``shared/spec/flatplank.md`` maps the five hub bridges to contact-patch
+The forward transform of ``docs/procedures.md`` maps the five hub bridges to contact-patch
 forces (ISO-W). :func:`bridges_from_contact` inverts it exactly, so a loader that applies the
 forward transform to the written channels recovers the simulated contact-patch forces. The hub
 cannot measure My independently: My = -Tz sin(gamma) + Fx rl cos(gamma) follows from the others.
@@ -15,7 +15,7 @@ __all__ = ["Rig", "DEFAULT_RIG", "bridges_from_contact", "BRIDGES", "FLATPLANK_C
 
 #: The hub bridge channels [N].
 BRIDGES = ("Gx1", "Gx2", "Gy", "Gz1", "Gz2")
-#: Every channel of a Flatplank raw CSV, in file order (docs/contracts-issue3.md).
+#: Every channel of a Flatplank raw CSV, in file order (docs/measurement-folder.md).
 FLATPLANK_CHANNELS = ("time", *BRIDGES, "plank_x", "wheel_angle", "psi", "hub_z", "phi_wheel",
                       "phi_plank", "loaded_radius")
 
@@ -113,7 +113,7 @@ DEFAULT_RIG = Rig()
 
 
 def bridges_from_contact(fx, fy, fz, mx, mz, gamma, rl, hub_a, hub_b) -> dict[str, np.ndarray]:
-    """Hub bridge signals that the flatplank.md transform maps to the given contact forces.
+    """Hub bridge signals that the Flatplank hub transform maps to the given contact forces.
 
     Parameters
     ----------

@@ -14,7 +14,7 @@ from identify.simulate.model import TRAILER_MODE, TyreModel
 
 __all__ = ["UNITS", "characteristics", "eigenfrequency_rows"]
 
-#: Unit of each quantity (docs/contracts-issue3.md).
+#: Unit of each quantity (docs/loaded-tables.md).
 UNITS = {"CFz": "N/m", "CFx": "N/m", "CFy": "N/m", "CMz": "N*m/rad", "sigma_y": "m",
          "sigma_x": "m", "Re": "m", "FxRR": "N", "Fy_gamma": "N", "Mz_gamma": "N*m",
          "Mx_gamma": "N*m", "f_nat": "Hz"}

@@ -1,6 +1,6 @@
 """Read Magic Formula tyre property files (.tir) into SI values keyed by the parameter table.
 
-The syntax follows magic-formula.md section 7: ``[SECTION]`` headers, ``KEY = VALUE $comment``
+The syntax is described in docs/tir-files.md: ``[SECTION]`` headers, ``KEY = VALUE $comment``
 lines, ``$`` and ``!`` comment lines, single- or double-quoted strings. Real files also bring LF
 or CRLF (or CR) line ends, tabs, a UTF-8 BOM, exponents such as ``5.6519e+005`` or ``1.E-3``,
 empty values (``ROAD_INCREMENT =``, which then take the default), keys in any case, non-SI
@@ -22,7 +22,7 @@ from typing import Any
 
 from identify.core.errors import InputError
 from identify.core.units import dimension_factor, unit_factor
-from identify.model.parameters import PARAMETERS, spec
+from identify.model.parameters import EXTENSION_PREFIX, PARAMETERS, spec
 
 __all__ = ["TirFile", "read_tir", "SUPPORTED_FITTYPS", "KNOWN_FITTYPS", "UNIT_KEYS"]
 
@@ -41,6 +41,7 @@ _SI_NAME = {"LENGTH": "meter", "FORCE": "newton", "ANGLE": "radians", "MASS": "k
 _TABLE_SECTIONS = frozenset({"SHAPE", "DEFLECTION_LOAD_CURVE"})
 _KV_SECTIONS = frozenset(p.section for p in PARAMETERS)
 _TABLE_NAMES = frozenset(p.name for p in PARAMETERS)
+_EXTENSION_NAMES = frozenset(p.name for p in PARAMETERS if p.section == "MFID_EXTENSIONS")
 
 _NUMBER = re.compile(r"[+-]?(?:\d+\.?\d*|\.\d+)(?:[eEdD][+-]?\d+)?")
 _NONFINITE = re.compile(r"[+-]?(?:nan|inf|infinity)", re.IGNORECASE)
@@ -190,6 +191,8 @@ def _classify(section: str, key: str) -> tuple[str, str]:
         return "unit", key
     if key == "MASS":
         return "known", "MASS1"
+    if key.startswith(EXTENSION_PREFIX) and key[len(EXTENSION_PREFIX):] in _EXTENSION_NAMES:
+        return "known", key[len(EXTENSION_PREFIX):]
     if key in _TABLE_NAMES and key not in _SI_NAME:
         return "known", key
     return "unknown", f"{section}.{key}"

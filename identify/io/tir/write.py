@@ -1,11 +1,18 @@
 """Write complete MF 6.1 / 6.2 tyre property files (.tir) from the parameter table.
 
-Layout (magic-formula.md 7.4): the 21 sections in the standard order, each after its
+Layout (docs/tir-files.md): the 21 sections in the standard order, each after its
 ``$----name`` comment line, ``KEY = value $meaning [unit]`` in aligned columns, SI ``[UNITS]``,
 a ``!``-comment header after the ``[MDI_HEADER]`` keys (tool, provenance, the NOMPRES warning),
 unknown keys and tabular sections carried over from an input file, and last mfid's own
-``[MFID_EXTENSIONS]``. Numbers use the shortest round-trip form (``repr``), integers are written
-as integers, so that read -> write -> read is exact. Output is LF, written atomically.
+``[MFID_EXTENSIONS]`` (keys prefixed ``MFID_``). Numbers use the shortest round-trip form
+(``repr``), integers are written as integers, so that read -> write -> read is exact.
+
+Written for the simplest reader: CRLF line endings as in the reference files (some readers cut
+each line at "newline minus 2"), and no ``=`` anywhere but between a key and its value (a
+line-based reader that skips ``$``/``!`` lines and splits at ``=`` reads every data line and
+nothing else). With ``sources``, each key's comment also says where its value came from
+(fitted, with its standard error; taken from an input .tir; measured range; tyre.toml; or
+default, not identified by the data). Written atomically.
 """
 from __future__ import annotations
 
@@ -17,7 +24,8 @@ from identify.core.version import __version__
 from identify.model.parameters import PARAMETERS, SECTIONS, defaults, spec
 from identify.io.atomic import atomic_write_text
 
-__all__ = ["write_tir", "format_tir", "format_value"]
+__all__ = ["write_tir", "format_tir", "format_value", "source_text", "comment_text",
+           "DEFAULT_SOURCE"]
 
 _SI_UNITS = {"LENGTH": ("meter", {"meter", "meters", "metre", "metres", "m"}),
              "FORCE": ("newton", {"newton", "newtons", "n"}),
@@ -32,9 +40,14 @@ _EXTENSION_NOTE = (
     "$ mfid extensions: coefficients the Magic Formula has no key for (mfid, "
     "identify.model.parameters).",
     "$ Other tools (MFeval, MF-Tyre/MF-Swift, ADAMS) ignore this section; all defaults are",
-    "$ neutral. Sidewall stiffness scaling with pressure: c_b = c_b0*(1 + F_*dpi);",
-    "$ yaw stiffness form CMZ_FORM 1 = T1 (PCMZ1), 2 = T2 (PCMZ1, PCMZ2, PCMZ3).",
+    "$ neutral. Sidewall stiffness scaling with pressure: c_b(p) is c_b0 (1 + MFID_F_* dpi);",
+    "$ yaw stiffness form MFID_CMZ_FORM: 1 for T1 (PCMZ1), 2 for T2 (PCMZ1, MFID_PCMZ2, "
+    "MFID_PCMZ3).",
 )
+DEFAULT_SOURCE = "default, not identified by these data"
+"""The source comment of a key that kept its default value."""
+LINE_END = "\r\n"
+"""Line ending of written files (as the reference .tir files)."""
 
 
 def format_value(value: float | str) -> str:
@@ -61,9 +74,23 @@ def format_value(value: float | str) -> str:
     return repr(number)
 
 
+def comment_text(text: str) -> str:
+    """``text`` made safe for a comment: one line, no ``=`` (a line-based reader splits at it)."""
+    return " ".join(str(text).split()).replace("=", ":")
+
+
+def source_text(kind: str, detail: str = "", stderr: float | None = None) -> str:
+    """The source comment of a key: ``fitted MF/Fy0 +/- 0.012``, ``from input base.tir``,
+    ``measured range``, ``tyre.toml`` or :data:`DEFAULT_SOURCE`."""
+    text = " ".join(x for x in (kind, detail) if x)
+    if stderr is not None and math.isfinite(stderr):
+        text += f" +/- {stderr:.3g}"
+    return comment_text(text)
+
+
 def _line(key: str, value: float | str, comment: str) -> str:
     text = format_value(value)
-    return f"{key:<{_KEY_WIDTH}}= {text:<{_VALUE_WIDTH}}$ {comment}".rstrip()
+    return f"{key:<{_KEY_WIDTH}}= {text:<{_VALUE_WIDTH}}$ {comment_text(comment)}".rstrip()
 
 
 def _rule(section: str) -> str:
@@ -76,7 +103,7 @@ def _header_comments(comment_lines: Sequence[str]) -> list[str]:
            f"! : TOOL : mfid {__version__} (Magic Formula identification workbench)"]
     for entry in comment_lines:
         for part in str(entry).splitlines() or [""]:
-            out.append(f"! : COMMENT : {part}".rstrip())
+            out.append(f"! : COMMENT : {comment_text(part)}".rstrip())
     out.append("! : COMMENT : NOMPRES is the reference pressure of every pressure term: "
                "NEVER MODIFY NOMPRES (change INFLPRES instead)")
     return out
@@ -90,7 +117,8 @@ def _unit_value(name: str, value: float | str) -> str:
 def format_tir(values: Mapping[str, float | str], *, fittyp: int,
                comment_lines: Sequence[str] = (),
                unknown: Mapping[str, float | str] | None = None,
-               tables: Mapping[str, Sequence[str]] | None = None) -> str:
+               tables: Mapping[str, Sequence[str]] | None = None,
+               sources: Mapping[str, str] | None = None) -> str:
     """Return the text of a .tir file; see :func:`write_tir` for the parameters."""
     if fittyp not in (61, 62):
         raise ValueError(f"fittyp must be 61 (MF 6.1) or 62 (MF 6.2), not {fittyp!r}")
@@ -107,6 +135,15 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
         extra.setdefault(section.upper(), []).append((key, value))
 
     lines: list[str] = []
+    counts: dict[str, int] = {}
+
+    def source(name: str, value) -> str:
+        if sources is None:
+            return ""
+        text = sources.get(name) or (DEFAULT_SOURCE if value == spec(name).default else "")
+        kind = text.split(" ", 1)[0] if text else "unstated"
+        counts[kind] = counts.get(kind, 0) + 1
+        return f"; {text}" if text else ""
 
     def emit_section(section: str) -> None:
         lines.extend([_rule(section), f"[{section}]"])
@@ -118,12 +155,16 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
                 value = _unit_value(p.name, value)
             elif fittyp not in p.write_for and value == p.default:
                 continue
-            lines.append(_line(p.tir_key, value, p.meaning))
+            lines.append(_line(p.tir_key, value, p.meaning + source(p.name, value)))
         for key, value in extra.pop(section, []):
             lines.append(_line(key, value, "(not an MFeval key: kept from the input file)"))
         if section == "MDI_HEADER":
             lines.extend(_header_comments(comment_lines))
+            header_end = len(lines)
+            lines.append("")  # the key-source summary, filled in once every key is written
+            marks.append(header_end)
 
+    marks: list[int] = []
     for section in SECTIONS[:-1]:
         emit_section(section)
     for section in [s for s in extra if s not in SECTIONS]:
@@ -132,13 +173,20 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
         lines.extend([_rule(section), f"[{section.upper()}]"])
         lines.extend(str(r).rstrip("\r\n") for r in rows)
     emit_section(SECTIONS[-1])
-    return "\n".join(lines) + "\n"
+    for at in marks:
+        if sources is None:
+            del lines[at]
+        else:
+            lines[at] = comment_text("! : COMMENT : key sources (in each comment): " + ", ".join(
+                f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1])))
+    return LINE_END.join(lines) + LINE_END
 
 
 def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: int,
               comment_lines: Sequence[str] = (),
               unknown: Mapping[str, float | str] | None = None,
-              tables: Mapping[str, Sequence[str]] | None = None) -> Path:
+              tables: Mapping[str, Sequence[str]] | None = None,
+              sources: Mapping[str, str] | None = None) -> Path:
     """Write a complete MF 6.1 or 6.2 .tir file atomically.
 
     Parameters
@@ -159,6 +207,10 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
         (see :attr:`identify.io.tir.TirFile.unknown`).
     tables : mapping, optional
         Raw lines of tabular sections (``[SHAPE]`` ...), written before ``[MFID_EXTENSIONS]``.
+    sources : mapping, optional
+        Table name -> where the value came from (:func:`source_text`), appended to the key's
+        comment; a key without an entry is marked :data:`DEFAULT_SOURCE` when it holds its
+        default. The header counts the sources. None: no source comments.
 
     Returns
     -------
@@ -173,5 +225,5 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
         For an unsupported ``fittyp`` or a value that cannot be written (NaN, inf ...).
     """
     text = format_tir(values, fittyp=fittyp, comment_lines=comment_lines, unknown=unknown,
-                      tables=tables)
+                      tables=tables, sources=sources)
     return atomic_write_text(path, text)

@@ -1,0 +1,55 @@
+"""Validity limits of a fitted .tir from the ranges the fits actually saw.
+
+A Magic Formula file states where it is valid (FZMIN/FZMAX, PRESMIN/PRESMAX, KPUMIN/KPUMAX,
+ALPMIN/ALPMAX, CAMMIN/CAMMAX); a vehicle model that honours them clips or warns outside. Generic
+limits (10 kN, 10 bar, +-1.5 rad) claim a validity the data never showed, so mfid writes the
+measured ranges of every data point a fit used (the rows of measured_vs_model.csv); a quantity
+no fitted point varied keeps its default, and the caller marks it so.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+
+__all__ = ["measured_limits", "LIMIT_COLUMNS"]
+
+LIMIT_COLUMNS: dict[tuple[str, str], tuple[str, float]] = {
+    ("FZMIN", "FZMAX"): ("Fz_N", 1.0),
+    ("PRESMIN", "PRESMAX"): ("pi_bar", 1e5),
+    ("KPUMIN", "KPUMAX"): ("kappa", 1.0),
+    ("ALPMIN", "ALPMAX"): ("alpha_rad", 1.0),
+    ("CAMMIN", "CAMMAX"): ("gamma_deg", math.pi / 180.0),
+}
+"""(.tir min key, max key) -> (points column, factor to SI)."""
+
+
+def measured_limits(points: pd.DataFrame) -> dict[str, float]:
+    """The .tir validity limits [SI] spanned by ``points`` (columns as measured_vs_model.csv).
+
+    Parameters
+    ----------
+    points : DataFrame
+        One row per fitted data point, with some of the columns ``Fz_N`` [N], ``pi_bar`` [bar],
+        ``kappa`` [-], ``alpha_rad`` [rad], ``gamma_deg`` [deg]; NaN where a column does not
+        apply to a point.
+
+    Returns
+    -------
+    dict
+        Key -> value for every pair whose column holds a real range (two distinct finite
+        values); a pair with one value (a single pressure) or none is left out.
+    """
+    out: dict[str, float] = {}
+    for (lo_key, hi_key), (column, factor) in LIMIT_COLUMNS.items():
+        if column not in points:
+            continue
+        v = pd.to_numeric(points[column], errors="coerce").to_numpy(float)
+        v = v[np.isfinite(v)]
+        if column == "Fz_N":
+            v = v[v > 0]
+        if v.size < 2 or v.min() == v.max():
+            continue
+        out[lo_key], out[hi_key] = float(v.min() * factor), float(v.max() * factor)
+    return out
