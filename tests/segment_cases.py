@@ -66,7 +66,7 @@ def check(session) -> SegmentedTable:
                 groups.setdefault(key, []).append(s)
         found = [g for g in seg.segments if g.run == run["stem"] and g.kind == "sweep"]
         assert len(found) == len(groups)
-        for (block, gamma, alpha, fz), parts in groups.items():
+        for (_, gamma, alpha, fz), parts in groups.items():
             t0, t1 = parts[0]["t_start"], parts[-1]["t_end"]
             (g,) = [g for g in found if g.t_start < t1 and g.t_end > t0]
             values = {c: seg.levels[c][k].value for c, k in g.levels.items()}

@@ -23,7 +23,8 @@ import pandas as pd
 from identify.core.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
-           "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip", "open_text"]
+           "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
+           "open_text"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
