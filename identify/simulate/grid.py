@@ -22,7 +22,7 @@ class Samples:
     lever arms) then averages down to the accuracy the extraction is specified for: the linear
     window of a stiffness run keeps ~350 samples (slope standard error ~0.25 % per cell), the
     steady camber moment Mx at 2 deg (~20 N m against ~4 N m of noise per sample) ~0.5 % per
-    cell, and CFz ~0.1 % per cell (at the 3-4 Hz of 300 samples per vertical run it was up to
+    cell, and CFz 0.07-0.15 % per cell (at the 3-5 Hz of 300 samples per vertical run up to
     0.36 %, and the worst of 15 cells passed 1 % in 3 % of the seeds).
     """
 
