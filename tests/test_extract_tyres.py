@@ -3,7 +3,7 @@ bundled one (tests/test_extract_accuracy.py).
 
 Folders are simulated at the default artefact level (1 % bridge noise, start-up transients,
 stick-slip, the short relaxation cell) from three .tir files: the bundled 225/50 R17 tyre and
-the two public MF 6.1 / 6.2 example files of the specification. Each folder carries its own
+the two public MF 6.1 / 6.2 example files of MFeval (tests/data/reference/mfeval). Each folder carries its own
 tyre's structural relations (``relations_from_tir``: NOMPRES 2.6 bar, FNOMIN 6752 N and the
 vertical, longitudinal, lateral and yaw stiffness keys of the example files). Run with ``-s`` to
 see the worst cell per tyre and quantity, with its error in its own standard errors (z).
@@ -36,14 +36,12 @@ from identify.extract.vertical import cfz_se
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.simulate import FULL, default_tir_path, simulate_folder
-from tests.conftest import SPEC
+from tests.reference_data import MFEVAL_DIR
 from tests.test_extract_accuracy import CAMBER, TOLERANCE, compare
 
-# TODO(issue 18): read the example files from tests/data/tir/ once they are copied there
-MFEVAL = SPEC / "data" / "mfeval"
 TYRES = {"225_50R17": default_tir_path(),
-         "MF61_example": MFEVAL / "MagicFormula61_Paramerters.tir",
-         "MF62_example": MFEVAL / "MagicFormula62_Paramerters.tir"}
+         "MF61_example": MFEVAL_DIR / "MagicFormula61_Paramerters.tir",
+         "MF62_example": MFEVAL_DIR / "MagicFormula62_Paramerters.tir"}
 #: The full grid with five camber angles (both signs, |gamma| 2 deg where the noise is
 #: largest, 15 deg where the plank tilts).
 FEWER_CAMBERS = dataclasses.replace(FULL, name="full_5_cambers",
@@ -126,7 +124,6 @@ def check(table: pd.DataFrame) -> None:
     assert unbiased["z"].abs().max() <= 4.0, unbiased.loc[unbiased["z"].abs().idxmax()]
 
 
-@pytest.mark.spec
 @pytest.mark.parametrize("tyre,seed", [("MF61_example", 2), ("MF62_example", 3)])
 def test_example_tyres_within_tolerance(tmp_path, tyre, seed):
     table = extract_against_truth(TYRES[tyre], tmp_path / tyre, seed, FEWER_CAMBERS)
@@ -136,7 +133,6 @@ def test_example_tyres_within_tolerance(tmp_path, tyre, seed):
 
 
 @pytest.mark.trials
-@pytest.mark.spec
 def test_three_tyres_three_seeds(tmp_path):
     """All three tyres x seeds 1, 2, 3 on the full grid; prints the worst cell per tyre and
     quantity over the seeds."""

@@ -13,7 +13,7 @@ from identify.model.relations import YawT2, dpi
 from identify.simulate import DEFAULT_RELATIONS, default_tir_path
 from identify.simulate.coefficients import relations_from_tir
 from identify.simulate.default_tyre import default_tyre_values
-from tests.conftest import SPEC
+from tests.reference_data import MFEVAL_DIR
 
 FZ = np.array([1000.0, 2000.0, 3000.0, 5000.0, 7000.0, 9000.0])
 P_BAR = np.array([1.9, 2.2, 2.5, 2.7, 3.0])[:, None]
@@ -41,11 +41,10 @@ def test_form_t2_yaw_stiffness_round_trips():
     np.testing.assert_allclose(rel.cmz(FZ, dp), t2(FZ, dp), rtol=1e-12)
 
 
-@pytest.mark.spec
 def test_example_tyre_relations_are_its_own_keys():
     """MF 6.1 example file: NOMPRES 2.6 bar, FNOMIN 6752 N; CFz at FNOMIN and NOMPRES is its
     VERTICAL_STIFFNESS, CFx/CFy/CMz there are LONGITUDINAL_/LATERAL_/YAW_STIFFNESS."""
-    P = read_tir(SPEC / "data" / "mfeval" / "MagicFormula61_Paramerters.tir").params()
+    P = read_tir(MFEVAL_DIR / "MagicFormula61_Paramerters.tir").params()
     rel = relations_from_tir(P)
     assert rel.p0 == 260000.0
     fz0 = P["FNOMIN"]
