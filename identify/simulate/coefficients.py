@@ -94,7 +94,7 @@ DEFAULT_RELATIONS = Relations(
 
 def relations_from_tir(params: Mapping[str, float],
                        ring: SidewallRing = DEFAULT_RELATIONS.ring) -> Relations:
-    """The Flatplank relations a .tir describes (pressure-relations.md in MF-Swift keys).
+    """The Flatplank relations a .tir describes (docs/relations.md, in MF-Swift keys).
 
     p0 = NOMPRES; CFz from VERTICAL_STIFFNESS, Q_FZ2, PFZ1 (the MF vertical force at standstill,
     ``qfz_from_mf``); CFx and CFy from LONGITUDINAL_/LATERAL_STIFFNESS with PCFX1..3 / PCFY1..3
