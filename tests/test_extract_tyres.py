@@ -3,13 +3,15 @@ bundled one (tests/test_extract_accuracy.py).
 
 Folders are simulated at the default artefact level (1 % bridge noise, start-up transients,
 stick-slip, the short relaxation cell) from three .tir files: the bundled 225/50 R17 tyre and
-the two public MF 6.1 / 6.2 example files of MFeval (tests/data/reference/mfeval). Each folder carries its own
-tyre's structural relations (``relations_from_tir``: NOMPRES 2.6 bar, FNOMIN 6752 N and the
-vertical, longitudinal, lateral and yaw stiffness keys of the example files). Run with ``-s`` to
-see the worst cell per tyre and quantity, with its error in its own standard errors (z).
+the two public MF 6.1 / 6.2 example files of MFeval (tests/data/reference/mfeval). Each folder
+carries its own tyre's structural relations (``relations_from_tir``: NOMPRES 2.6 bar, FNOMIN
+6752 N and the vertical, longitudinal, lateral and yaw stiffness keys of the example files). Run
+with ``-s`` to see the worst cell per tyre and quantity, with its error in its own standard
+errors (z).
 
 The default suite checks the two example tyres at one seed each (2 and 3: the bundled test has
-seed 1, and the two example files give almost the same Flatplank data) on the full grid with
+seed 1, and the two example files give the same Flatplank data: they differ only in MF 6.2 keys
+that no Flatplank quantity reaches) on the full grid with
 five camber angles instead of nine (the camber runs are two thirds of the samples); the
 ``trials`` marker runs 3 tyres x 3 seeds on the full grid.
 
