@@ -208,3 +208,15 @@ def test_discover_tir_reads_with_the_simplest_reader(tmp_path):
     assert res.exit_code == 0, res.output
     naive = naive_read(tmp_path / "out" / "tyre.tir")
     assert naive["STRUCTURAL"]["PCFX3"] != 0.0
+
+
+def test_relation_with_one_form_per_mode_writes_every_mode(tmp_path):
+    # the sidewall relation fits one scaling form per ring mode: all six go into the .tir
+    run = fit_folder(ROOT / "measurements" / "sample-225-50R17", out_root=tmp_path,
+                     settings=FitSettings(only=("sidewall",)))
+    for mode in ("X", "Y", "Z", "THETA", "GAMMA", "PSI"):
+        src = run.key_sources[f"F_{mode}"]
+        assert src.kind == "fitted" and src.detail == f"sidewall/scaling_{mode.lower()}", src
+    assert run.key_sources["PRESMIN"].kind == "measured range"
+    assert not run.form_choices
+    naive_read(run.tir_path)

@@ -213,26 +213,29 @@ def write_relation(relation: str, fits: Mapping[str, EntryFit], chars: pd.DataFr
     """Choose the form of ``relation`` that the .tir takes and write its keys.
 
     ``fits`` maps form -> EntryFit of every fitted form. A nested pair is decided by
-    :func:`choose_form` (on the free fits; ``override`` from ``--form``); otherwise the one
-    form with ``writes`` is taken. A key an MF stage identified from trailer data is kept
-    (the trailer measures the tyre the .tir describes at speed). Returns the FormChoice, or
-    None without a choice of form.
+    :func:`choose_form` (on the free fits; ``override`` from ``--form``); otherwise every
+    form with ``writes`` writes its keys (the sidewall's one form per mode). A key an MF stage
+    identified from trailer data is kept (the trailer measures the tyre the .tir describes at
+    speed). Returns the FormChoice, or None without a choice of form.
     """
     choice = None
-    writers = [f for f, ef in fits.items() if ef.entry.writes]
     if relation in NESTED_FORMS and any(f in fits for f in NESTED_FORMS[relation]):
         builders = {f: plan_entry(relation, f).build for f in forms_of(relation)}
-        quantity = next(iter(fits.values())).entry.quantity
+        quantity = plan_entry(relation, NESTED_FORMS[relation][0]).quantity
         choice = choose_form(relation, {f: ef.free_result for f, ef in fits.items()},
                              builders, chars, ctx, quantity, override=override)
-        chosen = choice.form if choice is not None else None
+        chosen = [choice.form] if choice is not None and choice.form in fits else []
     else:
-        chosen = writers[0] if writers else None
-    if chosen is None or chosen not in fits:
-        return choice
-    ef = fits[chosen]
+        chosen = [f for f, ef in fits.items() if ef.entry.writes]
+    for form in chosen:
+        _write_keys(relation, form, fits[form], tir, sources)
+    return choice
+
+
+def _write_keys(relation: str, form: str, ef: EntryFit, tir: dict,
+                sources: dict[str, KeySource]) -> None:
     r = ef.result
-    detail = f"{relation}/{chosen}"
+    detail = f"{relation}/{form}"
     for key in ef.entry.writes:
         if key in sources and sources[key].kind == FITTED and \
                 sources[key].detail.startswith("MF/"):
@@ -249,7 +252,6 @@ def write_relation(relation: str, fits: Mapping[str, EntryFit], chars: pd.DataFr
     for key, value in ef.entry.constants.items():
         tir[key] = float(value)
         sources[key] = KeySource(FITTED, f"{detail} (the form's constant)")
-    return choice
 
 
 def mf_sources(results: Sequence[FitResult], held: Mapping[str, Mapping[str, str]]
