@@ -333,3 +333,18 @@ def test_missing_tir_leaves_out_mf_pages_with_a_note(full_fit, tmp_path):
     fy = pages[0]
     assert [p.pi_bar for p in fy.panels] == [2.0, 2.5]
     assert len(fy.panels[0].loads) == 2 and all(pt[0].size == 21 for pt in fy.panels[0].points)
+
+
+def test_outline_has_one_bookmark_per_page(full_report):
+    from pypdf import PdfReader
+
+    reader = PdfReader(full_report.path)
+    outline = reader.outline
+    assert len(outline) == len(reader.pages) == full_report.n_pages
+    assert [reader.get_destination_page_number(o) for o in outline] == \
+        list(range(len(reader.pages)))
+    titles = [o.title for o in outline]
+    assert titles[0] == "cover" and "MF Friction ellipse" in titles
+    assert "data quality" in titles
+    assert reader.page_mode == "/UseOutlines"
+    assert reader.metadata["/Title"].startswith("mfid fit report: ")
