@@ -138,7 +138,7 @@ def _context(fd: FitDir) -> Context:
            if isinstance(v, (int, float)) and not isinstance(v, bool)}
     ks = fd.key_sources
     return Context(fz0=fd.nominal_load_N, p0_bar=fd.nominal_pressure_bar, tir=tir,
-                   kya_from_tir=any(str(ks.get(k, "")).startswith("MF/")
+                   kya_from_tir=any(k in ks and ks[k].supplied_by.startswith("MF/")
                                     for k in ("PKY1", "PKY2")))
 
 
