@@ -25,7 +25,8 @@ import numpy as np
 from identify.discover.noise import Sweeps
 from identify.fit.problem import FitProblem
 
-__all__ = ["levels", "condition_cells", "pressure_is_crossed", "folds", "LEVEL_REL_GAP"]
+__all__ = ["levels", "condition_cells", "pressure_is_crossed", "folds", "LEVEL_REL_GAP",
+           "SCHEMES"]
 
 LEVEL_REL_GAP = 0.05
 """Two load values belong to different levels when they differ by more than this fraction."""
@@ -89,17 +90,29 @@ def pressure_is_crossed(pres: np.ndarray, other: np.ndarray) -> bool:
     return bool(np.all(at_levels[seen.any(axis=0)] >= 2))
 
 
-def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS
+SCHEMES = ("auto", "pressure", "cells", "rows")
+"""Held-out schemes: chosen from the design, or forced."""
+
+
+def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS, scheme: str = "auto"
           ) -> tuple[list[np.ndarray], str]:
-    """Held-out folds (bool masks of held-out points) and the scheme's name (module doc)."""
+    """Held-out folds (bool masks of held-out points) and the scheme's name (module doc).
+
+    ``scheme`` forces one: ``"pressure"`` (leave one pressure level out, with two or more
+    levels), ``"cells"`` (k-fold within condition cells), ``"rows"`` (interleaved points).
+    """
+    if scheme not in SCHEMES:
+        raise ValueError(f"unknown held-out scheme {scheme!r}; choose from {SCHEMES}")
     n = problem.measured.size
     sweeps = Sweeps.of(index, n)
     pres, other = condition_cells(problem, sweeps)
     crossed = pressure_is_crossed(pres, other)
-    if pres.max() + 1 >= 3 and crossed:
-        return [pres == lv for lv in range(int(pres.max()) + 1)], "leave one pressure level out"
-    why = ("pressure is not varied independently of load" if not crossed
-           else "fewer than three pressure levels")
+    n_pres = int(pres.max()) + 1
+    if (scheme == "auto" and n_pres >= 3 and crossed) or (scheme == "pressure" and n_pres >= 2):
+        return ([pres == lv for lv in range(n_pres)], "leave one pressure level out"
+                + ("" if scheme == "auto" else " (forced)"))
+    why = ("forced" if scheme != "auto" else "pressure is not varied independently of load"
+           if not crossed else "fewer than three pressure levels")
     real = len(sweeps) and bool(np.any(sweeps.sizes > 1))
     # units: whole sweeps when there are sweeps, else points
     unit = np.where(sweeps.label >= 0, np.cumsum(sweeps.first) - 1, -1) if real \
@@ -118,7 +131,7 @@ def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS
     cell_no = np.repeat(np.arange(start.size), counts)
     multi = counts.max() if counts.size else 0
     what = "sweeps" if real else "rows"
-    if multi >= 2:
+    if multi >= 2 and scheme != "rows":
         k = int(min(max_folds, multi))
         # rotate each cell's units over the folds (offset per cell); a cell of c >= 2 units
         # loses at most ceil(c / k) < c of them to any fold, so it always trains

@@ -16,6 +16,13 @@ Scenarios (problem name: test matrix):
 - ``RR``: trailer rolling-resistance sweeps (6 speeds, 20 samples), 3 pressures x 4 loads;
 - ``CFy``: Flatplank locked-hub lateral runs, force vs plank displacement (+-5 mm),
   5 pressures x 3 loads.
+
+A confounded design (:func:`make_confounded`): a rolling-resistance table of 20 points, five
+load/pressure pairs (each load at one pressure only; the pressure falls with load overall,
+correlation of log load and log pressure -0.74) at four speeds each, no sweeps, with both the
+load exponent QSY7 and the pressure exponent QSY8 hidden. Each alone absorbs part of the
+other's effect, so a single addition can fit better yet predict a left-out pair worse (the
+failure of issue 19 with leave-one-pressure-out folds); only the pair generalises.
 """
 from __future__ import annotations
 
@@ -32,7 +39,8 @@ from identify.fit.problem import FitProblem
 from identify.fit.relations import Context, rolling_resistance
 from identify.model.relations import load_pressure_stiffness
 
-__all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir"]
+__all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir", "make_confounded",
+           "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]
 
 #: hidden effect -> (scenario, smallest and largest |deviation from neutral|)
 EFFECTS: dict[str, tuple[str, float, float]] = {
@@ -218,3 +226,50 @@ def _locked_hub(rng, start, hidden, value, noise, rho, m: Matrix) -> tuple[FitPr
                          extra={"name": "CFy", "quantity": "Fy", "Fz_N": fz,
                                 "noise_group": sweep})
     return problem, {"hidden": hidden, "value": value, "params": truth}
+
+
+#: (Fz / FNOMIN, pressure [bar]) of the confounded rolling-resistance table
+CONFOUNDED_PAIRS = ((0.5, 2.6), (0.7, 2.9), (0.9, 2.2), (1.1, 2.4), (1.3, 2.0))
+#: its four speeds [m/s]
+CONFOUNDED_SPEEDS = (8.33, 13.89, 22.22, 30.56)
+
+
+def make_confounded(rng: np.random.Generator, hidden: bool = True, *, noise: float = 0.01,
+                    values: tuple[float, float] | None = None) -> tuple[FitProblem, dict]:
+    """The confounded rolling-resistance table (module doc) as the base problem ``RR`` (old
+    form: QSY7 = 1, QSY8 = 0), with QSY7 and QSY8 in the data when ``hidden``.
+
+    QSY7 = 1 - U(0.08, 0.20) and QSY8 = -U(0.2, 0.6) (the physical signs: resistance grows
+    less than in proportion to load and falls with pressure), unless ``values`` gives them;
+    QSY1, QSY3, QSY4 randomised by +-10 %; independent noise of ``noise`` x the RMS of each
+    load/pressure pair's four values (as the other scenarios' noise is a fraction of each
+    sweep's or file's RMS).
+
+    Returns
+    -------
+    problem : FitProblem
+    truth : dict   {"hidden": ("QSY7", "QSY8") or None, "value": (QSY7, QSY8), "params"}
+    """
+    start = base_tir()
+    truth = _randomised(rng, start, ("QSY1", "QSY3", "QSY4"))
+    if values is None:
+        values = (1.0 - rng.uniform(0.08, 0.20), -rng.uniform(0.2, 0.6))
+    if hidden:
+        truth["QSY7"], truth["QSY8"] = values
+    fz0, p0 = start["FNOMIN"], start["NOMPRES"]
+    fz = np.repeat([f * fz0 for f, _ in CONFOUNDED_PAIRS], len(CONFOUNDED_SPEEDS))
+    pb = np.repeat([p for _, p in CONFOUNDED_PAIRS], len(CONFOUNDED_SPEEDS))
+    vx = np.tile(CONFOUNDED_SPEEDS, len(CONFOUNDED_PAIRS))
+    zeros = np.zeros_like(fz)
+    from identify.model.evaluate import evaluate
+    clean = evaluate(truth, fz, zeros, zeros, zeros, vx, p=pb * 1e5, mode=111)["My"]
+    value = clean / start["UNLOADED_RADIUS"]
+    pair = np.repeat(np.arange(len(CONFOUNDED_PAIRS)), len(CONFOUNDED_SPEEDS))
+    rms = np.sqrt(np.bincount(pair, value ** 2) / np.bincount(pair))[pair]
+    value = value + noise * rms * rng.standard_normal(value.size)
+    chars = pd.DataFrame({"quantity": "FxRR", "pi_bar": pb, "p_Pa": pb * 1e5, "Fz_N": fz,
+                          "Vx_mps": vx, "value": value})
+    ctx = Context(fz0=fz0, p0_bar=p0 / 1e5, tir=start)
+    problem = _named(rolling_resistance(chars, ctx, form="old"), "RR")
+    return problem, {"hidden": ("QSY7", "QSY8") if hidden else None,
+                     "value": tuple(values) if hidden else None, "params": truth}

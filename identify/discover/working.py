@@ -30,7 +30,7 @@ from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 
 __all__ = ["Working", "prepare", "cells", "folds", "metric_groups", "total_error_pct",
-           "final_floor", "renoise", "noise_scale"]
+           "final_floor", "renoise", "refresh", "noise_scale"]
 
 LONG_LAGS = 20
 """Variogram lags for the noise floor of correlated noise from the final residuals."""
@@ -62,6 +62,7 @@ class Working:
     has_sweeps: bool = False
     base_noise: NoiseModel | None = None
     score_seconds: float = 0.0
+    columns: dict = field(default_factory=dict)
     history: list[str] = field(default_factory=list)
     rejected: set = field(default_factory=set)
 
@@ -170,6 +171,16 @@ def final_floor(w: Working) -> tuple[float, str]:
     return floor, source
 
 
+def refresh(w: Working, problem: FitProblem) -> None:
+    """Refit ``w`` on ``problem``: its own problem re-bound to new upstream values (same free
+    parameters, weights and error model), from its current solution."""
+    w.problem = problem
+    w.objective = Objective(problem, w.objective.index, w.objective.phi)
+    w.sol = w.objective.solve(w.x)
+    w.fold_errors = None
+    w.rejected.clear()
+
+
 def renoise(w: Working) -> None:
     """Re-choose the error model from the current residuals; refit if phi changed."""
     if not w.has_sweeps:
@@ -202,7 +213,7 @@ def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
 
 
 def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
-            seed: int = 0) -> Working:
+            seed: int = 0, heldout: str = "auto") -> Working:
     """Fit the base model of ``problem`` and diagnose it (see the module docstring)."""
     name = problem_name(problem)
     p = dataclasses.replace(problem, objective="wls", constraints=(), sigma=None)
@@ -242,7 +253,7 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     pred = p.predict(sol.x)
     by_p = thesis_error_by_group(pred, p.measured, p.pressure_bar)
     base_error = total_error_pct(p, pred)
-    masks, scheme = folds(p, index)
+    masks, scheme = folds(p, index, scheme=heldout)
     return Working(name=name, problem=p, objective=obj, sol=sol, noise=noise,
                    candidates=cands, base_free=p.free,
                    base_error_pct=base_error, base_by_pressure=by_p,
