@@ -4,7 +4,8 @@ A table has no within-sweep variogram, and the base model's own residuals hold t
 effect discovery is looking for, so the floor never comes from them. In order of preference:
 
 1. **replicates**: points measured at the same conditions (pressure, load, speed, camber,
-   slip ...) twice or more; the pure-error variance is the scatter within those groups,
+   slip ...) twice or more with different values (identical copies of a row are not
+   replicates); the pure-error variance is the scatter within those groups,
    s^2 = sum (y_i - mean_g)^2 / (N_replicated - G), on the weighted values;
 2. **the richest candidate model**: the problem with every remaining candidate freed (those the
    points cannot determine held at neutral), s^2 = RSS / (n - p);
@@ -50,12 +51,16 @@ def replicate_sigma(problem: FitProblem) -> tuple[float, int] | None:
     g = _condition_groups(problem)
     y = problem.measured * problem.weights()
     cnt = np.bincount(g)
-    rep = cnt[g] >= 2
-    dof = int(rep.sum() - np.count_nonzero(cnt >= 2))
+    mean = np.bincount(g, y) / cnt
+    dev = y - mean[g]
+    # a group whose values are all equal holds copies of one row (a table listed twice),
+    # not repeated measurements
+    spread = np.bincount(g, np.abs(dev)) > 0
+    rep = (cnt[g] >= 2) & spread[g]
+    dof = int(rep.sum() - np.count_nonzero((cnt >= 2) & spread))
     if dof < 2:
         return None
-    mean = np.bincount(g, y) / cnt
-    ss = float(np.sum((y[rep] - mean[g[rep]]) ** 2))
+    ss = float(np.sum(dev[rep] ** 2))
     return float(np.sqrt(ss / dof)), dof
 
 

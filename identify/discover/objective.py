@@ -152,7 +152,7 @@ class Objective:
             return keep
         _, R, piv = qr(J[:, ok] / norms[ok], mode="economic", pivoting=True)
         d = np.abs(np.diag(R))
-        good = piv[d > rtol * d[0]]
+        good = piv[:d.size][d > rtol * d[0]]  # fewer points than columns: min(n, k) pivots
         keep[np.flatnonzero(ok)[good]] = True
         return keep
 

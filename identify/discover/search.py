@@ -156,20 +156,18 @@ def _prepare_all(problems, library, settings, state: ModelState, say) -> tuple[l
         name = problem_name(p)
         p = state.bind(p)
         cands = [c for c in library.for_problem(name)
-                 if all(state.owner.get(k) == name for k in c.coefficients)]
-        if not p.free and not cands:
+                 if c.nuisance or all(state.owner.get(k) == name for k in c.coefficients)]
+        if not p.free and not [c for c in cands if not c.nuisance]:
             src = sorted({state.owner[k] for k in state.reads(p)})
             notes.append(f"{name} not analysed: every coefficient it fits comes from "
                          f"{', '.join(src) or 'elsewhere'}")
             continue
-        t0 = time.perf_counter()
-        say(f"{name}: base fit ({p.measured.size} points, {len(p.free)} parameters)")
+        say(f"{name}: base fit and diagnosis ({p.measured.size} points, {len(p.free)} "
+            "parameters)")
         w = prepare(p, library, n_starts=settings.n_starts, seed=settings.seed,
                     heldout=settings.heldout)
         w.candidates = [c for c in w.candidates if c.name in {k.name for k in cands}]
         state.update(name, w.problem.values(w.x))
-        say(f"{name}: base error {w.base_error_pct:.3g} %, {w.noise.kind} noise, held out: "
-            f"{w.fold_scheme} ({time.perf_counter() - t0:.1f} s)")
         works.append(w)
     return works, notes
 
@@ -182,12 +180,10 @@ def _propagate(source: Working, works: list[Working], state: ModelState, say) ->
     for w in works:
         if w is source or not state.depends(w.name, w.problem, changed):
             continue
-        t0 = time.perf_counter()
+        say(f"{w.name}: refit with the new coefficients of {source.name}")
         refresh(w, state.bind(w.problem))
         state.update(w.name, w.problem.values(w.x))
         changed.add(w.name)
-        say(f"{w.name}: refitted with the new coefficients of {source.name} "
-            f"(error {w.error_pct():.3g} %, {time.perf_counter() - t0:.1f} s)")
 
 
 def _accept(w: Working, cand: Candidate, trial, ext, group, works, state, say) -> Accepted:
@@ -197,8 +193,6 @@ def _accept(w: Working, cand: Candidate, trial, ext, group, works, state, say) -
     w.history.append(cand.name)
     w.rejected.clear()
     renoise(w)
-    say(f"{w.name}: accepted {cand.name} (error {trial.error_before_pct:.3g} % -> "
-        f"{trial.error_after_pct:.3g} %)")
     _propagate(w, works, state, say)
     return Accepted(cand.name, w.name, cand.description, trial.coefficients, trial.stderr,
                     trial.error_before_pct, trial.error_after_pct, trial.heldout_before_pct,
@@ -215,10 +209,9 @@ def _discover(problems, library, settings, base, say) -> Discovery:
     steps, accepted, names = [], [], {c.name: c for c in library.candidates}
     for k in range(1, settings.max_total + 1):
         live = [w for w in works if len(w.history) < settings.max_steps]
-        t1 = time.perf_counter()
+        say(f"step {k}: score {sum(len(w.candidates) for w in live)} candidate(s) on "
+            f"{len(live)} problem(s)")
         rows, info = _rows(live, settings)
-        say(f"step {k}: {len(rows)} candidate(s) scored on {len(live)} problem(s) "
-            f"({time.perf_counter() - t1:.1f} s)")
         passing = sorted((r for r in rows if r.passes and r.name not in
                           info[(r.problem, r.name)][0].rejected),
                          key=lambda r: (info[(r.problem, r.name)][2].log_p, -info[

@@ -43,6 +43,8 @@ def claims(problem: FitProblem, library: Library) -> set[str]:
     P = problem.parameters
     full = bool(problem.extra.get("full_tir"))
     for cand in library.for_problem(name):
+        if cand.nuisance:
+            continue  # a property of the measurement: local to the problem
         if all((k in P and not P[k].vary and abs(P[k].value - v) <= 1e-12)
                or (k not in P and full) for k, v in cand.coefficients.items()):
             out.update(cand.coefficients)

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from identify.discover.design import folds
+from identify.discover.drift import DRIFT_KEY, with_drift
 from identify.discover.floor import table_floor_sigma
 from identify.discover.library import Candidate, Library
 from identify.discover.noise import (MIN_SWEEP, PHI_MIN, NoiseModel, choose_noise, fit_ar1,
@@ -100,6 +101,11 @@ def _applicable(problem: FitProblem, name: str, library: Library) -> tuple[FitPr
     problem and the candidates present at their neutral values."""
     out = []
     for cand in library.for_problem(name):
+        if DRIFT_KEY in cand.coefficients:
+            if problem.extra.get("session_pos") is None:
+                continue  # no session order: a drift cannot be told from anything
+            if DRIFT_KEY not in problem.parameters:
+                problem = with_drift(problem)
         for k, neutral in cand.coefficients.items():
             if k not in problem.parameters and problem.extra.get("full_tir"):
                 problem = add_parameter(problem, k, neutral)

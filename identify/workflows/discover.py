@@ -25,6 +25,7 @@ from identify.core.errors import InputError
 from identify.fit.relations import Context
 from identify.model.parameters import spec
 from identify.io.atomic import atomic_write_text
+from identify.io.tir.write import source_text
 from identify.core.jsonsafe import json_default
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
@@ -97,24 +98,30 @@ def _characteristics(mset, notes: list[str]):
     return chars
 
 
-def _enriched(tir: dict, d: Discovery) -> dict:
-    out = dict(tir)
-    for p in d.problems:
-        vals = dict(p.parameters)
-        if p.name == "CMz":  # T1 nested in T2 (identify.discover.problems.cmz_problem)
-            t2 = abs(vals.get("PCMZ2", 0.0)) > 0
-            out.update({"YAW_STIFFNESS": vals["YAW_STIFFNESS"], "CMZ_FORM": 2.0 if t2 else 1.0,
-                        "PCMZ1": 1.0 if t2 else vals["PCMZ1"],
-                        "PCMZ2": vals["PCMZ2"] if t2 else 0.0,
-                        "PCMZ3": vals["PCMZ1"] if t2 else 0.0})
-            continue
-        for k, v in vals.items():
-            try:
-                if not spec(k).is_string and spec(k).vary:
-                    out[k] = float(v)
-            except KeyError:
+def _enriched(tir: dict, d: Discovery) -> tuple[dict, dict]:
+    """(the .tir values, key -> source): the base .tir with every key of the discovery's one
+    model state (each from the problem that owns it; identify.discover.state)."""
+    out, sources = dict(tir), {}
+    vals = dict(d.state)
+    if "YAW_STIFFNESS" in vals and d.sources.get("YAW_STIFFNESS") == "CMz":
+        # T1 nested in T2 (identify.discover.problems.cmz_problem) -> the .tir's CMz form
+        t2 = abs(vals.get("PCMZ2", 0.0)) > 0
+        pcmz1 = vals.pop("PCMZ1", 0.0)
+        cmz = {"YAW_STIFFNESS": vals.pop("YAW_STIFFNESS"), "CMZ_FORM": 2.0 if t2 else 1.0,
+               "PCMZ1": 1.0 if t2 else pcmz1, "PCMZ2": vals.pop("PCMZ2", 0.0) if t2 else 0.0,
+               "PCMZ3": pcmz1 if t2 else 0.0}
+        vals.pop("PCMZ2", None)
+        out.update(cmz)
+        sources.update({k: source_text("mfid discover", "CMz") for k in cmz})
+    for k, v in vals.items():
+        try:
+            if spec(k).is_string or not spec(k).vary:
                 continue
-    return out
+        except KeyError:
+            continue
+        out[k] = float(v)
+        sources[k] = source_text("mfid discover", d.sources.get(k, ""))
+    return out, sources
 
 
 def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
@@ -154,9 +161,11 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
         _NoRuns(mset), notes)
     ctx = Context(fz0=float(tir["FNOMIN"]), p0_bar=float(tir["NOMPRES"]) / 1e5, tir=tir)
     tests = {r.id: r.test for r in mset.manifest.runs}
-    problems = relation_problems(chars, ctx)
-    has_rr = any(p.extra.get("name") == "RR" for p in problems)
-    problems += trailer_problems(mset.trailer, tir, ctx, tests, with_rr=not has_rr)
+    relations = relation_problems(chars, ctx)
+    has_rr = any(p.extra.get("name") == "RR" for p in relations)
+    # model-state order (identify.discover.state): the trailer's MF stages own the keys they
+    # fit, as in `mfid fit`; the relations read them
+    problems = trailer_problems(mset.trailer, tir, ctx, tests, with_rr=not has_rr) + relations
     if base.form is not None:
         problems = [p for p in problems if base.form.selects(p.extra["name"])]
     problems = [apply_base(p, base, library, tir) for p in select(problems, tuple(only))]
@@ -167,7 +176,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     say(f"discover: {len(problems)} problem(s): "
         + ", ".join(p.extra["name"] for p in problems))
     d = discover(problems, library, settings,
-                 base={**base.to_dict(), "tir": str(base_tir) if base_tir else "bundled"})
+                 base={**base.to_dict(), "tir": str(base_tir) if base_tir else "bundled"},
+                 progress=say)
     out = Path(out_dir) if out_dir is not None else Path(out_root) / tyre.id / "discovery"
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -184,7 +194,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
                                   json.dumps(doc, indent=1, default=json_default))
     from identify.report.discovery import write_pdf
     pdf_path = write_pdf(d, out / "discovery.pdf")
-    tir_path = write_tir(out / f"{tyre.id}.tir", _enriched(tir, d), fittyp=fittyp,
+    values, sources = _enriched(tir, d)
+    tir_path = write_tir(out / f"{tyre.id}.tir", values, fittyp=fittyp, sources=sources,
                          comment_lines=[f"mfid discover {__version__}: base {base.kind} "
                                         f"{base.name}".rstrip(),
                                         "accepted: " + (", ".join(a.name for a in d.accepted)
