@@ -75,13 +75,14 @@ def discover_command(
         for note in run.notes:
             err_console.print(f"note: {note}", markup=False)
         for p in d.problems:
-            reads = sorted(set(p.reads.values()))
+            reads = list(p.upstream)
             err_console.print(f"{p.name}: error {p.base_error_pct:.3g} % -> "
                               f"{p.final_error_pct:.3g} %, noise floor "
                               f"{p.noise_floor_pct:.3g} % ({p.floor_source}), "
                               f"{p.noise.kind} noise, held out: {p.heldout_scheme}, "
                               f"{len(p.candidates)} candidate(s)"
-                              + (f", reads {', '.join(reads)}" if reads else ""),
+                              + (f", uses the coefficients of {', '.join(reads)}" if reads
+                                 else ""),
                               markup=False)
     out_console.print(d.conclusion, markup=False)
     if not quiet:

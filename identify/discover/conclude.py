@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from identify.discover.drift import DRIFT_KEY
 from identify.discover.result import Accepted, ProblemSummary
 from identify.fit.engine import covariance
 from identify.fit.metric import thesis_error_by_group
@@ -23,9 +24,11 @@ def _stderr(w: Working) -> dict[str, float]:
     return {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(w.problem.free)}
 
 
-def summaries(works: list[Working], reads: dict | None = None) -> tuple[ProblemSummary, ...]:
+def summaries(works: list[Working], reads: dict | None = None,
+              upstream: dict | None = None) -> tuple[ProblemSummary, ...]:
     """One :class:`ProblemSummary` per working problem (final state); ``reads`` maps a
-    problem's name to the keys it takes from other problems (key -> source problem)."""
+    problem's name to the keys it takes from other problems (key -> source problem),
+    ``upstream`` to the problems whose coefficients it uses."""
     out = []
     for w in works:
         p = w.problem
@@ -49,7 +52,8 @@ def summaries(works: list[Working], reads: dict | None = None) -> tuple[ProblemS
             cells=cells(p, w.base_predicted), final_cells=cells(p, pred), fit_seconds=w.fit_seconds,
             score_seconds=w.score_seconds, parameters=p.values(w.x), stderr=_stderr(w),
             final_free=p.free, arrays=arrays, fit=_fit_result(w, pred),
-            heldout_scheme=w.fold_scheme, reads=dict((reads or {}).get(w.name, {}))))
+            heldout_scheme=w.fold_scheme, reads=dict((reads or {}).get(w.name, {})),
+            upstream=tuple((upstream or {}).get(w.name, ()))))
     return tuple(out)
 
 
@@ -101,7 +105,10 @@ def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], step
         scheme = f" ({a.heldout_scheme})" if a.heldout_scheme else ""
         err = (f"Error {a.error_before_pct:.2g} % -> {a.error_after_pct:.2g} %{floor}; "
                f"held out{scheme} {a.heldout_before_pct:.2g} % -> {a.heldout_after_pct:.2g} %.")
-        if a.ambiguous_with:
+        if any(k == DRIFT_KEY for k in a.coefficients) and not a.ambiguous_with:
+            lines.append(f"Drift absorbed, not a tyre property and not written to the .tir: "
+                         f"{a.description} ({_value(a)}; {a.problem}). {err}")
+        elif a.ambiguous_with:
             names = " / ".join((a.name,) + tuple(a.ambiguous_with))
             lines.append(f"Missing effect in {a.problem}, ambiguous: one of {names} (they "
                          f"cannot be told apart with this test matrix; {a.name} was added: "

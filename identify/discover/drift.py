@@ -22,7 +22,7 @@ import numpy as np
 
 from identify.fit.problem import FitProblem
 
-__all__ = ["DRIFT_KEY", "with_drift", "session_positions"]
+__all__ = ["DRIFT_KEY", "with_drift", "drifting", "session_positions"]
 
 DRIFT_KEY = "MFID_DRIFT"
 """The drift coefficient: relative change of the output from the session's middle to its end."""
@@ -33,16 +33,13 @@ def session_positions(n: int) -> np.ndarray:
     return np.linspace(-1.0, 1.0, n) if n > 1 else np.zeros(n)
 
 
-def with_drift(problem: FitProblem) -> FitProblem:
-    """``problem`` with the drift coefficient (fixed at its neutral 0) in its model and, if it
-    has one, its exact Jacobian. Requires ``extra["session_pos"]``."""
-    tau = np.asarray(problem.extra["session_pos"], dtype=float)
-    model, jac = problem.model, problem.jacobian
+def drifting(model, jac, tau: np.ndarray):
+    """(model, Jacobian) scaled by (1 + MFID_DRIFT tau); the Jacobian None when ``jac`` is."""
 
-    def drifting(v):
+    def drift_model(v):
         return model(v) * (1.0 + v[DRIFT_KEY] * tau)
 
-    def drifting_jac(v, names):
+    def drift_jac(v, names):
         scale = (1.0 + v[DRIFT_KEY] * tau)[:, None]
         own = tuple(n for n in names if n != DRIFT_KEY)
         cols = dict(zip(own, (jac(v, own).reshape(tau.size, len(own)) * scale).T)) \
@@ -51,7 +48,14 @@ def with_drift(problem: FitProblem) -> FitProblem:
             cols[DRIFT_KEY] = np.asarray(model(v), dtype=float) * tau
         return np.stack([cols[n] for n in names], axis=1)
 
+    return drift_model, (drift_jac if jac is not None else None)
+
+
+def with_drift(problem: FitProblem) -> FitProblem:
+    """``problem`` with the drift coefficient (fixed at its neutral 0) in its model and, if it
+    has one, its exact Jacobian. Requires ``extra["session_pos"]``."""
+    tau = np.asarray(problem.extra["session_pos"], dtype=float)
+    model, jac = drifting(problem.model, problem.jacobian, tau)
     P = problem.parameters.copy()
     P.add(DRIFT_KEY, value=0.0, vary=False)
-    return dataclasses.replace(problem, parameters=P, model=drifting,
-                               jacobian=drifting_jac if jac is not None else None)
+    return dataclasses.replace(problem, parameters=P, model=model, jacobian=jac)

@@ -176,6 +176,10 @@ def _rr_from_sweeps(frame: pd.DataFrame, ctx: R.Context) -> FitProblem | None:
                   rebuild=lambda v: R.rolling_resistance(chars, _on(ctx, v), "old"))
 
 
+#: The MF stages whose coefficients each stage's model reads (Mx and Mz: the lateral force).
+STAGE_INPUTS = {"Fx": (), "Fy": (), "Mx": ("MF/Fy",), "Mz": ("MF/Fx", "MF/Fy")}
+
+
 def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
                      tests: Mapping[str, str] | None = None, *, with_rr: bool = True
                      ) -> list[FitProblem]:
@@ -192,7 +196,7 @@ def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
         p = stage_problem(name, frame, base)
         if p is not None:
             out.append(_named(p, f"MF/{name}", rebuild=lambda v, name=name: stage_problem(
-                name, frame, {**base, **v})))
+                name, frame, {**base, **v}), depends_on=STAGE_INPUTS[name]))
     if with_rr:
         rr = _rr_from_sweeps(frame, ctx)
         if rr is not None:

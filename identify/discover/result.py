@@ -205,7 +205,9 @@ class ProblemSummary:
     arrays : Mapping[str, ndarray]  per-point data for the report (not in to_dict)
     fit : FitResult                 the final fit (fit.json; not in to_dict)
     heldout_scheme : str            folds of the held-out check, chosen from the design
-    reads : Mapping[str, str]       keys taken from another problem -> that problem
+    reads : Mapping[str, str]       parameters taken from another problem -> that problem
+    upstream : tuple of str         problems whose coefficients it uses (its read parameters,
+                                    and the models it is rebuilt from: Fy for Mx and Mz)
     """
 
     name: str
@@ -236,6 +238,7 @@ class ProblemSummary:
     fit: Any = field(default=None, repr=False, compare=False)
     heldout_scheme: str = ""
     reads: Mapping[str, str] = field(default_factory=dict)
+    upstream: tuple[str, ...] = ()
 
     @property
     def excess_explained(self) -> float:
@@ -259,7 +262,8 @@ class ProblemSummary:
                 "fit_seconds": self.fit_seconds,
                 "score_seconds": self.score_seconds, "parameters": _nums(self.parameters),
                 "stderr": _nums(self.stderr), "final_free": list(self.final_free),
-                "heldout_scheme": self.heldout_scheme, "reads": dict(self.reads)}
+                "heldout_scheme": self.heldout_scheme, "reads": dict(self.reads),
+                "upstream": list(self.upstream)}
 
 
 def excess_explained(before: float, after: float, floor: float) -> float:

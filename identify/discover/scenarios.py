@@ -40,7 +40,7 @@ from identify.fit.relations import Context, rolling_resistance
 from identify.model.relations import load_pressure_stiffness
 
 __all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir", "make_confounded",
-           "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]
+           "make_session", "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]
 
 #: hidden effect -> (scenario, smallest and largest |deviation from neutral|)
 EFFECTS: dict[str, tuple[str, float, float]] = {
@@ -273,3 +273,67 @@ def make_confounded(rng: np.random.Generator, hidden: bool = True, *, noise: flo
     problem = _named(rolling_resistance(chars, ctx, form="old"), "RR")
     return problem, {"hidden": ("QSY7", "QSY8") if hidden else None,
                      "value": tuple(values) if hidden else None, "params": truth}
+
+
+def make_session(rng: np.random.Generator, samples: int = 136_000, *, hidden: dict | None = None,
+                 noise: float = 0.01, rho: float = 0.9, drift: float = 0.0) -> tuple[pd.DataFrame,
+                                                                                    dict]:
+    """A synthetic two-run trailer session of about ``samples`` samples at 100 Hz (TTC-like:
+    pressure blocks 1.0, 0.85, 1.15 x NOMPRES; a cornering run with camber 0, 2, 4 deg and a
+    drive/brake run at slip angles 0, 3, 6 deg and camber 0, 2 deg; loads 1.0, 0.5, 1.5, 1.25,
+    0.75 x FNOMIN; one continuous sweep per set point).
+
+    The forces come from the model at the actual load (set point with a slow 1 % wander), the
+    load channel carries 0.3 % white measurement noise, the forces and moments AR(1) noise
+    (lag-one ``rho``) of ``noise`` x each sweep's RMS; ``drift`` scales every force by
+    (1 + drift tau) along the session (tau = -1 .. +1). ``hidden``: .tir values that the data
+    have and the base (:func:`base_tir`) lacks.
+
+    Returns
+    -------
+    frame : DataFrame  trailer columns (run, t, Fz, kappa, alpha, gamma, Vx, p, Fx, Fy, Mx, Mz)
+    truth : dict       the .tir values that generated it
+    """
+    from identify.model.evaluate import evaluate
+
+    t = base_tir()
+    truth = {**t, **(hidden or {})}
+    fz0, p0 = t["FNOMIN"], t["NOMPRES"]
+    plan = []  # (run, p, fz, gamma, alpha_set, kind)
+    for run, cambers, alphas in (("cornering", (0.0, 2.0, 4.0), (None,)),
+                                 ("drive_brake", (0.0, 2.0), (0.0, 3.0, 6.0))):
+        for pf in (1.0, 0.85, 1.15):
+            for g in cambers:
+                for a in alphas:
+                    for lf in (1.0, 0.5, 1.5, 1.25, 0.75):
+                        plan.append((run, pf * p0, lf * fz0, g, a))
+    m = max(9, samples // len(plan))
+    s = np.linspace(0.0, 4.0, m)
+    tri = np.where(s <= 1, s, np.where(s <= 3, 2 - s, s - 4))
+    cols = {k: [] for k in ("run", "Fz", "kappa", "alpha", "gamma", "p")}
+    for run, p, fz, g, a in plan:
+        cols["run"].append(np.full(m, run))
+        cols["Fz"].append(np.full(m, fz))
+        cols["p"].append(np.full(m, p))
+        cols["gamma"].append(np.full(m, np.deg2rad(g)))
+        if a is None:
+            cols["alpha"].append(np.deg2rad(12.0) * tri)
+            cols["kappa"].append(np.zeros(m))
+        else:
+            cols["alpha"].append(np.full(m, np.deg2rad(a)))
+            cols["kappa"].append(0.15 * tri)
+    df = pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()})
+    n = len(df)
+    df["t"] = np.concatenate([np.arange(m) / 100.0 + 10.0 * m / 100.0 * i
+                              for i in range(len(plan))])
+    df["Vx"] = 40.0 / 3.6
+    wander = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
+    actual = df["Fz"].to_numpy() * (1.0 + 0.01 * wander / max(np.abs(wander).max(), 1e-12))
+    out = evaluate(truth, actual, df["kappa"].to_numpy(), df["alpha"].to_numpy(),
+                   df["gamma"].to_numpy(), df["Vx"].to_numpy(), p=df["p"].to_numpy(), mode=111)
+    tau = np.linspace(-1.0, 1.0, n)
+    sweep = np.repeat(np.arange(len(plan)), m)
+    for ch in ("Fx", "Fy", "Mx", "Mz"):
+        df[ch] = _noise(rng, out[ch] * (1.0 + drift * tau), sweep, sweep, noise, rho)
+    df["Fz"] = actual * (1.0 + 0.003 * rng.standard_normal(n))
+    return df, truth

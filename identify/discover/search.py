@@ -241,7 +241,8 @@ def _discover(problems, library, settings, base, say) -> Discovery:
         if chosen is None:
             break
     probs = summaries(works, {w.name: {k: state.owner[k] for k in state.reads(w.problem)}
-                              for w in works})
+                              for w in works},
+                      {w.name: state.upstream(w.name, w.problem) for w in works})
     accepted = final_accepted(accepted, probs, names)
     floor, explained = headline(accepted, probs)
     return Discovery(base=base or {"kind": "given", "name": "", "tir": None},

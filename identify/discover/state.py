@@ -19,14 +19,18 @@ The state at the end (:attr:`ModelState.values`, with :attr:`ModelState.sources`
 
 ``extra["rebuild"]`` of a problem is a callable ``values -> FitProblem`` that builds the same
 problem (same data) with the given .tir values; only its model and Jacobian are taken.
+``extra["depends_on"]`` (glob patterns of problem names) narrows what a rebuilt model reads
+(``MF/Mx`` reads ``MF/Fy``); without it, a rebuilt problem depends on every earlier owner.
 """
 from __future__ import annotations
 
 import dataclasses
+import fnmatch
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from identify.discover.drift import DRIFT_KEY, drifting
 from identify.discover.library import Library
 from identify.discover.objective import problem_name
 from identify.fit.problem import FitProblem
@@ -94,15 +98,20 @@ class ModelState:
         return {k: self.values[k] for k in problem.parameters
                 if k in self.owner and self.owner[k] != name}
 
+    def upstream(self, name: str, problem: FitProblem) -> tuple[str, ...]:
+        """The problems whose coefficients ``problem`` uses: the owners of the parameters it
+        reads and, when its model is rebuilt from the state, every earlier owner."""
+        out = {self.owner[k] for k in self.reads(problem)}
+        if problem.extra.get("rebuild") is not None and name in self.order:
+            earlier = self.order[:self.order.index(name)]
+            pats = problem.extra.get("depends_on")
+            out |= {o for o in self.owner.values() if o in earlier
+                    and (pats is None or any(fnmatch.fnmatchcase(o, p) for p in pats))}
+        return tuple(o for o in self.order if o in out)
+
     def depends(self, name: str, problem: FitProblem, changed: set[str]) -> bool:
         """Does ``problem`` (named ``name``) read anything the ``changed`` problems own?"""
-        if name not in self.order:
-            return False
-        earlier = set(self.order[:self.order.index(name)])
-        if problem.extra.get("rebuild") is not None and changed & earlier:
-            return True
-        return any(self.owner.get(k) in changed for k in problem.parameters
-                   if self.owner.get(k) != name)
+        return bool(set(self.upstream(name, problem)) & changed)
 
     def bind(self, problem: FitProblem) -> FitProblem:
         """``problem`` with every key another problem owns fixed at the owner's value, and its
@@ -115,7 +124,11 @@ class ModelState:
         rebuild = problem.extra.get("rebuild")
         if rebuild is not None:
             fresh = rebuild({k: v for k, v in self.values.items() if self.owner[k] != name})
-            out = dataclasses.replace(out, model=fresh.model, jacobian=fresh.jacobian)
+            model, jac = fresh.model, fresh.jacobian
+            if DRIFT_KEY in P:  # the drift candidate scales the rebuilt model as before
+                model, jac = drifting(model, jac, np.asarray(problem.extra["session_pos"],
+                                                             dtype=float))
+            out = dataclasses.replace(out, model=model, jacobian=jac)
         return out
 
     def update(self, name: str, values: dict[str, float]) -> None:
