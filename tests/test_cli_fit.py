@@ -20,6 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.fit.run import FitRun
 
 ROOT = Path(__file__).resolve().parents[1]
 THESIS = ROOT / "measurements" / "thesis-225-50R17"
@@ -71,13 +72,15 @@ def test_mcmc_stopped_at_the_cap_is_a_warning_with_the_cap_that_suffices(tmp_pat
                   "--no-report")
     assert result.exit_code == 0, result.output
     doc = json.loads((tmp_path / "fits" / "thesis-225-50R17" / "fit.json").read_text())
-    short = [f for f in doc["fits"] if not f["mcmc"]["converged"]]
-    assert short and all(f["mcmc"]["n_steps"] == 500 for f in short)
+    run = FitRun.from_dict(doc)
+    assert run.to_dict() == doc  # fit.json with MCMC summaries round-trips
+    short = [f for f in run.results if not f.mcmc.converged]
+    assert short and all(f.mcmc.n_steps == 500 for f in short)
     lines = result.stderr.strip().splitlines()
     assert len(lines) == len(short), result.stderr
     for fit, line in zip(short, lines):
-        tau = max(fit["mcmc"]["tau"].values())
-        assert line.startswith(f"warning: CFx [{fit['form']}]: MCMC chain shorter than 50 "
+        tau = max(fit.mcmc.tau.values())
+        assert line.startswith(f"warning: CFx [{fit.form}]: MCMC chain shorter than 50 "
                                f"autocorrelation times (500 steps, largest tau {tau:.0f}")
         cap = int(re.search(r"--mcmc-max-steps (\d+) ", line).group(1))
         assert 50 * tau < cap <= 55 * tau + 1000
@@ -134,7 +137,10 @@ def test_failed_fit_exits_1_with_the_reason_and_marked_outputs(tmp_path):
     # outputs are complete and say that the fit failed; the summary shows it
     fit_dir = tmp_path / "fits" / "flat_camber"
     doc = json.loads((fit_dir / "fit.json").read_text())
-    assert doc["failed"] and doc["failed"][0].startswith("camber[Fy_gamma]")
+    run = FitRun.from_dict(doc)
+    assert run.to_dict() == doc and not run.ok
+    assert run.failed[0].startswith("camber[Fy_gamma]")
+    assert not run.result("camber/Fy_gamma").converged
     assert (tmp_path / "reports" / "flat_camber.pdf").is_file()
     assert re.search(r"camber\s+Fy_gamma\s+\S+\s+12\s+FAILED", result.stdout)
     debug = runner.invoke(app, ["--debug", "fit", str(csv), "--out", str(tmp_path / "f2"),

@@ -1,12 +1,15 @@
-"""The fused numba kernel against the pure-numpy reference path, over the whole input box.
+"""The compiled kernel against the pure-numpy reference path, over the whole input box.
 
 Tolerance 1e-10 relative (|d|/max(1,|ref|)): both paths evaluate the same equations in double
-precision; the kernel replaces cos(atan(x)) by 1/sqrt(1+x^2) (exact identity, last-bit
-differences) and evaluates in a different order, and the Magic Formula amplifies round-off by
-at most its condition number (observed worst 2e-12). MF 6.2 rho, Rl, Cz come from an iterative
-solve that both paths stop at |dFz| <= 1e-12 FNOMIN along different round-off paths; near
-the edge of the solvable region (tiny deflections, flat Fz(Rl)) that leaves up to ~6e-7, so
-they are held to the 1e-6 used for iterative outputs (tests/data/reference/PROVENANCE.md).
+precision; the kernel uses its own elementary functions (a few ulp, tests/test_kernel_math.py),
+replaces cos(atan(x)) by 1/sqrt(1+x^2) (exact identity) and evaluates in a different order,
+and the Magic Formula amplifies round-off by at most its condition number (observed worst
+2e-12). MF 6.2 rho, Rl, Cz come from an iterative solve that both paths stop at
+|dFz| <= 1e-12 FNOMIN along different round-off paths; near the edge of the solvable region
+(tiny deflections, flat Fz(Rl)) that leaves up to ~6e-7, so they are held to the 1e-6 used
+for iterative outputs (tests/data/reference/PROVENANCE.md). Points whose secant finds no
+root in the kernel are decided by the numpy path (identify.model.kernel), so both paths flag the
+same points.
 """
 from __future__ import annotations
 
@@ -14,7 +17,7 @@ import numpy as np
 import pytest
 
 from identify.model.evaluate import OUTPUT_COLUMNS, evaluate
-from identify.model.kernel import evaluate_fused
+from identify.model.kernel import FORCE_COLUMNS, evaluate_fused, evaluate_outputs
 from tests.model_cases import params, random_points
 
 TOL = 1e-10
@@ -58,3 +61,28 @@ def test_threaded_kernel_gives_identical_results():
     b = evaluate_fused(P, *args, mode=111, threads=True)
     for name in OUTPUT_COLUMNS:
         assert np.array_equal(a[name], b[name], equal_nan=True), name
+
+
+@pytest.mark.parametrize("outputs", [("Fy",), ("Fx",), ("Fx", "Fy", "Mz"), FORCE_COLUMNS,
+                                     ("Mx", "Fy"), ("Re", "Cz")])
+@pytest.mark.parametrize("mode", [111, 221])
+def test_subset_of_outputs_equals_the_full_kernel_and_numpy(outputs, mode):
+    P = params(61)
+    pts = random_points(2000, seed=5)
+    args = (pts["fz"], pts["kappa"], pts["alpha"], pts["gamma"], pts["vx"], pts["p"])
+    got = evaluate_outputs(P, outputs, *args, mode=mode)
+    full = evaluate_fused(P, *args, mode=mode)
+    ref = evaluate(P, *args, mode=mode)
+    assert tuple(got) == outputs
+    for name in outputs:
+        assert np.array_equal(got[name], full[name], equal_nan=True), name
+        fin = np.isfinite(ref[name])
+        assert np.array_equal(got[name][~fin], ref[name][~fin], equal_nan=True), name
+        err = np.abs(got[name][fin] - ref[name][fin]) / np.maximum(1.0, np.abs(ref[name][fin]))
+        assert np.max(err) <= TOL, name
+
+
+def test_unknown_output_is_named():
+    P = params(61)
+    with pytest.raises(KeyError, match="Fw"):
+        evaluate_outputs(P, ("Fy", "Fw"), [3000.0], [0.0], [0.1], [0.0], [10.0])

@@ -21,13 +21,13 @@ from typer.testing import CliRunner
 
 from identify.cli.app import app
 from identify.core.errors import InputError
-from identify.workflows.fit import FitSettings, fit_folder
+from identify.io.fitdir import read_fit_dir
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
 from identify.report import tables as T
-from identify.io.fitdir import read_fit_dir
-from identify.report.curves import mf_slip_pages
 from identify.report.pdf import write_report
+from identify.report.slip_pages import mf_slip_pages
+from identify.workflows.fit import FitSettings, fit_folder
 
 ROOT = Path(__file__).resolve().parents[1]
 THESIS = ROOT / "measurements" / "thesis-225-50R17"
@@ -200,8 +200,8 @@ def _check_pages(pdf: Path, n_expected: int, tmp_path: Path) -> None:
 
 def test_report_of_a_relation_fit(thesis_fit, tmp_path):
     report = write_report(thesis_fit, tmp_path / "r.pdf")
-    fits = json.loads((thesis_fit / "fit.json").read_text())["fits"]
-    assert [f["form"] for f in fits] == ["linear_load", "quadratic_load"]
+    fits = read_fit_dir(thesis_fit).run.results
+    assert [f.form for f in fits] == ["linear_load", "quadratic_load"]
     assert report.pages == ("cover", "CFx [linear_load]", "CFx [quadratic_load]",
                             "data quality")
     assert report.notes == ()  # relation curves rebuilt, not joined points
@@ -256,7 +256,8 @@ def test_report_command_is_reproducible_and_sets_metadata(full_fit, full_report,
 
 def test_tables_total_first_and_intervals(full_fit):
     fd = read_fit_dir(full_fit)
-    cfx = [f for f in fd.fits if f["relation"] == "CFx"][0]
+    cfx = fd.run.result("CFx/linear_load")
+    assert fd.run.result("CFx") is cfx  # the form that supplied the .tir
     rows = T.error_rows(cfx)
     assert rows[0][0] == "total (mean)"
     assert [r[0] for r in rows[1:]] == ["1.9 bar", "2.2 bar", "2.5 bar", "2.7 bar", "3 bar"]
@@ -264,17 +265,17 @@ def test_tables_total_first_and_intervals(full_fit):
     assert abs(float(rows[0][1]) - mean) < 2e-3
     params = T.parameter_rows(cfx, fd.key_sources)
     assert {p.interval for p in params} == {"MCMC 2.5-97.5 %"}
-    plain = T.parameter_rows(fd.fits[-1], fd.key_sources)  # CFx quadratic: no MCMC
+    plain = T.parameter_rows(fd.run.result("CFx/quadratic_load"), fd.key_sources)  # no MCMC
     for p in plain:
         assert p.interval == "LS +/-1.96 s.e."
         assert p.lo95 == pytest.approx(p.value - T.Z95 * p.stderr)
     assert any(p.in_tir for p in params)
-    flags = T.data_flags(fd.doc, fd.extraction)
+    flags = T.data_flags(fd.run, fd.extraction)
     # the run's list of flag names repeats the detailed flag: listed once, with its detail
     assert [(f["flag"], f["detail"]) for f in flags] == [
         ("asymmetry", "negative camber thrust 12 % larger"), ("stick_slip", "3 slip events"),
         ("short_run", "ends at 2.1 sigma")]
-    diags = T.fit_diagnostics(fd.doc)
+    diags = T.fit_diagnostics(fd.run)
     assert any("on a bound" in d for d in diags) and any("Ex <= 1" in d for d in diags)
     # the fixture chain: 300 steps, tau 20 -> 55 tau = 1100 steps, rounded up to 2000
     assert any("MCMC chain shorter" in d and "300 steps, largest tau 20" in d
@@ -283,8 +284,8 @@ def test_tables_total_first_and_intervals(full_fit):
 
 def test_clean_fit_says_no_flags(thesis_fit):
     fd = read_fit_dir(thesis_fit)
-    assert T.data_flags(fd.doc, fd.extraction) == []
-    assert T.summary_rows(fd.doc)[0].relation == "CFx"
+    assert T.data_flags(fd.run, fd.extraction) == []
+    assert T.summary_rows(fd.run)[0].relation == "CFx"
 
 
 def test_joined_curves_when_relation_cannot_be_rebuilt(thesis_fit, tmp_path):

@@ -12,7 +12,7 @@ import shlex
 import time
 import warnings
 from pathlib import Path
-from typing import Optional
+from typing import TYPE_CHECKING
 
 import typer
 from rich import box
@@ -22,6 +22,10 @@ from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, InputError, MfidError
+
+if TYPE_CHECKING:  # pragma: no cover
+    from identify.fit.run import FitRun
+    from identify.report.pdf import Report
 
 
 class StageProgress:
@@ -38,11 +42,12 @@ class StageProgress:
         self._progress = None
         self._task = None
 
-    def __enter__(self) -> "StageProgress":
+    def __enter__(self) -> StageProgress:
         if self.live:
             self._progress = Progress(SpinnerColumn(finished_text="[green]done"),
-                                      TextColumn("{task.description}", markup=False), TimeElapsedColumn(),
-                                      console=self.console, transient=False)
+                                      TextColumn("{task.description}", markup=False),
+                                      TimeElapsedColumn(), console=self.console,
+                                      transient=False)
             self._progress.start()
         return self
 
@@ -65,29 +70,19 @@ class StageProgress:
             self._progress.stop()
 
 
-def tyre_id_of(folder: Path) -> str:
-    """The tyre id ``mfid fit`` names the fit directory after (manifest id, or the CSV's
-    stem)."""
-    from identify.io.manifest import MANIFEST_NAME, read_manifest
+def summary_table(run: FitRun) -> Table:
+    """Relation, form, total thesis error, key coefficients: one row per fit (the rows of
+    ``FitRun.report()``)."""
+    from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
 
-    toml = folder / MANIFEST_NAME if folder.is_dir() else folder
-    if toml.name == MANIFEST_NAME:
-        return read_manifest(toml).tyre.id
-    return folder.stem
-
-
-def summary_table(doc: dict) -> Table:
-    """Relation, form, total thesis error, key coefficients: one row per fit."""
-    from identify.report import tables as T
-
-    table = Table(title="fit summary (thesis error: mean of the per-pressure errors)",
-                  title_justify="left", box=box.SIMPLE_HEAD, pad_edge=False)
+    table = Table(title=SUMMARY_TITLE, title_justify="left", box=box.SIMPLE_HEAD,
+                  pad_edge=False)
     for name, just in (("relation", "left"), ("form", "left"), ("total error %", "right"),
                        ("points", "right"), ("status", "left"), (".tir", "center")):
         table.add_column(name, justify=just, no_wrap=True)
     table.add_column("key coefficients", overflow="fold")
-    for r in T.summary_rows(doc):
-        table.add_row(r.relation, r.form, T.fmt_pct(r.error_total_pct), str(r.n_points),
+    for r in run.summary_rows():
+        table.add_row(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
                       "ok" if r.converged else "[red]FAILED[/red]", "x" if r.in_tir else "",
                       r.key_coefficients)
     return table
@@ -134,7 +129,7 @@ def fit_command(
                                                     "report's corner plots and traces."),
     mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1",
                                   help="With --mcmc: AR(1) noise along each sweep."),
-    mcmc_max_steps: Optional[int] = typer.Option(
+    mcmc_max_steps: int | None = typer.Option(
         None, "--mcmc-max-steps", metavar="N",
         help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
              "is longer than 50 autocorrelation times; if the cap comes first its summary "
@@ -144,10 +139,10 @@ def fit_command(
                                    help="Fit only these relations (repeat or separate with "
                                         "commas): CFz, CFx, CFy, CMz, RR, camber, sidewall, "
                                         "MF."),
-    nominal_pressure: Optional[float] = typer.Option(
+    nominal_pressure: float | None = typer.Option(
         None, "--nominal-pressure", metavar="PA",
         help="Nominal pressure [Pa] of a single characteristics CSV."),
-    nominal_load: Optional[float] = typer.Option(
+    nominal_load: float | None = typer.Option(
         None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
                                                   "characteristics CSV."),
     fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
@@ -159,13 +154,15 @@ def fit_command(
     Exit 0 on success; 1 when a fit failed (outputs are still written, marked as failed);
     2 on bad input.
     """
+    # imported here, not at the top: the fit stack takes ~1.5 s to import against 0.24 s for
+    # the CLI itself (python -c "import identify.fit.run" / "import identify.cli.app"), which
+    # every other command (and --help) would pay
     from identify.fit.mcmc import CHUNK, MAX_STEPS
+    from identify.report.pdf import write_report
     from identify.workflows.fit import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps)
-    failure: FitError | None = None
-    started = time.time()
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -183,62 +180,45 @@ def fit_command(
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
                 warnings.simplefilter("ignore", RuntimeWarning)
-            try:
-                run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
-                                 nominal_pressure_Pa=nominal_pressure,
-                                 nominal_load_N=nominal_load, command=command)
-                fit_dir = run.fit_dir
-            except FitError as exc:
-                # the pipeline wrote complete outputs before raising: report them too
-                failure = exc
-                fit_dir = out / tyre_id_of(folder)
-            written = _fresh(fit_dir / "fit.json", started)
+            # a fit that fails is listed in run.failed: its outputs are written, marked as
+            # failed, and reported before the exit code says so
+            run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
+                             nominal_pressure_Pa=nominal_pressure,
+                             nominal_load_N=nominal_load, command=command)
             report = None
-            if not no_report and written:
-                from identify.report.pdf import write_report
-
+            if not no_report:
                 progress("report: PDF")
-                report = write_report(fit_dir, reports / f"{fit_dir.name}.pdf",
+                report = write_report(run.fit_dir, reports / f"{run.fit_dir.name}.pdf",
                                       progress=progress)
     except KeyboardInterrupt:
         err_console.print("interrupted: no partial output was left (files are written to a "
                           "temporary name and renamed)", markup=False)
-        raise typer.Exit(130)
+        raise typer.Exit(130) from None
     except MfidError as exc:
         fail(exc)
-    if written:
-        _print_outputs(fit_dir, report)
-    if failure is not None:
+    _print_outputs(run, report)
+    if run.failed:
+        failure = FitError("fit did not converge: " + "; ".join(run.failed))
         if _STATE.get("debug"):
             raise failure
         err_console.print(f"error: {failure}", markup=False)
         raise typer.Exit(failure.exit_code)
 
 
-def _fresh(path: Path, since: float) -> bool:
-    """The file exists and was written by this run (not left from an earlier one)."""
-    try:
-        return path.stat().st_mtime >= since - 1.0
-    except OSError:
-        return False
-
-
-def _print_outputs(fit_dir: Path, report) -> None:
-    import json
-
+def _print_outputs(run: FitRun, report: Report | None) -> None:
+    from identify.io.fitdir import EXTRACTION_NAME  # lazy: see fit_command
     from identify.report.tables import mcmc_warnings
 
-    doc = json.loads((fit_dir / "fit.json").read_text(encoding="utf-8"))
     if out_console.is_terminal:
-        out_console.print(summary_table(doc))
+        out_console.print(summary_table(run))
     else:  # a log or pipe gets the whole table rather than rich's default 80 columns
-        Console(highlight=False, width=160).print(summary_table(doc))
-    for line in mcmc_warnings(doc):
+        Console(highlight=False, width=160).print(summary_table(run))
+    for line in mcmc_warnings(run):
         err_console.print(f"warning: {line}", markup=False, highlight=False)
-    tir_name = (doc.get("tir") or {}).get("path") or f"{fit_dir.name}.tir"
+    fit_dir = run.fit_dir
     out_console.print("outputs:", markup=False)
-    for path in (fit_dir / tir_name, fit_dir / "fit.json", fit_dir / "measured_vs_model.csv",
-                 fit_dir / "extraction.json", fit_dir / "mcmc"):
+    for path in (run.tir_path, run.json_path, run.csv_path, fit_dir / EXTRACTION_NAME,
+                 fit_dir / "mcmc"):
         if path.exists():
             out_console.print(f"  {path}", markup=False, highlight=False)
     if report is not None:

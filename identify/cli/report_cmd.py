@@ -27,7 +27,7 @@ def report_command(
         report = write_report(fd, output if output is not None else default_report_path(fd))
     except KeyboardInterrupt:
         out_console.print("interrupted: no partial report was left", markup=False)
-        raise typer.Exit(130)
+        raise typer.Exit(130) from None
     except MfidError as exc:
         fail(exc)
     out_console.print(f"wrote {report.path} ({report.n_pages} pages)", markup=False,

@@ -19,8 +19,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from identify.core.jsonsafe import json_float
+
 __all__ = ["NoiseModel", "Sweeps", "sweep_index", "group_variogram", "lag1", "variogram",
-           "fit_ar1", "choose_noise", "whiten", "noise_sigma", "PHI_MIN", "MAX_LAG", "MIN_CLUSTERS"]
+           "fit_ar1", "choose_noise", "whiten", "noise_sigma", "PHI_MIN", "MAX_LAG",
+           "MIN_CLUSTERS"]
 
 PHI_MIN = 0.2
 """Below this lag-one correlation the noise is treated as independent [-]."""
@@ -54,13 +57,9 @@ class NoiseModel:
     reason: str
 
     def to_dict(self) -> dict:
-        return {"kind": self.kind, "phi": self.phi, "rho_lag1": _f(self.rho_lag1),
-                "rho_variogram": _f(self.rho_variogram), "n_sweeps": self.n_sweeps,
+        return {"kind": self.kind, "phi": self.phi, "rho_lag1": json_float(self.rho_lag1),
+                "rho_variogram": json_float(self.rho_variogram), "n_sweeps": self.n_sweeps,
                 "reason": self.reason}
-
-
-def _f(x: float) -> float | None:
-    return float(x) if np.isfinite(x) else None
 
 
 class Sweeps(Sequence):

@@ -10,25 +10,18 @@
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 import numpy as np
 
+from identify.core.jsonsafe import json_float as _num
 from identify.discover.noise import NoiseModel
 
 __all__ = ["CandidateRow", "Trial", "Step", "Accepted", "ProblemSummary", "Discovery",
            "SCHEMA"]
 
 SCHEMA = "mfid.discovery/1"
-
-
-def _num(x) -> float | None:
-    if x is None:
-        return None
-    x = float(x)
-    return x if math.isfinite(x) else None
 
 
 def _nums(d: Mapping) -> dict:

@@ -10,6 +10,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any, Mapping
 
+from identify.core.jsonsafe import json_safe
 from identify.core.quantities import QUANTITIES
 from identify.core.units import SI_UNITS
 
@@ -17,19 +18,6 @@ __all__ = ["FLAG_NAMES", "Flag", "RunDiagnostic", "Part", "row", "json_safe"]
 
 #: The flag vocabulary (docs/procedures.md, docs/fit-directory.md).
 FLAG_NAMES = ("stick_slip", "short_run", "asymmetry", "spread", "condition")
-
-
-def json_safe(value: Any) -> Any:
-    """Floats to float (NaN/inf to None), numpy scalars to Python, containers recursively."""
-    if isinstance(value, Mapping):
-        return {str(k): json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [json_safe(v) for v in value]
-    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
-        value = value.item()
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    return value
 
 
 @dataclass(frozen=True)

@@ -1,16 +1,35 @@
-"""The result of one fit: a small frozen dataclass with fixed fields and ``to_dict()``."""
+"""The result of one fit: small frozen dataclasses that round-trip through fit.json.
+
+``FitResult.to_dict()`` is one entry of fit.json's ``fits`` list and ``FitResult.from_dict``
+reads it back: ``FitResult.from_dict(r.to_dict()).to_dict() == r.to_dict()``. A number JSON
+cannot hold (NaN, infinity) is written as null and read back as NaN (an open bound as -inf or
++inf). The per-point arrays (``predicted``, ``measured``, ``pressure_bar``) are not in fit.json
+but in measured_vs_model.csv: ``from_dict`` leaves them empty, and
+:func:`identify.io.fitdir.read_fit_dir` fills them from the table.
+"""
 from __future__ import annotations
 
+import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
+from identify.core.jsonsafe import json_float as _num
+from identify.core.jsonsafe import json_safe
 
-def _num(x: float) -> float | None:
-    """JSON-safe float (None for NaN/inf)."""
-    x = float(x)
-    return x if np.isfinite(x) else None
+
+def _float(x: Any, missing: float = math.nan) -> float:
+    """A number read from JSON: null -> ``missing``."""
+    return missing if x is None else float(x)
+
+
+def _floats(d: Mapping[str, Any] | None) -> dict[str, float]:
+    return {str(k): _float(v) for k, v in (d or {}).items()}
+
+
+_EMPTY = np.empty(0)
 
 
 @dataclass(frozen=True)
@@ -63,13 +82,27 @@ class MCMCSummary:
         return float(np.quantile(col, lo)), float(np.quantile(col, 1 - lo))
 
     def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict: one fit's ``mcmc`` entry in fit.json."""
         d = {k: getattr(self, k) for k in ("acceptance", "n_walkers", "n_steps", "n_discard",
                                            "n_thin", "n_samples", "seed", "converged",
                                            "seconds", "chain_file")}
         for k in ("median", "q16", "q84", "q025", "q975", "tau", "correlations", "noise"):
             d[k] = {n: _num(v) for n, v in getattr(self, k).items()}
         d["effective_samples"] = _num(self.n_samples)
-        return d
+        return json_safe(d)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> MCMCSummary:
+        """Inverse of :meth:`to_dict` (``effective_samples`` is ``n_samples``; the samples
+        themselves are not in fit.json: read the chain file)."""
+        return cls(median=_floats(d["median"]), q16=_floats(d["q16"]), q84=_floats(d["q84"]),
+                   q025=_floats(d["q025"]), q975=_floats(d["q975"]), tau=_floats(d["tau"]),
+                   acceptance=_float(d["acceptance"]), n_walkers=int(d["n_walkers"]),
+                   n_steps=int(d["n_steps"]), n_discard=int(d["n_discard"]),
+                   n_thin=int(d["n_thin"]), n_samples=int(d["n_samples"]),
+                   correlations=_floats(d.get("correlations")), noise=_floats(d.get("noise")),
+                   seed=int(d["seed"]), converged=bool(d["converged"]),
+                   seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"))
 
 
 @dataclass(frozen=True)
@@ -130,10 +163,10 @@ class FitResult:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict in the fit.json schema."""
-        return {
+        return json_safe({
             "relation": self.relation, "form": self.form, "objective": self.objective,
-            "parameters": {k: _num(v) for k, v in self.parameters.items() if k in self.free},
-            "fixed": {k: _num(v) for k, v in self.parameters.items() if k not in self.free},
+            "parameters": {k: _num(v) for k, v in self.fitted.items()},
+            "fixed": {k: _num(v) for k, v in self.fixed.items()},
             "stderr": {k: _num(v) for k, v in self.stderr.items()},
             "bounds": {k: [_num(a), _num(b)] for k, (a, b) in self.bounds.items()},
             "at_bound": list(self.at_bound),
@@ -147,7 +180,57 @@ class FitResult:
             "correlations": {k: _num(v) for k, v in self.correlations.items()},
             "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
-        }
+        })
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
+        """Inverse of :meth:`to_dict`.
+
+        ``parameters`` (the free ones, in order) and ``fixed`` are merged into
+        :attr:`parameters`; null numbers are NaN, a null bound is open (-inf, +inf). The
+        per-point arrays are empty: they live in measured_vs_model.csv (see
+        :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
+        documents written before they were recorded. Raises KeyError or TypeError/ValueError
+        on a malformed entry.
+        """
+        free = {str(k): _float(v) for k, v in d["parameters"].items()}
+        fixed = _floats(d.get("fixed"))
+        bounds = {str(k): (_float(b[0], -math.inf), _float(b[1], math.inf))
+                  for k, b in (d.get("bounds") or {}).items()}
+        mc = d.get("mcmc")
+        return cls(relation=str(d["relation"]), form=str(d["form"]),
+                   objective=str(d.get("objective", "")), parameters={**free, **fixed},
+                   free=tuple(free), stderr=_floats(d.get("stderr")), bounds=bounds,
+                   at_bound=tuple(d.get("at_bound") or ()),
+                   active_constraints=tuple(d.get("active_constraints") or ()),
+                   error_total_pct=_float(d.get("error_total_pct")),
+                   error_by_pressure_pct={float(k): _float(v) for k, v in
+                                          (d.get("error_by_pressure_pct") or {}).items()},
+                   wls=_float(d.get("wls")), n_points=int(d.get("n_points") or 0),
+                   converged=bool(d["converged"]), message=str(d.get("message", "")),
+                   n_starts=int(d.get("n_starts") or 0),
+                   starts_at_best=int(d.get("starts_at_best") or 0),
+                   correlations=_floats(d.get("correlations")),
+                   predicted=_EMPTY, measured=_EMPTY, pressure_bar=_EMPTY,
+                   seconds=_float(d.get("seconds"), 0.0),
+                   mcmc=None if mc is None else MCMCSummary.from_dict(mc),
+                   nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0))
+
+    @property
+    def fitted(self) -> dict[str, float]:
+        """The free parameters and their values, in :attr:`parameters` order (fit.json's
+        ``parameters``)."""
+        return {k: v for k, v in self.parameters.items() if k in self.free}
+
+    @property
+    def fixed(self) -> dict[str, float]:
+        """The parameters held fixed and their values (fit.json's ``fixed``)."""
+        return {k: v for k, v in self.parameters.items() if k not in self.free}
+
+    @property
+    def name(self) -> str:
+        """``relation/form``: the name :meth:`identify.fit.run.FitRun.result` accepts."""
+        return f"{self.relation}/{self.form}"
 
     def report(self) -> str:
         """Plain-text summary (parameters, errors, search statistics)."""

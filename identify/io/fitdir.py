@@ -1,26 +1,49 @@
-"""Read a fit directory (docs/fit-directory.md) for the report: fit.json, the measured-vs-model
-table, the .tir, extraction.json and saved MCMC chains.
+"""The fit directory (docs/fit-directory.md): write it from a :class:`FitRun`, read it back.
 
-The report is rebuilt from this directory alone; nothing here refits or writes.
+``fits/<tyre id>/`` holds the .tir, fit.json (``FitRun.to_dict()``), measured_vs_model.csv (one
+row per fitted data point), extraction.json when raw runs were extracted, and saved MCMC chains
+under ``mcmc/``. :func:`write_fit_dir` writes every file to a temporary name first and renames
+them back to back at the end; :func:`read_fit_dir` reads the directory into a :class:`FitDir`
+whose ``run`` is the typed FitRun with the .tir values and per-point arrays filled in. The
+report is rebuilt from this directory alone; nothing here refits.
 """
 from __future__ import annotations
 
-import datetime as _dt
+import dataclasses
 import json
-import math
+from collections.abc import Mapping
+from contextlib import ExitStack
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.jsonsafe import json_text
+from identify.core.tyre import TyreInfo
+from identify.fit.result import FitResult
+from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
+from identify.io.atomic import atomic_path, atomic_write_text
+from identify.io.tir import format_tir, read_tir
 
-SCHEMA = "mfid.fit/1"
-CSV_NAME = "measured_vs_model.csv"
-JSON_NAME = "fit.json"
+__all__ = [
+    "CSV_COLUMNS",
+    "CSV_NAME",
+    "EXTRACTION_NAME",
+    "JSON_NAME",
+    "SCHEMA",
+    "FitDir",
+    "read_fit_dir",
+    "write_fit_dir",
+    "write_fit_json",
+]
+
 EXTRACTION_NAME = "extraction.json"
+CSV_COLUMNS = ("relation", "form", "quantity", "unit", "pi_bar", "Fz_N", "gamma_deg",
+               "alpha_rad", "kappa", "Vx_mps", "measured", "model")
+_REQUIRED_COLUMNS = ("relation", "form", "quantity", "pi_bar", "measured", "model")
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,78 +53,62 @@ class FitDir:
     Attributes
     ----------
     path : Path                 the directory
-    doc : dict                  fit.json
+    run : FitRun                fit.json, typed; its results carry their measured-vs-model
+                                arrays and its ``tir_values`` the .tir's values
     points : DataFrame          measured_vs_model.csv (one row per fitted data point)
     tir : dict or None          numeric .tir values (SI), None when the .tir is unreadable
-    tir_path : Path
     extraction : dict or None   extraction.json when present
     notes : tuple of str        problems met while reading that the report should show
     """
 
     path: Path
-    doc: dict
+    run: FitRun
     points: pd.DataFrame
     tir: Mapping[str, float] | None
-    tir_path: Path
     extraction: dict | None = None
     notes: tuple[str, ...] = field(default=())
 
-    # ----- convenience views ---------------------------------------------------------------
+    # ----- views of the run ----------------------------------------------------------------
     @property
-    def tyre(self) -> dict:
-        return self.doc.get("tyre") or {}
+    def tyre(self) -> TyreInfo:
+        return self.run.tyre
 
     @property
     def tyre_id(self) -> str:
-        return str(self.tyre.get("id") or self.path.name)
+        return self.run.tyre.id or self.path.name
 
     @property
-    def provenance(self) -> dict:
-        return self.doc.get("provenance") or {}
+    def provenance(self) -> Provenance:
+        return self.run.provenance
 
     @property
-    def fits(self) -> list[dict]:
-        return list(self.doc.get("fits") or [])
+    def results(self) -> tuple[FitResult, ...]:
+        return self.run.results
 
     @property
-    def key_sources(self) -> dict[str, str]:
-        tir = self.doc.get("tir") or {}
-        return dict(tir.get("key_sources") or {})
+    def key_sources(self) -> Mapping[str, str]:
+        return self.run.key_sources
 
     @property
-    def failed(self) -> list[str]:
-        return [str(f) for f in (self.doc.get("failed") or [])]
+    def failed(self) -> tuple[str, ...]:
+        return self.run.failed
 
     @property
-    def created(self) -> _dt.datetime | None:
-        """The fit's creation time (UTC) from fit.json, or None."""
-        text = self.provenance.get("created_utc")
-        if not text:
-            return None
-        try:
-            stamp = _dt.datetime.fromisoformat(str(text))
-        except ValueError:
-            return None
-        if stamp.tzinfo is None:
-            stamp = stamp.replace(tzinfo=_dt.timezone.utc)
-        return stamp
+    def tir_path(self) -> Path:
+        return self.path / Path(self.run.tir_name).name
 
     @property
     def nominal_pressure_bar(self) -> float:
-        return _float(self.tyre.get("nominal_pressure_Pa")) / 1e5
+        return self.run.tyre.nominal_pressure_Pa / 1e5
 
     @property
     def nominal_load_N(self) -> float:
-        return _float(self.tyre.get("nominal_load_N"))
+        return self.run.tyre.nominal_load_N
 
-    def rows(self, fit: Mapping[str, Any]) -> pd.DataFrame:
+    # ----- rows and chains of one fit -------------------------------------------------------
+    def rows(self, result: FitResult) -> pd.DataFrame:
         """The measured-vs-model rows of one fit (its relation and form)."""
-        p = self.points
-        if p.empty:
-            return p
-        sel = (p["relation"].astype(str) == str(fit.get("relation"))) & \
-              (p["form"].astype(str) == str(fit.get("form")))
-        return p[sel].reset_index(drop=True)
+        return _rows_of(self.points, result)
 
     def mf_rows(self) -> pd.DataFrame:
         """The rows of the Magic Formula stages (relation "MF")."""
@@ -110,14 +117,13 @@ class FitDir:
             return p
         return p[p["relation"].astype(str) == "MF"].reset_index(drop=True)
 
-    def chain_file(self, fit: Mapping[str, Any]) -> Path | None:
+    def chain_file(self, result: FitResult) -> Path | None:
         """The saved MCMC chain of one fit: fits/<id>/mcmc/<relation>_<form>.h5 (the contract),
         else the path fit.json recorded, if either exists."""
-        own = self.path / "mcmc" / f"{fit.get('relation')}_{fit.get('form')}.h5"
+        own = self.path / "mcmc" / f"{result.relation}_{result.form}.h5"
         if own.is_file():
             return own
-        mc = fit.get("mcmc") or {}
-        recorded = mc.get("chain_file")
+        recorded = result.mcmc.chain_file if result.mcmc is not None else None
         if recorded:
             for cand in (Path(recorded), self.path / Path(recorded).name,
                          self.path / "mcmc" / Path(recorded).name):
@@ -126,12 +132,22 @@ class FitDir:
         return None
 
 
-def _float(x: Any) -> float:
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return math.nan
+def _rows_of(points: pd.DataFrame, result: FitResult) -> pd.DataFrame:
+    if points.empty:
+        return points
+    sel = (points["relation"].astype(str) == result.relation) & \
+          (points["form"].astype(str) == result.form)
+    return points[sel].reset_index(drop=True)
 
+
+def _with_points(result: FitResult, rows: pd.DataFrame) -> FitResult:
+    """``result`` with its per-point arrays from its measured_vs_model rows."""
+    col = (lambda c: rows[c].to_numpy(float) if len(rows) else np.empty(0))
+    return dataclasses.replace(result, predicted=col("model"), measured=col("measured"),
+                               pressure_bar=col("pi_bar"))
+
+
+# ----- reading ------------------------------------------------------------------------------------
 
 def _read_json(path: Path) -> Any:
     try:
@@ -144,8 +160,24 @@ def _read_json(path: Path) -> Any:
         raise InputError(path, f"not valid JSON: {exc.msg}", line=exc.lineno) from None
 
 
-CSV_COLUMNS = ("relation", "form", "quantity", "unit", "pi_bar", "Fz_N", "gamma_deg",
-               "alpha_rad", "kappa", "Vx_mps", "measured", "model")
+def _read_points(root: Path) -> pd.DataFrame:
+    cpath = root / CSV_NAME
+    if not cpath.is_file():
+        raise InputError(root, f"not a complete fit directory: no {CSV_NAME}")
+    try:
+        points = pd.read_csv(cpath)
+    except pd.errors.EmptyDataError:
+        points = pd.DataFrame({c: pd.Series(dtype=float) for c in CSV_COLUMNS})
+    except (OSError, ValueError, pd.errors.ParserError) as exc:
+        raise InputError(cpath, f"cannot read table: {exc}") from None
+    if len(points):
+        missing = [c for c in _REQUIRED_COLUMNS if c not in points.columns]
+        if missing:
+            raise InputError(cpath, "missing column(s) " + ", ".join(missing))
+    for c in CSV_COLUMNS:
+        if c not in points.columns:
+            points[c] = np.nan
+    return points
 
 
 def read_fit_dir(path: str | Path) -> FitDir:
@@ -163,36 +195,17 @@ def read_fit_dir(path: str | Path) -> FitDir:
     jpath = root / JSON_NAME
     if not jpath.is_file():
         raise InputError(root, f"not a fit directory: no {JSON_NAME}")
-    doc = _read_json(jpath)
-    if not isinstance(doc, dict) or doc.get("schema") != SCHEMA:
-        found = doc.get("schema") if isinstance(doc, dict) else type(doc).__name__
-        raise InputError(jpath, f"schema is {found!r}, expected {SCHEMA!r}", key="schema")
-    if not isinstance(doc.get("fits"), list):
-        raise InputError(jpath, "missing the list of fits", key="fits")
-    cpath = root / CSV_NAME
-    if not cpath.is_file():
-        raise InputError(root, f"not a complete fit directory: no {CSV_NAME}")
     try:
-        points = pd.read_csv(cpath)
-    except pd.errors.EmptyDataError:
-        points = pd.DataFrame({c: pd.Series(dtype=float) for c in CSV_COLUMNS})
-    except (OSError, ValueError, pd.errors.ParserError) as exc:
-        raise InputError(cpath, f"cannot read table: {exc}") from None
-    if len(points):
-        missing = [c for c in ("relation", "form", "quantity", "pi_bar", "measured", "model")
-                   if c not in points.columns]
-        if missing:
-            raise InputError(cpath, "missing column(s) " + ", ".join(missing))
-    for c in CSV_COLUMNS:
-        if c not in points.columns:
-            points[c] = np.nan
+        run = FitRun.from_dict(_read_json(jpath))
+    except InputError as exc:
+        if exc.file is not None:
+            raise
+        raise InputError(jpath, exc.message, line=exc.line, key=exc.key) from None
+    points = _read_points(root)
     notes: list[str] = []
-    tir_name = (doc.get("tir") or {}).get("path") or f"{(doc.get('tyre') or {}).get('id')}.tir"
-    tir_path = root / Path(str(tir_name)).name
+    tir_path = root / Path(run.tir_name).name
     tir = None
     if tir_path.is_file():
-        from identify.io.tir import read_tir
-
         try:
             tir = read_tir(tir_path).params()
         except InputError as exc:
@@ -205,4 +218,59 @@ def read_fit_dir(path: str | Path) -> FitDir:
     epath = root / EXTRACTION_NAME
     if epath.is_file():
         extraction = _read_json(epath)
-    return FitDir(root, doc, points, tir, tir_path, extraction, tuple(notes))
+    run = dataclasses.replace(
+        run, fit_dir=root, tir_values=dict(tir or {}),
+        results=tuple(_with_points(r, _rows_of(points, r)) for r in run.results))
+    return FitDir(root, run, points, tir, extraction, tuple(notes))
+
+
+# ----- writing ------------------------------------------------------------------------------------
+
+def _tir_comment(run: FitRun) -> list[str]:
+    prov, inputs = run.provenance, run.provenance.inputs
+    return [f"fitted by mfid {prov.mfid_version} from {run.tyre.id} ({run.tyre.source} data)",
+            f"seed {prov.seed}; inputs: " + ", ".join(
+                f"{i.path} sha256:{i.sha256[:12]}" for i in inputs[:6])
+            + (" ..." if len(inputs) > 6 else "")]
+
+
+def write_fit_json(run: FitRun, path: str | Path) -> Path:
+    """Write ``run.to_dict()`` to ``path`` (atomically)."""
+    return Path(atomic_write_text(path, json_text(run.to_dict())))
+
+
+def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
+                  extraction: Mapping[str, Any] | None = None) -> FitRun:
+    """Write a fit directory: the .tir (``run.tir_values``), fit.json, measured_vs_model.csv
+    (``points``, columns :data:`CSV_COLUMNS`) and extraction.json (when given).
+
+    Every file goes to a temporary name first; the renames come last, back to back, so an
+    interrupt leaves either the previous set of outputs or the complete new one.
+
+    Returns
+    -------
+    FitRun
+        ``run`` with ``fit_dir`` set.
+
+    Raises
+    ------
+    InputError
+        The directory or a file cannot be written.
+    """
+    fit_dir = Path(fit_dir)
+    try:
+        fit_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise InputError(fit_dir, f"cannot create folder: {exc.strerror or exc}") from None
+    run = dataclasses.replace(run, fit_dir=fit_dir)
+    texts = {run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
+                                      comment_lines=_tir_comment(run)),
+             run.csv_path: points.to_csv(index=False, lineterminator="\n"),
+             run.json_path: json_text(run.to_dict())}
+    if extraction is not None:
+        texts[fit_dir / EXTRACTION_NAME] = json_text(extraction)
+    with ExitStack() as stack:
+        for path, text in texts.items():
+            tmp = stack.enter_context(atomic_path(path))
+            tmp.write_text(text, encoding="utf-8")
+    return run

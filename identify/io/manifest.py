@@ -16,6 +16,7 @@ from typing import Any, Mapping
 
 from identify.io.axes import AXES
 from identify.io.common import Problems
+from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
 
 __all__ = ["Manifest", "TyreInfo", "RigInfo", "RunSpec", "read_manifest", "KINDS", "TESTS",
@@ -51,24 +52,6 @@ _TOML_LINE = re.compile(r"at line (\d+)")
 
 def _frozen(mapping: Mapping) -> Mapping:
     return MappingProxyType(dict(mapping))
-
-
-@dataclass(frozen=True)
-class TyreInfo:
-    """The ``[tyre]`` table: identity and nominal operating point [SI]."""
-
-    id: str
-    nominal_pressure_Pa: float
-    nominal_load_N: float
-    unloaded_radius_m: float
-    source: str = "measured"
-    size: str = ""
-    description: str = ""
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict (an unknown value, NaN, becomes None)."""
-        return {k: None if isinstance(v, float) and v != v else v
-                for k, v in self.__dict__.items()}
 
 
 @dataclass(frozen=True)

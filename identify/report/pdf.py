@@ -13,16 +13,21 @@ creation time from fit.json, so the same fit directory gives the same PDF.
 """
 from __future__ import annotations
 
-import contextlib
-import os
-import tempfile
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable, Iterator
 
-from identify.core.version import __version__
+from matplotlib.backends.backend_pdf import PdfPages
+
 from identify.core.errors import InputError
+from identify.core.version import __version__
+from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir, read_fit_dir
+from identify.report.cover import cover, inputs_appendix
+from identify.report.fit_pages import fit_pages
+from identify.report.mcmc_pages import mcmc_pages
+from identify.report.quality_pages import quality_pages
+from identify.report.slip_pages import mf_slip_pages, slip_pages
 
 Progress = Callable[[str], None]
 
@@ -44,34 +49,11 @@ def default_report_path(fd: FitDir, reports: str | Path = "reports") -> Path:
     return Path(reports) / f"{fd.tyre_id}.pdf"
 
 
-@contextlib.contextmanager
-def atomic_binary(path: str | Path) -> Iterator[Path]:
-    """Yield a temporary path next to ``path``; on success fsync and rename it onto ``path``,
-    on any exception (KeyboardInterrupt included) delete it."""
-    target = Path(path)
-    try:
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=target.parent)
-        os.close(fd)
-    except OSError as exc:
-        raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None
-    tmp_path = Path(tmp)
-    try:
-        yield tmp_path
-        with open(tmp_path, "rb+") as fh:
-            os.fsync(fh.fileno())
-        os.chmod(tmp_path, 0o644)
-        os.replace(tmp_path, target)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            tmp_path.unlink()
-        raise
-
-
 def metadata(fd: FitDir) -> dict:
     """PDF metadata: Title, Author ("mfid <version>"), Subject, Keywords, CreationDate (the
     fit's creation time, for a reproducible file)."""
-    relations = sorted({str(f.get("relation")) for f in fd.fits})
-    source = fd.tyre.get("source") or "unknown"
+    relations = sorted({f.relation for f in fd.results})
+    source = fd.tyre.source or "unknown"
     meta = {"Title": f"mfid fit report: {fd.tyre_id}",
             "Author": f"mfid {__version__}",
             "Subject": f"Magic Formula fit with inflation pressure of tyre {fd.tyre_id} "
@@ -79,7 +61,7 @@ def metadata(fd: FitDir) -> dict:
             "Keywords": "; ".join(["tyre model", "Magic Formula", "inflation pressure",
                                    fd.tyre_id] + relations),
             "Creator": f"mfid {__version__} (matplotlib)",
-            "CreationDate": fd.created}
+            "CreationDate": fd.provenance.created}
     if meta["CreationDate"] is None:
         del meta["CreationDate"]
     return meta
@@ -87,15 +69,12 @@ def metadata(fd: FitDir) -> dict:
 
 def build_pages(fd: FitDir, progress: Progress | None = None):
     """Yield (title, Figure) for every page, and collect notes in the generator's return."""
-    from identify.report import pages as P
-    from identify.report.curves import mf_slip_pages
-
     notes: list[str] = []
-    yield from P.cover(fd)
-    for fit in fd.fits:
+    yield from cover(fd)
+    for fit in fd.results:
         if progress:
-            progress(f"report: {fit.get('relation')} [{fit.get('form')}]")
-        fpages, note = P.fit_pages(fd, fit)
+            progress(f"report: {fit.relation} [{fit.form}]")
+        fpages, note = fit_pages(fd, fit)
         if note:
             notes.append(note)
         yield from fpages
@@ -103,17 +82,17 @@ def build_pages(fd: FitDir, progress: Progress | None = None):
     notes += slip_notes
     if slip and progress:
         progress("report: MF slip pages")
-    yield from P.slip_pages(fd, slip)
-    for fit in fd.fits:
-        if fit.get("mcmc"):
+    yield from slip_pages(fd, slip)
+    for fit in fd.results:
+        if fit.mcmc is not None:
             if progress:
-                progress(f"report: MCMC {fit.get('relation')} [{fit.get('form')}]")
-            mpages, note = P.mcmc_pages(fd, fit)
+                progress(f"report: MCMC {fit.relation} [{fit.form}]")
+            mpages, note = mcmc_pages(fd, fit)
             if note:
                 notes.append(note)
             yield from mpages
-    yield from P.quality_pages(fd, notes)
-    yield from P.inputs_appendix(fd)
+    yield from quality_pages(fd, notes)
+    yield from inputs_appendix(fd)
     return notes
 
 
@@ -135,8 +114,6 @@ def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None,
     InputError
         The fit directory is missing or malformed, or the PDF cannot be written.
     """
-    from matplotlib.backends.backend_pdf import PdfPages
-
     fd = fit_dir if isinstance(fit_dir, FitDir) else read_fit_dir(fit_dir)
     out = Path(output) if output is not None else default_report_path(fd)
     try:
@@ -145,16 +122,15 @@ def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None,
         raise InputError(out.parent, f"cannot create folder: {exc.strerror or exc}") from None
     titles: list[str] = []
     notes: list[str] = []
-    with atomic_binary(out) as tmp:
-        with PdfPages(tmp, metadata=metadata(fd)) as pdf:
-            gen = build_pages(fd, progress)
-            while True:
-                try:
-                    title, fig = next(gen)
-                except StopIteration as stop:
-                    notes = list(stop.value or [])
-                    break
-                pdf.savefig(fig)
-                fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
-                titles.append(title)
+    with atomic_path(out) as tmp, PdfPages(tmp, metadata=metadata(fd)) as pdf:
+        gen = build_pages(fd, progress)
+        while True:
+            try:
+                title, fig = next(gen)
+            except StopIteration as stop:
+                notes = list(stop.value or [])
+                break
+            pdf.savefig(fig)
+            fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
+            titles.append(title)
     return Report(out, tuple(titles), tuple(notes))

@@ -6,97 +6,65 @@ The same rows feed the PDF pages and the ``mfid fit`` summary on the terminal.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any, Iterable, Mapping
+from typing import Any
+
+from identify.fit.result import FitResult, MCMCSummary
+from identify.fit.run import FitRun
+from identify.fit.summary import (
+    SummaryRow,
+    fmt,
+    fmt_pct,
+    key_coefficients,
+    num,
+    tir_keys,
+)
+
+__all__ = [
+    "FLAG_FIELDS",
+    "Z95",
+    "ParamRow",
+    "SummaryRow",
+    "chunks",
+    "data_flags",
+    "error_rows",
+    "fit_diagnostics",
+    "fmt",
+    "fmt_pct",
+    "key_coefficients",
+    "label",
+    "mcmc_shortfall",
+    "mcmc_warnings",
+    "num",
+    "parameter_rows",
+    "summary_rows",
+    "tir_keys",
+]
 
 Z95 = 1.959963984540054
 """Two-sided 95 % quantile of the standard normal (value +/- Z95 * standard error)."""
 
 
-def num(x: Any) -> float:
-    """float(x), NaN for None or anything not a number."""
-    try:
-        return float(x)
-    except (TypeError, ValueError):
-        return math.nan
-
-
-def fmt(x: Any, digits: int = 4) -> str:
-    """A number with ``digits`` significant digits; "n/a" for NaN/None."""
-    v = num(x)
-    if not math.isfinite(v):
-        return "n/a" if math.isnan(v) else ("inf" if v > 0 else "-inf")
-    return f"{v:.{digits}g}"
-
-
-def fmt_pct(x: Any) -> str:
-    v = num(x)
-    if not math.isfinite(v):
-        return "n/a"
-    return f"{v:.3f}" if abs(v) < 100 else f"{v:.1f}"
-
-
-def label(fit: Mapping[str, Any]) -> str:
+def label(fit: FitResult) -> str:
     """``relation [form]``."""
-    return f"{fit.get('relation')} [{fit.get('form')}]"
+    return f"{fit.relation} [{fit.form}]"
 
 
-def source_tag(fit: Mapping[str, Any]) -> str:
-    """The key_sources value a fit's .tir keys carry (``relation/form``, MF stages
-    ``MF/<stage> (trailer)``)."""
-    return f"{fit.get('relation')}/{fit.get('form')}"
-
-
-def tir_keys(fit: Mapping[str, Any], key_sources: Mapping[str, str]) -> list[str]:
-    """The .tir keys this fit supplied."""
-    tag = source_tag(fit)
-    return sorted(k for k, src in key_sources.items()
-                  if src == tag or src.startswith(tag + " "))
-
-
-# ----- summary ---------------------------------------------------------------------------------
-
-@dataclass(frozen=True)
-class SummaryRow:
-    relation: str
-    form: str
-    error_total_pct: float
-    n_points: int
-    converged: bool
-    in_tir: bool
-    key_coefficients: str
-
-
-def key_coefficients(fit: Mapping[str, Any], limit: int = 4) -> str:
-    """The free parameters as ``NAME=value`` (``limit`` of them, then "+n more")."""
-    params = fit.get("parameters") or {}
-    items = [f"{k}={fmt(v)}" for k, v in params.items()]
-    if len(items) > limit:
-        items = items[:limit] + [f"+{len(params) - limit} more"]
-    return ", ".join(items)
-
-
-def summary_rows(doc: Mapping[str, Any]) -> list[SummaryRow]:
-    """One row per fit of fit.json, in fit order."""
-    key_sources = (doc.get("tir") or {}).get("key_sources") or {}
-    out = []
-    for fit in doc.get("fits") or []:
-        out.append(SummaryRow(str(fit.get("relation")), str(fit.get("form")),
-                              num(fit.get("error_total_pct")), int(fit.get("n_points") or 0),
-                              bool(fit.get("converged")), bool(tir_keys(fit, key_sources)),
-                              key_coefficients(fit)))
-    return out
+def summary_rows(run: FitRun) -> list[SummaryRow]:
+    """One row per fit of the run, in fit order."""
+    return run.summary_rows()
 
 
 # ----- thesis error table ----------------------------------------------------------------------
 
-def error_rows(fit: Mapping[str, Any]) -> list[tuple[str, str]]:
+def error_rows(fit: FitResult) -> list[tuple[str, str]]:
     """The thesis error table as the thesis lays it out: total first, then one row per
     pressure (ascending). Values in %."""
-    by_p = fit.get("error_by_pressure_pct") or {}
-    rows = [("total (mean)", fmt_pct(fit.get("error_total_pct")))]
-    for key in sorted(by_p, key=num):
-        rows.append((f"{num(key):g} bar", fmt_pct(by_p[key])))
+    by_p = fit.error_by_pressure_pct
+    rows = [("total (mean)", fmt_pct(fit.error_total_pct))]
+    for p in sorted(by_p):
+        rows.append((f"{p:g} bar", fmt_pct(by_p[p])))
     return rows
 
 
@@ -104,7 +72,8 @@ def error_rows(fit: Mapping[str, Any]) -> list[tuple[str, str]]:
 
 @dataclass(frozen=True)
 class ParamRow:
-    """One free parameter: least-squares value and standard error, a 95 % interval, bounds."""
+    """One free parameter: least-squares value and standard error, a 95 % interval, bounds
+    (-inf/inf when open)."""
 
     name: str
     value: float
@@ -119,30 +88,26 @@ class ParamRow:
     median: float = math.nan  # MCMC posterior median (NaN without MCMC)
 
 
-def parameter_rows(fit: Mapping[str, Any], key_sources: Mapping[str, str] | None = None
+def parameter_rows(fit: FitResult, key_sources: Mapping[str, str] | None = None
                    ) -> list[ParamRow]:
     """The free parameters with value, standard error, 95 % interval, bounds and flags.
 
     The interval is the MCMC 2.5-97.5 % posterior quantiles when the fit has an MCMC
     summary for the parameter, else value +/- 1.96 standard errors (labelled as such).
     """
-    params = fit.get("parameters") or {}
-    stderr = fit.get("stderr") or {}
-    bounds = fit.get("bounds") or {}
-    at_bound = set(fit.get("at_bound") or ())
-    mc = fit.get("mcmc") or {}
-    q025, q975, med = mc.get("q025") or {}, mc.get("q975") or {}, mc.get("median") or {}
+    mc = fit.mcmc
+    q025, q975, med = (mc.q025, mc.q975, mc.median) if mc is not None else ({}, {}, {})
     keys = set(tir_keys(fit, key_sources or {}))
     rows = []
-    for name, value in params.items():
-        v, se = num(value), num(stderr.get(name))
+    for name, value in fit.fitted.items():
+        v, se = num(value), num(fit.stderr.get(name))
         if name in q025 and name in q975:
             lo, hi, how = num(q025[name]), num(q975[name]), "MCMC 2.5-97.5 %"
         else:
             lo, hi, how = v - Z95 * se, v + Z95 * se, "LS +/-1.96 s.e."
-        b = bounds.get(name) or (None, None)
-        rows.append(ParamRow(name, v, se, lo, hi, how, num(b[0]), num(b[1]),
-                             name in at_bound, name in keys, num(med.get(name))))
+        lower, upper = fit.bounds.get(name, (-math.inf, math.inf))
+        rows.append(ParamRow(name, v, se, lo, hi, how, num(lower), num(upper),
+                             name in fit.at_bound, name in keys, num(med.get(name))))
     return rows
 
 
@@ -169,10 +134,10 @@ def _walk_flags(obj: Any, out: list[dict]) -> None:
             _walk_flags(v, out)
 
 
-def data_flags(doc: Mapping[str, Any], extraction: Any = None) -> list[dict[str, str]]:
+def data_flags(run: FitRun, extraction: Any = None) -> list[dict[str, str]]:
     """Every data-quality flag from fit.json and extraction.json, each once, as
     {run, test, flag, detail} strings."""
-    found: list[dict] = [dict(f) for f in (doc.get("flags") or []) if isinstance(f, Mapping)]
+    found: list[dict] = [dict(f) for f in run.flags if isinstance(f, Mapping)]
     if extraction is not None:
         _walk_flags(extraction, found)
     rows = []
@@ -194,44 +159,42 @@ def data_flags(doc: Mapping[str, Any], extraction: Any = None) -> list[dict[str,
     return out
 
 
-def fit_diagnostics(doc: Mapping[str, Any]) -> list[str]:
+def fit_diagnostics(run: FitRun) -> list[str]:
     """Warnings about the fits themselves: failures, parameters on bounds, active
     constraints, a best value reached by one start only, MCMC chains too short or with an
     acceptance fraction outside 0.2-0.5."""
-    out = [f"FAILED {f}" for f in doc.get("failed") or []]
-    for fit in doc.get("fits") or []:
+    out = [f"FAILED {f}" for f in run.failed]
+    for fit in run.results:
         name = label(fit)
-        tag = f"{fit.get('relation')}[{fit.get('form')}]"
-        if not fit.get("converged") and not any(str(f).startswith(tag)
-                                                for f in doc.get("failed") or []):
-            out.append(f"{name}: did not converge ({fit.get('message')})")
-        if fit.get("at_bound"):
-            out.append(f"{name}: on a bound: {', '.join(fit['at_bound'])}")
-        if fit.get("active_constraints"):
-            out.append(f"{name}: active constraint(s): {'; '.join(fit['active_constraints'])}")
-        n, best = int(fit.get("n_starts") or 0), int(fit.get("starts_at_best") or 0)
+        tag = f"{fit.relation}[{fit.form}]"
+        if not fit.converged and not any(f.startswith(tag) for f in run.failed):
+            out.append(f"{name}: did not converge ({fit.message})")
+        if fit.at_bound:
+            out.append(f"{name}: on a bound: {', '.join(fit.at_bound)}")
+        if fit.active_constraints:
+            out.append(f"{name}: active constraint(s): {'; '.join(fit.active_constraints)}")
+        n, best = fit.n_starts, fit.starts_at_best
         if n > 1 and best <= 1:
             out.append(f"{name}: only {best} of {n} starts reached the best value "
                        "(possible local minimum)")
-        mc = fit.get("mcmc")
-        if mc:
+        mc = fit.mcmc
+        if mc is not None:
             short = mcmc_shortfall(mc)
             if short:
                 out.append(f"{name}: {short}")
-            acc = num(mc.get("acceptance"))
+            acc = mc.acceptance
             if math.isfinite(acc) and not 0.2 <= acc <= 0.5:
                 out.append(f"{name}: MCMC acceptance fraction {acc:.2f} outside 0.2-0.5")
     return out
 
 
-def mcmc_shortfall(mc: Mapping[str, Any]) -> str:
+def mcmc_shortfall(mc: MCMCSummary) -> str:
     """Why an MCMC summary is not converged, with the cap that would let it converge; empty
     when the chain is longer than 50 autocorrelation times."""
-    if mc.get("converged"):
+    if mc.converged:
         return ""
-    steps = int(mc.get("n_steps") or 0)
-    taus = [num(t) for t in (mc.get("tau") or {}).values()]
-    taus = [t for t in taus if math.isfinite(t)]
+    steps = mc.n_steps
+    taus = [t for t in mc.tau.values() if math.isfinite(t)]
     text = "MCMC chain shorter than 50 autocorrelation times"
     if steps and taus:
         tau = max(taus)
@@ -242,10 +205,10 @@ def mcmc_shortfall(mc: Mapping[str, Any]) -> str:
     return text
 
 
-def mcmc_warnings(doc: Mapping[str, Any]) -> list[str]:
+def mcmc_warnings(run: FitRun) -> list[str]:
     """The fit_diagnostics lines about MCMC chains that stopped at the cap."""
-    return [f"{label(fit)}: {short}" for fit in doc.get("fits") or []
-            if fit.get("mcmc") and (short := mcmc_shortfall(fit["mcmc"]))]
+    return [f"{label(fit)}: {short}" for fit in run.results
+            if fit.mcmc is not None and (short := mcmc_shortfall(fit.mcmc))]
 
 
 def chunks(rows: Iterable, size: int) -> list[list]:

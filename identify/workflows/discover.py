@@ -2,31 +2,45 @@
 
 Outputs (each written atomically): ``discovery.json`` (schema in
 :mod:`identify.discover.result`), ``discovery.pdf`` (:mod:`identify.report.discovery`), the
-enriched ``<tyre id>.tir`` (base .tir + every fitted and accepted coefficient) and ``fit.json``
+enriched ``<tyre id>.tir`` (the base .tir with the discovery's one model state: every key some
+problem fits or tests, from the problem that owns it, :mod:`identify.discover.state`) and
+``fit.json``
 (the final fits, ``mfid.fit/1`` layout). The measurement folder is only read.
 """
 from __future__ import annotations
 
-import datetime as _dt
-import json
+import dataclasses
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Callable
 
+import pandas as pd
 
+from identify.core.errors import InputError
+from identify.core.jsonsafe import json_text
 from identify.core.version import __version__
 from identify.discover.library import load_library
-from identify.discover.problems import (Base, apply_base, base_values, relation_problems,
-                                        select, trailer_problems)
+from identify.discover.problems import (
+    Base,
+    apply_base,
+    base_values,
+    relation_problems,
+    select,
+    trailer_problems,
+)
 from identify.discover.result import Discovery
 from identify.discover.search import Settings, discover
-from identify.core.errors import InputError
 from identify.fit.relations import Context
-from identify.model.parameters import spec
+from identify.fit.run import FitRun, Provenance, failures
 from identify.io.atomic import atomic_write_text
+from identify.io.fitdir import write_fit_json
+from identify.io.folder import load_folder
+from identify.io.tir import read_tir, write_tir
 from identify.io.tir.write import source_text
-from identify.core.jsonsafe import json_default
+from identify.model.parameters import spec
+from identify.report.discovery import write_pdf
+from identify.simulate import default_tir_path
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
 
@@ -43,6 +57,7 @@ class DiscoveryRun:
     json_path, pdf_path, tir_path, fit_json_path : Path
     discovery : Discovery
     notes : tuple of str     data the run could not use, and why
+    fit_run : FitRun or None the final fits as written to fit.json
     """
 
     out_dir: Path
@@ -52,14 +67,12 @@ class DiscoveryRun:
     fit_json_path: Path
     discovery: Discovery
     notes: tuple[str, ...] = ()
+    fit_run: FitRun | None = None
 
 
 def start_tir(mset, base_tir: str | Path | None) -> tuple[dict, int]:
     """(numeric .tir values, FITTYP): the given base .tir, or the bundled 225/50 R17 tyre with
     the folder's nominal load, pressure and radius (start values of the MF coefficients)."""
-    from identify.io.tir import read_tir
-    from identify.simulate import default_tir_path
-
     tirfile = read_tir(base_tir if base_tir is not None else default_tir_path())
     t = {k: float(v) for k, v in tirfile.params().items() if isinstance(v, (int, float))}
     if base_tir is None:
@@ -80,8 +93,6 @@ class _NoRuns:
 
 
 def _characteristics(mset, notes: list[str]):
-    import pandas as pd
-
     frames = []
     if mset.flatplank is not None and len(mset.flatplank):
         try:
@@ -136,9 +147,6 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     InputError
         Bad folder, .tir, candidates file or form name, or nothing to discover (exit 2).
     """
-    from identify.io.folder import load_folder
-    from identify.io.tir import write_tir
-
     say = progress or (lambda s: None)
     if base_tir is not None and base_form is not None:
         raise InputError(None, "give --base or --base-form, not both", key="--base-form")
@@ -183,27 +191,25 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(out, f"cannot create output folder: {exc.strerror or exc}") from None
-    created = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
-    provenance = {"mfid_version": __version__, "created_utc": created, "command": command,
-                  "seed": settings.seed, "inputs": [{"path": str(Path(mset.path) / k),
-                                                     "sha256": v}
-                                                    for k, v in sorted(mset.checksums.items())]}
-    doc = {**d.to_dict(), "tyre": tyre.to_dict(), "provenance": provenance,
-           "notes": notes}
-    json_path = atomic_write_text(out / "discovery.json",
-                                  json.dumps(doc, indent=1, default=json_default))
-    from identify.report.discovery import write_pdf
+    provenance = Provenance.now(command=command, seed=settings.seed, settings=None,
+                                checksums=mset.checksums, folder=mset.path)
+    recorded = {k: v for k, v in provenance.to_dict().items() if k != "settings"}
+    doc = {**d.to_dict(), "tyre": tyre.to_dict(), "provenance": recorded,
+           "notes": notes + list(d.notes)}
+    json_path = atomic_write_text(out / "discovery.json", json_text(doc))
     pdf_path = write_pdf(d, out / "discovery.pdf")
-    values, sources = _enriched(tir, d)
-    tir_path = write_tir(out / f"{tyre.id}.tir", values, fittyp=fittyp, sources=sources,
+    enriched, sources = _enriched(tir, d)
+    tir_path = write_tir(out / f"{tyre.id}.tir", enriched, fittyp=fittyp, sources=sources,
                          comment_lines=[f"mfid discover {__version__}: base {base.kind} "
                                         f"{base.name}".rstrip(),
                                         "accepted: " + (", ".join(a.name for a in d.accepted)
                                                         or "none")])
-    fit_doc = {"schema": "mfid.fit/1", "tyre": tyre.to_dict(), "provenance": provenance,
-               "fits": [p.fit.to_dict() for p in d.problems if p.fit is not None],
-               "tir": {"path": tir_path.name, "fittyp": fittyp}, "flags": []}
-    fit_json = atomic_write_text(out / "fit.json",
-                                 json.dumps(fit_doc, indent=1, default=json_default))
-    return DiscoveryRun(out, json_path, pdf_path, Path(tir_path), fit_json, d, tuple(notes))
+    results = tuple(p.fit for p in d.problems if p.fit is not None)
+    key_sources = {k: d.sources.get(k, "CMz") for k in sources}
+    run = FitRun(tyre=tyre, provenance=provenance, results=results, key_sources=key_sources,
+                 fittyp=fittyp, tir_name=Path(tir_path).name, failed=failures(results),
+                 tir_values=enriched)
+    fit_json = write_fit_json(run, out / "fit.json")
+    return DiscoveryRun(out, json_path, pdf_path, Path(tir_path), fit_json, d, tuple(notes),
+                        dataclasses.replace(run, fit_dir=out))
 

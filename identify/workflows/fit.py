@@ -9,93 +9,33 @@ is written to a temporary name and renamed; the measurement folder is only read.
 from __future__ import annotations
 
 import dataclasses
-import datetime as _dt
-import json
 import math
-from contextlib import ExitStack
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
 
 import numpy as np
 import pandas as pd
 
-from identify.core.version import __version__
-from identify.core.errors import FitError, InputError
-from identify.fit.mcmc import MAX_STEPS, run_mcmc
+from identify.core.errors import InputError
+from identify.extract import extract_folder
+from identify.fit.mcmc import run_mcmc
+from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.optimize import fit
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
+from identify.fit.run import FitRun, FitSettings, Provenance, failures
+from identify.io.fitdir import write_fit_dir
+from identify.io.folder import load_folder
 from identify.model.parameters import defaults
-from identify.io.atomic import atomic_path
-from identify.core.jsonsafe import json_default
-from identify.io.tir import format_tir
+
+__all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
 Progress = Callable[[str], None]
 
 GEOMETRY_INPUTS = ("VERTICAL_STIFFNESS", "PFZ1")
 """.tir keys the MF geometry stage holds: a plan entry writing them is fitted before the MF
 stages."""
-
-
-@dataclass(frozen=True)
-class FitSettings:
-    """Settings that make a fit (recorded in fit.json).
-
-    Attributes
-    ----------
-    seed : int             seeds the global search and MCMC
-    mcmc : bool            run emcee on every fit
-    mcmc_ar1 : bool        AR(1) noise along sweeps in MCMC
-    save_chains : bool     keep MCMC chains as HDF5 under fits/<id>/mcmc/
-    only : tuple of str    relation names to fit (empty = all)
-    fittyp : int           61 or 62 for the written .tir
-    mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
-                           and its summary says converged = false if the cap came first
-    """
-
-    seed: int = 0
-    mcmc: bool = False
-    mcmc_ar1: bool = False
-    save_chains: bool = False
-    only: tuple[str, ...] = ()
-    fittyp: int = 61
-    mcmc_max_steps: int = MAX_STEPS
-
-    def to_dict(self) -> dict[str, Any]:
-        return dataclasses.asdict(self)
-
-
-@dataclass(frozen=True)
-class FitRun:
-    """Everything one ``mfid fit`` produced.
-
-    Attributes
-    ----------
-    tyre_id : str
-    fit_dir : Path          fits/<tyre id>
-    tir_path, json_path, csv_path : Path
-    results : tuple of FitResult
-    params : dict            the written .tir values
-    key_sources : dict       .tir key -> "relation/form" that supplied it
-    flags : tuple of dict    data-quality flags from extraction
-    """
-
-    tyre_id: str
-    fit_dir: Path
-    tir_path: Path
-    json_path: Path
-    csv_path: Path
-    results: tuple[FitResult, ...]
-    params: dict
-    key_sources: dict
-    flags: tuple = field(default=())
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"tyre_id": self.tyre_id, "fit_dir": str(self.fit_dir),
-                "results": [r.to_dict() for r in self.results],
-                "key_sources": dict(self.key_sources), "flags": list(self.flags)}
 
 
 def _say(progress: Progress | None, text: str) -> None:
@@ -133,8 +73,6 @@ def _characteristics(mset, progress) -> tuple[pd.DataFrame, tuple, dict | None]:
     flags: tuple = ()
     extraction = None
     if mset.flatplank is not None and len(mset.flatplank):
-        from identify.extract import extract_folder  # raw Flatplank runs -> characteristics
-
         _say(progress, "extract: characteristics from raw Flatplank runs")
         ex = extract_folder(mset)
         frames.append(ex.characteristics)
@@ -169,15 +107,19 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                command: str = "") -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
+    Returns
+    -------
+    FitRun
+        What was fitted and written (``fit_dir`` set). A fit that did not converge or whose
+        constraints are infeasible is listed in ``run.failed`` (the outputs are written all
+        the same, marked as failed); the CLI exits 1 when it is not empty.
+
     Raises
     ------
     InputError
-        The folder or file is malformed (exit 2 from the CLI).
-    FitError
-        A fit did not converge or a constraint is infeasible (exit 1 from the CLI).
+        The folder or file is malformed, or an output cannot be written (exit 2 from the
+        CLI).
     """
-    from identify.io.folder import load_folder
-
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -215,15 +157,11 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                             if k in result.parameters})
 
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        from identify.fit.mf_stages import fit_mf
-
         _say(progress, "fit: Magic Formula stages on trailer data")
         mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
                     fittyp=settings.fittyp)
         for r in mf.results:
             if settings.mcmc:
-                from identify.fit.mf_stages import stage_mcmc
-
                 _say(progress, f"mcmc: MF [{r.form}]")
                 chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
                 r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
@@ -266,54 +204,15 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     if not results:
         raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
                                     f"of a known quantity{' for --only' if settings.only else ''}")
-    failed = [f"{r.relation}[{r.form}]: {r.message}" for r in results if not r.converged]
-    return _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, settings,
-                  Path(out_root), command, failed)
-
-
-def _write(mset, tyre, tir, results, rows, key_sources, flags, extraction, settings, out_root,
-           command, failed) -> FitRun:
-    fit_dir = out_root / tyre.id
-    fit_dir.mkdir(parents=True, exist_ok=True)
-    tir_path = fit_dir / f"{tyre.id}.tir"
-    inputs = [{"path": str(Path(mset.path) / name), "sha256": digest}
-              for name, digest in sorted(mset.checksums.items())]
-    provenance = {"mfid_version": __version__,
-                  "created_utc": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
-                  "command": command, "seed": settings.seed, "settings": settings.to_dict(),
-                  "inputs": inputs}
-    comment = [f"fitted by mfid {__version__} from {tyre.id} ({tyre.source} data)",
-               f"seed {settings.seed}; inputs: " + ", ".join(
-                   f"{i['path']} sha256:{i['sha256'][:12]}" for i in inputs[:6])
-               + (" ..." if len(inputs) > 6 else "")]
-    csv_path = fit_dir / "measured_vs_model.csv"
-    frame = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
-    doc = {"schema": "mfid.fit/1",
-           "tyre": {"id": tyre.id, "nominal_pressure_Pa": tyre.nominal_pressure_Pa,
-                    "nominal_load_N": tyre.nominal_load_N, "source": tyre.source},
-           "provenance": provenance, "fits": [r.to_dict() for r in results],
-           "tir": {"path": tir_path.name, "fittyp": settings.fittyp,
-                   "key_sources": key_sources},
-           "flags": [dict(f) for f in flags], "failed": failed}
-    json_path = fit_dir / "fit.json"
-    texts = {tir_path: format_tir(tir, fittyp=settings.fittyp, comment_lines=comment),
-             csv_path: frame.to_csv(index=False, lineterminator="\n"),
-             json_path: json.dumps(doc, indent=1, default=json_default)}
-    if extraction is not None:
-        texts[fit_dir / "extraction.json"] = json.dumps(extraction, indent=1,
-                                                        default=json_default)
-    # every file goes to a temporary name first; the renames come last, back to back, so an
-    # interrupt leaves either the previous set of outputs or the complete new one
-    with ExitStack() as stack:
-        for path, text in texts.items():
-            tmp = stack.enter_context(atomic_path(path))
-            tmp.write_text(text, encoding="utf-8")
-    run = FitRun(tyre_id=tyre.id, fit_dir=fit_dir, tir_path=tir_path, json_path=json_path,
-                 csv_path=csv_path, results=tuple(results), params=tir,
-                 key_sources=key_sources, flags=tuple(flags))
-    if failed:
-        raise FitError("fit did not converge: " + "; ".join(failed))
-    return run
+    run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,
+                                                     settings=settings,
+                                                     checksums=mset.checksums,
+                                                     folder=mset.path),
+                 results=tuple(results), key_sources=key_sources, fittyp=settings.fittyp,
+                 tir_name=f"{tyre.id}.tir", flags=tuple(dict(f) for f in flags),
+                 failed=failures(results), tir_values=tir)
+    points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
 
 
 def only_names(values: Sequence[str]) -> tuple[str, ...]:

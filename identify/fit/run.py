@@ -1,0 +1,329 @@
+"""One whole fit of a measurement folder as typed data: the fit.json document.
+
+:class:`FitRun` holds what ``mfid fit`` (and ``mfid discover``) produced: the tyre, the
+provenance (version, time, command, seed, settings, input checksums), every
+:class:`~identify.fit.result.FitResult`, where each .tir key came from, the data-quality flags
+and the fits that failed. ``FitRun.to_dict()`` is the fit.json document and
+``FitRun.from_dict()`` reads it back (``FitRun.from_dict(doc).to_dict() == doc``); the schema
+string :data:`SCHEMA` is defined here only. The .tir values and the per-point arrays are not in
+fit.json (they are in the .tir and measured_vs_model.csv): :func:`identify.io.fitdir.read_fit_dir`
+fills them in.
+"""
+from __future__ import annotations
+
+import dataclasses
+import datetime as _dt
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from identify.core.errors import InputError
+from identify.core.jsonsafe import json_safe
+from identify.core.tyre import TyreInfo
+from identify.core.version import __version__
+from identify.fit.mcmc import MAX_STEPS
+from identify.fit.result import FitResult
+from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
+
+__all__ = ["SCHEMA", "FitRun", "FitSettings", "InputFile", "Provenance", "failures"]
+
+SCHEMA = "mfid.fit/1"
+"""The schema string of fit.json (its ``"schema"`` key)."""
+
+JSON_NAME = "fit.json"
+CSV_NAME = "measured_vs_model.csv"
+
+
+@dataclass(frozen=True)
+class FitSettings:
+    """Settings that make a fit (recorded in fit.json's provenance).
+
+    Attributes
+    ----------
+    seed : int             seeds the global search and MCMC
+    mcmc : bool            run emcee on every fit
+    mcmc_ar1 : bool        AR(1) noise along sweeps in MCMC
+    save_chains : bool     keep MCMC chains as HDF5 under fits/<id>/mcmc/
+    only : tuple of str    relation names to fit (empty = all)
+    fittyp : int           61 or 62 for the written .tir
+    mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
+                           and its summary says converged = false if the cap came first
+    """
+
+    seed: int = 0
+    mcmc: bool = False
+    mcmc_ar1: bool = False
+    save_chains: bool = False
+    only: tuple[str, ...] = ()
+    fittyp: int = 61
+    mcmc_max_steps: int = MAX_STEPS
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-safe dict (``only`` as a list)."""
+        return json_safe(dataclasses.asdict(self))
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> FitSettings:
+        """Inverse of :meth:`to_dict`; a missing setting takes its default, an unknown one is
+        a TypeError."""
+        d = dict(d)
+        if "only" in d:
+            d["only"] = tuple(d["only"] or ())
+        return cls(**d)
+
+
+@dataclass(frozen=True)
+class InputFile:
+    """One input file of a fit and its SHA-256 (hex)."""
+
+    path: str
+    sha256: str
+
+    def to_dict(self) -> dict[str, str]:
+        return {"path": self.path, "sha256": self.sha256}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> InputFile:
+        return cls(str(d["path"]), str(d["sha256"]))
+
+
+@dataclass(frozen=True)
+class Provenance:
+    """Where a fit came from: enough to reproduce it.
+
+    Attributes
+    ----------
+    mfid_version : str
+    created_utc : str             ISO 8601 time of the fit (UTC, seconds)
+    command : str                 the command line that made it
+    seed : int
+    settings : FitSettings or None   None for the fit.json of ``mfid discover`` (its settings
+                                     are in discovery.json)
+    inputs : tuple of InputFile   every input file with its checksum
+    """
+
+    mfid_version: str
+    created_utc: str
+    command: str
+    seed: int
+    settings: FitSettings | None
+    inputs: tuple[InputFile, ...] = ()
+
+    @classmethod
+    def now(cls, *, command: str, seed: int, settings: FitSettings | None,
+            checksums: Mapping[str, str], folder: str | Path) -> Provenance:
+        """The provenance of a fit made now by this mfid, from a folder's input checksums
+        (file name relative to ``folder`` -> sha256)."""
+        created = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+        inputs = tuple(InputFile(str(Path(folder) / name), digest)
+                       for name, digest in sorted(checksums.items()))
+        return cls(__version__, created, command, int(seed), settings, inputs)
+
+    @property
+    def created(self) -> _dt.datetime | None:
+        """:attr:`created_utc` as an aware datetime (UTC assumed without an offset), or None
+        when it is missing or not ISO 8601."""
+        if not self.created_utc:
+            return None
+        try:
+            stamp = _dt.datetime.fromisoformat(self.created_utc)
+        except ValueError:
+            return None
+        return stamp if stamp.tzinfo is not None else stamp.replace(tzinfo=_dt.UTC)
+
+    def to_dict(self) -> dict[str, Any]:
+        return json_safe({"mfid_version": self.mfid_version, "created_utc": self.created_utc,
+                          "command": self.command, "seed": self.seed,
+                          "settings": None if self.settings is None
+                          else self.settings.to_dict(),
+                          "inputs": [i.to_dict() for i in self.inputs]})
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Provenance:
+        settings = d.get("settings")
+        return cls(mfid_version=str(d.get("mfid_version") or ""),
+                   created_utc=str(d.get("created_utc") or ""),
+                   command=str(d.get("command") or ""), seed=int(d.get("seed") or 0),
+                   settings=None if settings is None else FitSettings.from_dict(settings),
+                   inputs=tuple(InputFile.from_dict(i) for i in d.get("inputs") or ()))
+
+
+def failures(results: Sequence[FitResult]) -> tuple[str, ...]:
+    """``relation[form]: message`` of every fit that did not converge (fit.json's
+    ``failed``)."""
+    return tuple(f"{r.relation}[{r.form}]: {r.message}" for r in results if not r.converged)
+
+
+@dataclass(frozen=True)
+class FitRun:
+    """Everything one fit of a measurement folder produced (fit.json, typed).
+
+    Attributes
+    ----------
+    tyre : TyreInfo
+    provenance : Provenance
+    results : tuple of FitResult      one per relation/form or MF stage, in fit order
+    key_sources : Mapping[str, str]   .tir key -> "relation/form" that supplied it
+                                      (MF stages: "MF/<stage> (trailer)")
+    fittyp : int                      FITTYP of the written .tir (61 or 62)
+    tir_name : str                    file name of the .tir in the fit directory
+    flags : tuple of dict             data-quality flags {run, test, flag, detail} from
+                                      extraction
+    failed : tuple of str             fits that did not converge (``relation[form]: why``);
+                                      empty when every fit succeeded
+    tir_values : Mapping              the written .tir values (not in fit.json: read from the
+                                      .tir by :func:`identify.io.fitdir.read_fit_dir`)
+    fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
+    """
+
+    tyre: TyreInfo
+    provenance: Provenance
+    results: tuple[FitResult, ...]
+    key_sources: Mapping[str, str]
+    fittyp: int
+    tir_name: str
+    flags: tuple[Mapping[str, Any], ...] = ()
+    failed: tuple[str, ...] = ()
+    tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    fit_dir: Path | None = field(default=None, compare=False)
+
+    # ----- paths -----------------------------------------------------------------------------
+    @property
+    def tyre_id(self) -> str:
+        return self.tyre.id
+
+    @property
+    def settings(self) -> FitSettings | None:
+        return self.provenance.settings
+
+    @property
+    def ok(self) -> bool:
+        """Every fit converged."""
+        return not self.failed
+
+    def _in_dir(self, name: str) -> Path:
+        if self.fit_dir is None:
+            raise ValueError("this FitRun has no fit directory")
+        return Path(self.fit_dir) / name
+
+    @property
+    def tir_path(self) -> Path:
+        return self._in_dir(self.tir_name)
+
+    @property
+    def json_path(self) -> Path:
+        return self._in_dir(JSON_NAME)
+
+    @property
+    def csv_path(self) -> Path:
+        return self._in_dir(CSV_NAME)
+
+    # ----- looking up fits -------------------------------------------------------------------
+    @property
+    def names(self) -> tuple[str, ...]:
+        """``relation/form`` of every fit, in fit order."""
+        return tuple(r.name for r in self.results)
+
+    def result(self, name: str) -> FitResult:
+        """One fit by name: ``"CFy/linear_load"``, ``"MF/Fy0"``, or a relation alone
+        (``"CFy"``) when it has one fit or one fit that supplied .tir keys.
+
+        Raises
+        ------
+        KeyError
+            No such fit, or a relation name with several candidates; the message lists the
+            names of the fits.
+        """
+        for r in self.results:
+            if r.name == name:
+                return r
+        same = [r for r in self.results if r.relation == name]
+        if len(same) > 1:
+            same = [r for r in same if self.tir_keys(r)]
+        if len(same) == 1:
+            return same[0]
+        listed = ", ".join(self.names) or "none"
+        if same:
+            raise KeyError(f"{name!r} is ambiguous: give relation/form, one of "
+                           f"{', '.join(r.name for r in same)}")
+        raise KeyError(f"no fit named {name!r}; the fits are: {listed}")
+
+    def tir_keys(self, result: FitResult) -> list[str]:
+        """The .tir keys ``result`` supplied."""
+        return tir_keys(result, self.key_sources)
+
+    # ----- summary ---------------------------------------------------------------------------
+    def summary_rows(self) -> list[SummaryRow]:
+        """One summary row per fit (relation, form, total error, points, status, .tir,
+        key coefficients)."""
+        return summary_rows(self.results, self.key_sources)
+
+    def report(self) -> str:
+        """Plain-text summary: the table ``mfid fit`` prints, then the failed fits."""
+        return summary_text(self.summary_rows(), self.failed)
+
+    # ----- fit.json --------------------------------------------------------------------------
+    def to_dict(self) -> dict[str, Any]:
+        """The fit.json document (JSON-safe)."""
+        return json_safe({
+            "schema": SCHEMA, "tyre": self.tyre.to_dict(),
+            "provenance": self.provenance.to_dict(),
+            "fits": [r.to_dict() for r in self.results],
+            "tir": {"path": self.tir_name, "fittyp": self.fittyp,
+                    "key_sources": dict(self.key_sources)},
+            "flags": [dict(f) for f in self.flags], "failed": list(self.failed)})
+
+    @classmethod
+    def from_dict(cls, doc: Any) -> FitRun:
+        """Read a fit.json document.
+
+        The .tir values and per-point arrays are left empty (see the module docstring).
+        Documents from before ``failed`` or ``key_sources`` were recorded read as empty.
+
+        Raises
+        ------
+        InputError
+            Not a fit.json of this schema, or an entry is malformed (the key names the entry,
+            e.g. ``fits[2]``; no file is named: the caller adds it).
+        """
+        if not isinstance(doc, Mapping) or doc.get("schema") != SCHEMA:
+            found = doc.get("schema") if isinstance(doc, Mapping) else type(doc).__name__
+            raise InputError(None, f"schema is {found!r}, expected {SCHEMA!r}", key="schema")
+        if not isinstance(doc.get("fits"), list):
+            raise InputError(None, "missing the list of fits", key="fits")
+        tir = doc.get("tir") or {}
+        with _entry("tyre"):
+            tyre = TyreInfo.from_dict(doc["tyre"])
+        with _entry("provenance"):
+            provenance = Provenance.from_dict(doc.get("provenance") or {})
+        results = []
+        for i, d in enumerate(doc["fits"]):
+            with _entry(f"fits[{i}]"):
+                results.append(FitResult.from_dict(d))
+        with _entry("tir"):
+            fittyp = int(tir.get("fittyp") or 61)
+            key_sources = {str(k): str(v) for k, v in (tir.get("key_sources") or {}).items()}
+            tir_name = str(tir.get("path") or f"{tyre.id}.tir")
+        with _entry("flags"):
+            flags = tuple(dict(f) for f in doc.get("flags") or ())
+        return cls(tyre=tyre, provenance=provenance, results=tuple(results),
+                   key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
+                   failed=tuple(str(f) for f in doc.get("failed") or ()))
+
+
+class _entry:
+    """Turn a malformed entry (missing key, wrong type) into an InputError naming it."""
+
+    def __init__(self, key: str):
+        self.key = key
+
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, exc_type, exc, tb) -> bool:
+        if exc_type is not None and issubclass(exc_type, (KeyError, TypeError, ValueError,
+                                                          AttributeError, IndexError)):
+            what = f"missing {exc}" if exc_type is KeyError else f"malformed ({exc})"
+            raise InputError(None, what, key=self.key) from None
+        return False

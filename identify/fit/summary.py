@@ -1,0 +1,110 @@
+"""The fit summary as plain rows and text: one row per fit (relation, form, total thesis error,
+points, status, whether it supplied .tir keys, key coefficients).
+
+The same rows feed ``FitRun.report()``, the ``mfid fit`` table on the terminal and the report's
+cover page; number formatting for all of them lives here.
+"""
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from identify.fit.result import FitResult
+
+__all__ = [
+    "SUMMARY_TITLE",
+    "SummaryRow",
+    "fmt",
+    "fmt_pct",
+    "key_coefficients",
+    "num",
+    "summary_rows",
+    "summary_text",
+    "tir_keys",
+]
+
+SUMMARY_TITLE = "fit summary (thesis error: mean of the per-pressure errors)"
+
+
+def num(x: Any) -> float:
+    """float(x), NaN for None or anything not a number."""
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return math.nan
+
+
+def fmt(x: Any, digits: int = 4) -> str:
+    """A number with ``digits`` significant digits; "n/a" for NaN/None."""
+    v = num(x)
+    if not math.isfinite(v):
+        return "n/a" if math.isnan(v) else ("inf" if v > 0 else "-inf")
+    return f"{v:.{digits}g}"
+
+
+def fmt_pct(x: Any) -> str:
+    """A percentage: 3 decimals below 100, 1 above; "n/a" when not finite."""
+    v = num(x)
+    if not math.isfinite(v):
+        return "n/a"
+    return f"{v:.3f}" if abs(v) < 100 else f"{v:.1f}"
+
+
+def tir_keys(result: FitResult, key_sources: Mapping[str, str]) -> list[str]:
+    """The .tir keys ``result`` supplied: those whose source is ``relation/form`` (MF stages:
+    ``MF/<stage> (trailer)``), sorted."""
+    tag = result.name
+    return sorted(k for k, src in key_sources.items()
+                  if src == tag or src.startswith(tag + " "))
+
+
+def key_coefficients(result: FitResult, limit: int = 4) -> str:
+    """The free parameters as ``NAME=value`` (``limit`` of them, then "+n more")."""
+    params = result.fitted
+    items = [f"{k}={fmt(v)}" for k, v in params.items()]
+    if len(items) > limit:
+        items = items[:limit] + [f"+{len(params) - limit} more"]
+    return ", ".join(items)
+
+
+@dataclass(frozen=True)
+class SummaryRow:
+    """One fit in the summary table."""
+
+    relation: str
+    form: str
+    error_total_pct: float
+    n_points: int
+    converged: bool
+    in_tir: bool
+    key_coefficients: str
+
+
+def summary_rows(results: Iterable[FitResult], key_sources: Mapping[str, str]
+                 ) -> list[SummaryRow]:
+    """One row per fit, in fit order."""
+    return [SummaryRow(r.relation, r.form, num(r.error_total_pct), int(r.n_points),
+                       bool(r.converged), bool(tir_keys(r, key_sources)), key_coefficients(r))
+            for r in results]
+
+
+def summary_text(rows: Sequence[SummaryRow], failed: Sequence[str] = ()) -> str:
+    """The summary table as plain text (the table ``mfid fit`` prints), then any failures."""
+    head = ("relation", "form", "total error %", "points", "status", ".tir", "key coefficients")
+    body = [(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
+             "ok" if r.converged else "FAILED", "x" if r.in_tir else "", r.key_coefficients)
+            for r in rows]
+    widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head) - 1)]
+    right = {2, 3}
+
+    def line(row) -> str:
+        cells = [c.rjust(w) if i in right else c.ljust(w)
+                 for i, (c, w) in enumerate(zip(row, widths))]
+        return "  ".join(cells + [row[-1]]).rstrip()
+
+    out = [SUMMARY_TITLE, line(head), line(tuple("-" * len(h) for h in head))]
+    out += [line(row) for row in body] or ["(no fits)"]
+    out += [f"FAILED {f}" for f in failed]
+    return "\n".join(out)

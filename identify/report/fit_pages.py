@@ -1,0 +1,252 @@
+"""One page per fit (relation or MF stage): measured points and model lines, residuals, the
+thesis error per pressure with the total first, the parameter table (continued on more pages
+when it is long)."""
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import numpy as np
+import pandas as pd
+from matplotlib.lines import Line2D
+
+from identify.fit.result import FitResult
+from identify.io.fitdir import FitDir
+from identify.report import tables as T
+from identify.report.curves import (
+    X_LABEL,
+    RelationCurves,
+    group_key,
+    relation_curves,
+    secondary_columns,
+)
+from identify.report.layout import (
+    GREY,
+    MARKERS,
+    PAGE,
+    RED,
+    STYLES,
+    Page,
+    draw_table,
+    footer,
+    new_page,
+    pressure_colours,
+    rows_fitting,
+)
+
+
+def _unit(rows: pd.DataFrame) -> str:
+    if "unit" in rows and rows["unit"].notna().any():
+        return str(rows["unit"].dropna().iloc[0])
+    return ""
+
+
+def _x_values(rows: pd.DataFrame, xcol: str) -> np.ndarray:
+    if xcol == "alpha_deg":
+        return np.rad2deg(rows["alpha_rad"].to_numpy(float))
+    return rows[xcol].to_numpy(float)
+
+
+def _mf_x(rows: pd.DataFrame) -> str:
+    """x-axis of an MF stage page: the slip quantity that varies most for its outputs."""
+    q = set(rows["quantity"].astype(str)) if len(rows) else set()
+    spread = {}
+    for col, scale in (("alpha_rad", np.deg2rad(1.0)), ("kappa", 0.01), ("gamma_deg", 1.0),
+                       ("Fz_N", 500.0)):
+        v = rows[col].to_numpy(float) if col in rows else np.array([])
+        v = v[np.isfinite(v)]
+        spread[col] = float(np.ptp(v)) / scale if v.size else 0.0
+    prefer = ["kappa"] if q <= {"Fx"} else ["gamma_deg"] if q <= {"Mx"} else \
+        ["Fz_N"] if q <= {"Fz", "My", "Re"} else ["alpha_rad"]
+    for col in prefer + sorted(spread, key=spread.get, reverse=True):
+        if spread.get(col, 0) > 1:
+            return "alpha_deg" if col == "alpha_rad" else col
+    return "Fz_N"
+
+
+def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
+    """The page(s) of one fit and a note on how its model lines were drawn."""
+    rows = fd.rows(fit)
+    is_mf = fit.relation == "MF"
+    note = ""
+    if len(rows) == 0:
+        curves = None
+        xcol = "Fz_N"
+        note = f"{T.label(fit)}: no measured-vs-model rows"
+    elif is_mf:
+        xcol = _mf_x(rows)
+        curves = _joined(rows, xcol)
+        note = ""
+    else:
+        rc = relation_curves(fd, fit, rows)
+        curves, xcol = rc, rc.x_column
+        if not rc.exact:
+            note = f"{T.label(fit)}: {rc.note}"
+    status = "converged" if fit.converged else f"NOT CONVERGED: {fit.message}"
+    keys = fd.run.tir_keys(fit)
+    sub = (f"total thesis error {T.fmt_pct(fit.error_total_pct)} %, "
+           f"{fit.n_points} points, objective {fit.objective}, {status}, "
+           f"{fit.starts_at_best}/{fit.n_starts} starts at the best value"
+           + (f"; supplies {_keys_text(keys)} to the .tir" if keys else "; not used in the .tir"))
+    fig = new_page(f"MF stage {fit.form}" if is_mf else f"Relation {T.label(fit)}", sub)
+    unit = _unit(rows)
+    quantity = str(rows["quantity"].iloc[0]) if len(rows) else fit.relation
+    pcol = pressure_colours(rows["pi_bar"]) if len(rows) else {}
+    ax = fig.add_axes((0.09, 0.47, 0.39, 0.37))
+    rax = fig.add_axes((0.56, 0.47, 0.40, 0.37))
+    if len(rows):
+        _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit)
+    else:
+        for a in (ax, rax):
+            a.text(0.5, 0.5, "no data rows", ha="center", transform=a.transAxes)
+    # tables: thesis error (total first) and parameters
+    eax = fig.add_axes((0.06, 0.07, 0.17, 0.32))
+    draw_table(eax, ["pressure", "error %"], T.error_rows(fit), [0.6, 0.4], fontsize=8,
+               title="Thesis error", bold_first=True, align=["left", "right"])
+    prow = T.parameter_rows(fit, fd.key_sources)
+    pax = fig.add_axes((0.27, 0.07, 0.70, 0.32))
+    n_fit = rows_fitting(0.32 * PAGE[1], 7.5)
+    first, rest = prow[:n_fit], prow[n_fit:]
+    _param_table(pax, first, fit, more=len(rest))
+    fixed = fit.fixed
+    if fixed:
+        text = "held fixed: " + ", ".join(f"{k}={T.fmt(v)}" for k, v in fixed.items())
+        fig.text(0.27, 0.05, text[:200] + (" ..." if len(text) > 200 else ""), fontsize=7,
+                 color=GREY)
+    extra = []
+    if fit.active_constraints:
+        extra.append("active constraints: " + "; ".join(fit.active_constraints))
+    if note and not is_mf:
+        extra.append(note)
+    elif not is_mf and curves is not None:
+        extra.append(curves.note)
+    footer(fig, fd, "  |  ".join(extra)[:220])
+    pages = [(T.label(fit), fig)]
+    for i, part in enumerate(T.chunks(rest, rows_fitting(0.8 * PAGE[1], 7.5))):
+        if not part:
+            break
+        cfig = new_page(f"{T.label(fit)}: parameters (continued, {i + 2})", sub)
+        cax = cfig.add_axes((0.04, 0.06, 0.92, 0.82))
+        _param_table(cax, part, fit)
+        footer(cfig, fd)
+        pages.append((T.label(fit) + " parameters", cfig))
+    return pages, note
+
+
+def _keys_text(keys: Sequence[str], limit: int = 8) -> str:
+    if len(keys) <= limit:
+        return ", ".join(keys)
+    return f"{len(keys)} keys ({', '.join(keys[:limit])}, ...)"
+
+
+def _bounds_text(lo: float, hi: float) -> str:
+    """[lo, hi]; "none" when both are open (infinite or unknown)."""
+    if not math.isfinite(lo) and not math.isfinite(hi):
+        return "none"
+    a = T.fmt(lo, 3) if math.isfinite(lo) else "-inf"
+    b = T.fmt(hi, 3) if math.isfinite(hi) else "inf"
+    return f"[{a}, {b}]"
+
+
+def _param_table(ax, prow, fit, more: int = 0) -> None:
+    how = {r.interval for r in prow}
+    title = "Parameters (free): 95 % interval " + (" / ".join(sorted(how)) if how else "")
+    if more:
+        title += f"   ({more} more on the next page)"
+    table = [[r.name, T.fmt(r.value, 6), T.fmt(r.stderr, 3), T.fmt(r.lo95, 4),
+              T.fmt(r.hi95, 4), _bounds_text(r.lower, r.upper),
+              "AT BOUND" if r.at_bound else "", "yes" if r.in_tir else ""] for r in prow]
+    draw_table(ax, ["parameter", "value", "std. error", "95 % low", "95 % high", "bounds",
+                    "at bound", ".tir"], table,
+               [0.16, 0.14, 0.11, 0.12, 0.12, 0.21, 0.09, 0.05], fontsize=7.5, title=title,
+               colours=[RED if r.at_bound else "black" for r in prow],
+               align=["left", "right", "right", "right", "right", "left", "left", "left"])
+    if not prow:
+        ax.text(0, 0.8, "no free parameters", fontsize=8, transform=ax.transAxes)
+
+
+class _Joined:
+    """Model lines that join the recorded model values (MF stages)."""
+
+    def __init__(self, rows: pd.DataFrame, xcol: str):
+        self.x_column = xcol
+        self.rows = rows
+        self.exact = False
+        self.note = "model lines join the model values at the measured points"
+
+
+def _joined(rows, xcol):
+    return _Joined(rows, xcol)
+
+
+MAX_STYLED_LEVELS = 4
+"""Above this many secondary levels (loads, cambers, speeds) the levels are not told apart by
+marker and line style (an MF stage can hold dozens of sweeps): one marker, thin lines."""
+
+
+def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
+    x = _x_values(rows, xcol)
+    meas = rows["measured"].to_numpy(float)
+    model = rows["model"].to_numpy(float)
+    pis = np.round(rows["pi_bar"].to_numpy(float), 4)
+    sec = secondary_columns(rows, xcol if xcol != "alpha_deg" else "alpha_rad")
+    keys = group_key(rows, sec)
+    levels = sorted(set(keys))
+    level_of = {k: j for j, k in enumerate(levels)}
+    idx = np.array([level_of[k] for k in keys], dtype=int)
+    styled = len(levels) <= MAX_STYLED_LEVELS
+    many = len(rows) > 400
+    ms = 2.0 if many else 4.5
+    for p in sorted(set(pis)):
+        c = pcol.get(round(float(p), 4), "black")
+        for j in range(len(levels)):
+            sel = (pis == p) & (idx == j)
+            if not sel.any():
+                continue
+            mk = MARKERS[j % len(MARKERS)] if styled else "o"
+            hollow = styled and j > 0
+            ax.plot(x[sel], meas[sel], mk, color=c, ms=ms, mfc="none" if hollow else c,
+                    mew=0.8, ls="none", alpha=0.5 if many else 1.0)
+            rax.plot(x[sel], model[sel] - meas[sel], mk, color=c, ms=ms * 0.9, ls="none",
+                     mfc="none" if hollow else c, alpha=0.5 if many else 1.0)
+    if isinstance(curves, RelationCurves):
+        for cv in curves.curves:
+            c = pcol.get(round(cv.pi_bar, 4), "black") if math.isfinite(cv.pi_bar) else "black"
+            j = level_of.get(cv.group, 0)
+            ax.plot(cv.x, cv.y, STYLES[j % len(STYLES)] if styled else "-", color=c, lw=1.3)
+    else:  # joined model values per pressure and secondary level, sorted by x
+        for p in sorted(set(pis)):
+            for j in range(len(levels)):
+                sel = (pis == p) & (idx == j)
+                if sel.sum() < 2:
+                    continue
+                o = np.argsort(x[sel], kind="stable")
+                ax.plot(x[sel][o], model[sel][o], STYLES[j % len(STYLES)] if styled else "-",
+                        color=pcol.get(round(float(p), 4), "black"), lw=1.0 if styled else 0.6)
+    ax.set_xlabel(X_LABEL.get(xcol, xcol))
+    ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
+    title = "measured (markers) and model (lines)"
+    if len(levels) > 1 and not styled:
+        title += f": one line per {', '.join(_cond_name(c) for c in sec)} level " \
+                 f"({len(levels)} levels)"
+    ax.set_title(title, fontsize=8 if len(title) > 50 else 9)
+    ax.grid(alpha=0.3)
+    rax.axhline(0, color="black", lw=0.8)
+    rax.set_xlabel(X_LABEL.get(xcol, xcol))
+    rax.set_ylabel(f"model - measured [{unit}]" if unit else "model - measured")
+    rax.set_title("residuals", fontsize=9)
+    rax.grid(alpha=0.3)
+    handles = [Line2D([], [], color=c, marker="o", ls="-", label=f"{p:g} bar")
+               for p, c in pcol.items()]
+    for j, k in enumerate(levels if 1 < len(levels) and styled else []):
+        text = ", ".join(f"{_cond_name(c)} {v:.4g}" for c, v in k)
+        handles.append(Line2D([], [], color="black", marker=MARKERS[j % len(MARKERS)],
+                              mfc="none" if j else "black", ls=STYLES[j % len(STYLES)],
+                              label=text))
+    if handles:
+        ax.legend(handles=handles, fontsize=6.5, loc="best", ncol=2 if len(handles) > 6 else 1)
+
+
+def _cond_name(col: str) -> str:
+    return {"Fz_N": "Fz [N]", "gamma_deg": "gamma [deg]", "Vx_mps": "Vx [m/s]"}.get(col, col)
+
