@@ -90,7 +90,8 @@ def run_one(task: tuple) -> dict:
             "heldout_after": None if first is None else first.heldout_after_pct,
             "excess_explained": None if first is None else (
                 p.excess_explained if scenario == "RR/confounded" else first.excess_explained),
-            "floor": p.noise_floor_pct, "noise_model": p.noise.kind, "phi": p.noise.phi,
+            "floor": p.noise_floor_pct, "final_error": p.final_error_pct,
+            "noise_model": p.noise.kind, "phi": p.noise.phi,
             "fit_seconds": p.fit_seconds, "score_seconds": p.score_seconds,
             "seconds": time.perf_counter() - t0}
 

@@ -268,7 +268,7 @@ def test_generic_fitproblem_with_a_fixed_neutral_coefficient(library):
     s = d.problems[0]
     # no sweeps, no replicates: the floor comes from the richest candidate model (PCFX2 freed
     # as well), never from the base residuals, and never above the best model's error
-    assert s.floor_source.startswith("residuals of the richest candidate model")
+    assert s.floor_source.startswith("richest candidate model")
     assert s.noise_floor_pct <= s.final_error_pct
 
 

@@ -96,7 +96,7 @@ def test_confounded_design_keeps_every_condition_in_training():
     pres, other = condition_cells(problem, index)
     assert not pressure_is_crossed(pres, other)
     masks, scheme = folds(problem, index)
-    assert scheme.startswith("4-fold over rows within condition cells")
+    assert scheme.startswith("4-fold over rows within pressure x load cells")
     assert "not varied independently" in scheme
     held = np.sum(masks, axis=0)
     assert np.all(held == 1)  # every point held out exactly once
@@ -130,5 +130,5 @@ def test_table_floor_never_above_the_best_error(library):
     for seed, hidden in [(0, True), (1, True), (9, True), (351000, False), (351004, False)]:
         problem, _ = make_confounded(np.random.default_rng(seed), hidden)
         s = discover([problem], library, Settings()).problems[0]
-        assert s.floor_source.startswith("residuals of the richest candidate model")
+        assert s.floor_source.startswith("richest candidate model")
         assert s.noise_floor_pct <= s.final_error_pct + 1e-12, (seed, s.noise_floor_pct)

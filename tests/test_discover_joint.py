@@ -37,7 +37,7 @@ def test_block_is_one_named_effect_with_each_coefficient(library):
     assert "jointly" in block.description and "QSY7 = " in lopo.conclusion
     auto = discover([problem], library, Settings())
     assert set(_keys(auto)) == {"QSY7", "QSY8"}
-    assert "within condition cells" in auto.accepted[0].heldout_scheme
+    assert "within pressure x load cells" in auto.accepted[0].heldout_scheme
 
 
 def test_pair_whose_members_are_insignificant_alone(library):

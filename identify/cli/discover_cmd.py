@@ -78,8 +78,8 @@ def discover_command(
             reads = list(p.upstream)
             err_console.print(f"{p.name}: error {p.base_error_pct:.3g} % -> "
                               f"{p.final_error_pct:.3g} %, noise floor "
-                              f"{p.noise_floor_pct:.3g} % ({p.floor_source}), "
-                              f"{p.noise.kind} noise, held out: {p.heldout_scheme}, "
+                              f"{p.noise_floor_pct:.3g} % ({p.floor_source}); "
+                              f"{p.noise.kind} noise; held out: {p.heldout_scheme}; "
                               f"{len(p.candidates)} candidate(s)"
                               + (f", uses the coefficients of {', '.join(reads)}" if reads
                                  else ""),

@@ -121,7 +121,7 @@ def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], step
     if not accepted:
         worst = max(probs, key=lambda p: p.final_error_pct - p.noise_floor_pct, default=None)
         tail = (f"; {worst.name}: error {worst.final_error_pct:.2g} %, noise floor "
-                f"{worst.noise_floor_pct:.2g} % from the {worst.floor_source}"
+                f"{worst.noise_floor_pct:.2g} % ({worst.floor_source})"
                 if worst is not None else "")
         lines.append(f"No missing effect found ({n_tested} candidates tested on {len(probs)} "
                      f"problem(s){tail}).")

@@ -13,7 +13,7 @@ represented in training: k folds over whole sweeps (or points) within each cell.
 Schemes (:func:`folds`):
 
 - ``leave one pressure level out``: three or more pressure levels, crossed with the rest;
-- ``k-fold over sweeps (or rows) within condition cells``: cells with two or more sweeps
+- ``k-fold over sweeps (or rows) within pressure x load cells``: cells with two or more sweeps
   (points) rotate them over the folds, offset per cell so that no fold holds out one speed or
   one slip range everywhere; single-unit cells always train;
 - ``k interleaved point folds``: no cell has two units (one point per condition).
@@ -111,7 +111,7 @@ def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS, scheme: str = 
     if (scheme == "auto" and n_pres >= 3 and crossed) or (scheme == "pressure" and n_pres >= 2):
         return ([pres == lv for lv in range(n_pres)], "leave one pressure level out"
                 + ("" if scheme == "auto" else " (forced)"))
-    why = ("forced" if scheme != "auto" else "pressure is not varied independently of load"
+    why = ("forced" if scheme != "auto" else "pressure not varied independently of load"
            if not crossed else "fewer than three pressure levels")
     real = len(sweeps) and bool(np.any(sweeps.sizes > 1))
     # units: whole sweeps when there are sweeps, else points
@@ -141,8 +141,7 @@ def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS, scheme: str = 
         point_fold = np.where(unit >= 0, fold_of_unit[np.maximum(unit, 0)], -1)
         masks = [point_fold == i for i in range(k)]
         masks = [m for m in masks if m.any()]
-        return masks, (f"{len(masks)}-fold over {what} within condition cells "
-                       f"(pressure x load; {why})")
+        return masks, f"{len(masks)}-fold over {what} within pressure x load cells ({why})"
     k = min(max_folds, n)
     return ([np.arange(n) % k == i for i in range(k)],
             f"{k} interleaved point folds ({why}; one point per condition)")

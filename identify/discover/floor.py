@@ -94,9 +94,8 @@ def table_floor_sigma(problem: FitProblem, x: np.ndarray, candidates: list[Candi
     """(std of the weighted noise, source) for a table (module doc), or None."""
     rep = replicate_sigma(problem)
     if rep is not None:
-        return rep[0], f"pure error of replicated conditions ({rep[1]} degrees of freedom)"
+        return rep[0], f"replicated conditions, {rep[1]} dof"
     rich = richest_sigma(problem, x, candidates, index)
     if rich is not None:
-        return rich[0], (f"residuals of the richest candidate model ({rich[1]} degrees of "
-                         "freedom)")
+        return rich[0], f"richest candidate model, {rich[1]} dof"
     return None

@@ -146,7 +146,7 @@ def relation_problems(chars: pd.DataFrame, ctx: R.Context) -> list[FitProblem]:
         ("CFy/relaxation", lambda: R.cfy(chars, ctx, "relaxation"), None),
         ("CMz", lambda: cmz_problem(chars, ctx), None),
         ("RR", lambda: R.rolling_resistance(chars, ctx, "old"),
-         lambda v: R.rolling_resistance(chars, _on(ctx, v), "old")),
+         lambda v: R.rolling_resistance(chars, _on(ctx, v), "old")),  # Fx at free rolling
     ]
     for q in ("Fy_gamma", "Mz_gamma", "Mx_gamma"):
         builders.append((f"camber/{q}", lambda q=q: _with_companions(
@@ -158,7 +158,8 @@ def relation_problems(chars: pd.DataFrame, ctx: R.Context) -> list[FitProblem]:
     for name, build, rebuild in builders:
         if "quantity" not in chars or chars.empty:
             break
-        problem = _named(build(), name, **({"rebuild": rebuild} if rebuild else {}))
+        deps = {"depends_on": ("MF/Fx",)} if name == "RR" else {}
+        problem = _named(build(), name, **({"rebuild": rebuild, **deps} if rebuild else {}))
         if problem is not None:
             out.append(problem)
     return out
@@ -173,7 +174,8 @@ def _rr_from_sweeps(frame: pd.DataFrame, ctx: R.Context) -> FitProblem | None:
     problem = R.rolling_resistance(chars, ctx, "old")
     return _named(dataclasses.replace(problem, sweeps=d["sweep"].to_numpy()), "RR",
                   noise_group=d["run"].astype(str).to_numpy(),
-                  rebuild=lambda v: R.rolling_resistance(chars, _on(ctx, v), "old"))
+                  rebuild=lambda v: R.rolling_resistance(chars, _on(ctx, v), "old"),
+                  depends_on=("MF/Fx",))
 
 
 #: The MF stages whose coefficients each stage's model reads (Mx and Mz: the lateral force).

@@ -162,7 +162,7 @@ def final_floor(w: Working) -> tuple[float, str]:
         _, sigma = noise_scale(e, w.objective.index, groups, long_lags=LONG_LAGS)
         if np.all(np.isfinite(sigma)):
             floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
-            source = "within-sweep variogram of the final residuals"
+            source = "within-sweep variogram"
     elif np.isfinite(w.floor_pct):
         floor, source = w.floor_pct, w.floor_source
     if not np.isfinite(floor):
@@ -170,10 +170,9 @@ def final_floor(w: Working) -> tuple[float, str]:
         s = np.sqrt(float(r @ r) / max(r.size - len(p.free), 1))
         floor = noise_floor_pct(s * np.asarray(p.sigma, dtype=float), p.measured,
                                 metric_groups(p))
-        source = "residual variance of the final model (no sweeps, no replicates, no " \
-                 "candidate left)"
+        source = "final residuals (no replicates, no candidate left)"
     if floor > best:
-        return best, f"{source}; capped at the final model's error"
+        return best, f"{source}; capped at the final error"
     return floor, source
 
 
@@ -244,7 +243,7 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
             p = dataclasses.replace(p, sigma=sigma)
             sol = Objective(p, index).solve(sol.x)
             floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
-            source = "within-sweep variogram of the base residuals"
+            source = "within-sweep variogram"
         noise = choose_noise(sol.r, index)
         phi = noise.phi if noise.kind == "ar1" else 0.0
         if phi:
