@@ -6,9 +6,12 @@ candidate passes when its adjusted p-value is below ``alpha`` and it is predicte
 least ``min_explained`` of the excess error above the noise floor (when the base error is above
 the floor estimate at all). The best passing candidate
 (smallest p) is refitted and kept only when the likelihood-ratio/F test (cluster-robust Wald
-under cluster-robust noise), at the same Holm level, AND the held-out error (leave one pressure
-level out; whole-sweep folds with fewer than three pressures) agree. Candidates that cannot be
-told apart (|cos| > 0.95) are reported as an ambiguity group, never as one confident name.
+under cluster-robust noise), at the same Holm level, AND the held-out error (folds from the
+design, :mod:`identify.discover.design`) agree. When no single candidate is accepted, the blocks
+they form are tried (:mod:`identify.discover.joint`). An accepted effect updates the one model
+state and every problem downstream of it is refitted (:mod:`identify.discover.state`).
+Candidates that cannot be told apart (|cos| > 0.95) are reported as an ambiguity group, never
+as one confident name.
 """
 from __future__ import annotations
 
