@@ -16,6 +16,7 @@ diagnosis against the loop it replaced.
 Usage::
 
     python bench/discovery_scale.py [--samples 136000] [--hide PPY1=0.4] [--seed 0]
+                                    [--no-compare]
 """
 from __future__ import annotations
 
@@ -133,6 +134,8 @@ def main(argv=None) -> int:
     ap.add_argument("--samples", type=int, default=136_000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--hide", default=None, help="KEY=VALUE in the data, neutral in the base")
+    ap.add_argument("--no-compare", action="store_true",
+                    help="skip the noise_scale comparison with the former loop (minutes)")
     args = ap.parse_args(argv)
     hidden = None
     if args.hide:
@@ -149,8 +152,9 @@ def main(argv=None) -> int:
     print(f"session: {len(frame)} samples, {frame['run'].nunique()} runs; problems "
           + ", ".join(f"{p.extra['name']} ({p.measured.size})" for p in problems)
           + f"; generated and built in {t_build:.1f} s")
-    lines = compare_noise_scale(next(p for p in problems if p.extra["name"] == "MF/Fy"), truth)
-    print("\n".join(lines))
+    if not args.no_compare:
+        fy = next(p for p in problems if p.extra["name"] == "MF/Fy")
+        print("\n".join(compare_noise_scale(fy, truth)), flush=True)
     phases = Phases()
     d = discover(problems, library, Settings(seed=args.seed), progress=phases)
     end = time.perf_counter() - phases.t0

@@ -14,7 +14,7 @@ but failed the held-out check tests the **blocks** they form:
 
 And when no single candidate passed the score test at all (each alone explains too little:
 its effect and the other's cancel along the direction the design confounds), every pair of
-testable candidates of a problem whose error is clearly above its noise floor
+testable candidates of a table (no sweeps) whose error is clearly above its noise floor
 (:data:`UNEXPLAINED`) is scored; a pair is tried when it passes and predicts at least
 :data:`JOINT_GAIN` times the drop of its better member.
 
@@ -131,9 +131,11 @@ def _candidate_blocks(w, tried, rows, failed, alpha) -> tuple[list[Candidate], b
     if mine:
         return blocks(mine, [by_name[r.name] for r in mine_rows], groups, by_name,
                       w.rejected), True
-    # no single passed at all: every pair, most promising first, when the error is clearly
-    # above the noise floor (something is unexplained)
-    if not (np.isfinite(w.floor_pct) and w.error_pct() > UNEXPLAINED * w.floor_pct):
+    # no single passed at all: every pair, most promising first, when the error of a table is
+    # clearly above its noise floor (something is unexplained); sweeps have the power to
+    # show a single effect, and their floor at this stage is a lower bound
+    if w.has_sweeps or not (np.isfinite(w.floor_pct)
+                            and w.error_pct() > UNEXPLAINED * w.floor_pct):
         return [], False
     names = [r.name for r in mine_rows]
     pairs = [merge([by_name[a], by_name[b]]) for a, b in combinations(names, 2)]

@@ -205,6 +205,15 @@ def _accept(w: Working, cand: Candidate, trial, ext, group, works, state, say) -
                     trial.heldout_scheme)
 
 
+def _upstream_first(rows: list, works: dict, state: ModelState) -> list:
+    """The passing rows of problems none of whose upstream problems has a passing row: an
+    effect missing upstream (PPY1 on MF/Fy) also misfits the problems built on it (MF/Mz),
+    where some other candidate could absorb part of it; the upstream one goes first."""
+    hot = {r.problem for r in rows}
+    return [r for r in rows
+            if not set(state.upstream(r.problem, works[r.problem].problem)) & hot]
+
+
 def _discover(problems, library, settings, base, say) -> Discovery:
     t0 = time.perf_counter()
     state = ModelState.of(problems, library)
@@ -215,10 +224,11 @@ def _discover(problems, library, settings, base, say) -> Discovery:
         say(f"step {k}: score {sum(len(w.candidates) for w in live)} candidate(s) on "
             f"{len(live)} problem(s)")
         rows, info = _rows(live, settings)
-        passing = sorted((r for r in rows if r.passes and r.name not in
-                          info[(r.problem, r.name)][0].rejected),
-                         key=lambda r: (info[(r.problem, r.name)][2].log_p, -info[
-                             (r.problem, r.name)][2].drop))
+        passing = _upstream_first(
+            [r for r in rows if r.passes and r.name not in info[(r.problem, r.name)][0].rejected],
+            {w.name: w for w in live}, state)
+        passing.sort(key=lambda r: (info[(r.problem, r.name)][2].log_p,
+                                    -info[(r.problem, r.name)][2].drop))
         tried, chosen = [], None
         for row in passing[:settings.max_tries]:
             w, cand, s, factor = info[(row.problem, row.name)]
