@@ -43,7 +43,7 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 TIR = ROOT / "identify" / "simulate" / "data" / "tyre_225_50R17.tir"
-MFID = [sys.executable, "-m", "identify.cli.app"]
+MFID = [str(Path(sys.executable).with_name("mfid"))]  # the installed command
 PRESSURE_KEYS = re.compile(r"^(PP[XYZ][0-9]|PPMX1)\b")
 SETS = {"hidden": {"PPY1": 0.455346, "PPY3": -0.1}, "null": {}}
 TARGET = 18  # of 20: named (hidden) or no false addition (null)
