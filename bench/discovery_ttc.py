@@ -24,6 +24,8 @@ Usage::
     python bench/discovery_ttc.py [--seeds 20] [--jobs 2] [--only MF] [--cornering-only]
                                   [--sets hidden null] [--json out.json]
     python bench/discovery_ttc.py --timing [--seed 0]
+    python bench/discovery_ttc.py --seeds 20 --jsonl part.jsonl   # records as they arrive
+    python bench/discovery_ttc.py --summarise part.jsonl          # a run stopped early
 """
 from __future__ import annotations
 
@@ -151,12 +153,18 @@ def timing(seed: int, only: str) -> str:
 
 
 def run(n_seeds: int = 20, jobs: int = 2, only: str = "MF", cornering_only: bool = False,
-        sets=("hidden", "null"), seed0: int = 1) -> list[dict]:
-    tasks = [(s, seed0 + i, only, cornering_only) for s in sets for i in range(n_seeds)]
-    if jobs <= 1:
-        return [run_one(t) for t in tasks]
-    with ProcessPoolExecutor(jobs) as pool:
-        return list(pool.map(run_one, tasks))
+        sets=("hidden", "null"), seed0: int = 1, jsonl: str | None = None) -> list[dict]:
+    """Every session's record, the sets interleaved (seed 1 of each, then seed 2 ...); with
+    ``jsonl`` each record is appended to that file as it arrives."""
+    tasks = [(s, seed0 + i, only, cornering_only) for i in range(n_seeds) for s in sets]
+    out = []
+    with ProcessPoolExecutor(max(jobs, 1)) as pool:
+        for rec in pool.map(run_one, tasks):
+            out.append(rec)
+            if jsonl:
+                with open(jsonl, "a", encoding="utf-8") as f:
+                    f.write(json.dumps(rec) + "\n")
+    return out
 
 
 def table(records: list[dict]) -> str:
@@ -193,11 +201,18 @@ def main(argv=None) -> int:
     ap.add_argument("--sets", nargs="*", default=list(SETS), choices=list(SETS))
     ap.add_argument("--json", default=None)
     ap.add_argument("--timing", action="store_true")
+    ap.add_argument("--jsonl", default=None, help="append every record as it arrives")
+    ap.add_argument("--summarise", default=None, metavar="JSONL",
+                    help="only print the table of a --jsonl file (a run stopped early)")
     a = ap.parse_args(argv)
+    if a.summarise:
+        with open(a.summarise, encoding="utf-8") as f:
+            print(table([json.loads(line) for line in f if line.strip()]))
+        return 0
     if a.timing:
         print(timing(a.seed, a.only))
         return 0
-    records = run(a.seeds, a.jobs, a.only, a.cornering_only, a.sets)
+    records = run(a.seeds, a.jobs, a.only, a.cornering_only, a.sets, jsonl=a.jsonl)
     print(table(records))
     if a.json:
         Path(a.json).write_text(json.dumps(records, indent=1), encoding="utf-8")
