@@ -114,6 +114,9 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     brk = np.ones(len(df), dtype=bool)
     brk[1:] = ((run[1:] != run[:-1]) | (dt > 1.5 * step) | (dt <= 0)
                | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0)))
+    if "segment_id" in df:  # sweeps found by identify.segment: never one across two
+        seg = df["segment_id"].to_numpy()
+        brk[1:] |= seg[1:] != seg[:-1]
     df["sweep"] = np.cumsum(brk) - 1
     df["session_pos"] = session_positions(len(df))
     known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}
