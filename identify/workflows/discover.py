@@ -111,22 +111,20 @@ def _characteristics(mset, notes: list[str]):
     return chars
 
 
-IN_SWEEPS = 0.95
-"""A trailer table with less than this fraction of its samples in sweeps is a continuous log
-(warm-ups, transitions, stops between the sweeps): discovery keeps its sweeps only."""
-
-
 def sweeps_only(trailer: pd.DataFrame | None, notes: list[str]) -> pd.DataFrame | None:
     """The samples of ``trailer`` inside sweeps (:func:`identify.segment.segment_trailer`,
     no revolution averaging or binning: every sample keeps its own values) when the table is
-    a continuous log; else the table as it is. A TTC session holds warm-ups, transitions and
-    stops the Magic Formula does not describe: fitted as they are, they made a 40 % base error
-    and a 32 % noise floor on the cornering run, and hid every effect."""
+    a continuous log of a session, recognised by its warm-ups; else the table as it is (a
+    folder of test runs, whose steady camber and rolling-resistance runs are no sweeps).
+
+    A TTC session holds warm-ups, transitions and stops the Magic Formula does not describe:
+    fitted as they are, they made a 40 % base error and a 32 % noise floor on MF/Fy of a
+    generated session and hid the pressure effects in it."""
     if trailer is None or trailer.empty or "t" not in trailer:
         return trailer
     seg = segment_trailer(trailer, SegmentSettings(revolution_average=False))
     kept = seg.table
-    if len(kept) >= IN_SWEEPS * len(trailer) or kept.empty:
+    if kept.empty or not any(g.kind == "warmup" for g in seg.segmentation.segments):
         return trailer
     notes.append(f"trailer: {len(kept)} of {len(trailer)} samples in sweeps "
                  f"(identify.segment); warm-ups, transitions and stops left out")
