@@ -154,3 +154,25 @@ def test_measured_pressure_channel_groups_into_levels():
     got = np.unique(fy.pressure_bar)
     assert got.size == 3
     assert np.sort(got) == pytest.approx(np.sort(np.unique(exact)) / 1e5, rel=2e-3)
+
+
+def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
+    """A TTC session (warm-ups, transitions, stops between the sweeps) enters discovery with
+    its sweeps only, each sample as logged; a folder of test runs stays whole."""
+    from identify.io.folder import load_folder
+    from identify.workflows.discover import sweeps_only
+    from identify.workflows.import_session import import_session
+    from tests.discover_cases import ROOT
+    from tests.ttc_cases import session
+
+    s = session(tmp_path / "s", seed=2, cornering_only=True)
+    import_session([f for f in s.files if f.suffix == ".mat"], tmp_path / "f")
+    trailer = load_folder(tmp_path / "f").trailer
+    notes = []
+    kept = sweeps_only(trailer, notes)
+    assert 0.4 * len(trailer) < len(kept) < 0.9 * len(trailer)
+    assert notes and "warm-ups" in notes[0]
+    assert kept["Fz"].min() > 1000.0  # no stops: the log's Fz near zero is gone
+    assert np.isin(kept["t"], trailer["t"]).all()  # samples as logged, not averaged
+    sample = load_folder(ROOT / "measurements" / "sample-225-50R17").trailer
+    assert sweeps_only(sample, notes) is sample and len(notes) == 1
