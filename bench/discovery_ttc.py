@@ -181,6 +181,9 @@ def table(records: list[dict]) -> str:
                          f"{TARGET}/20; {exact}/{n} by their own names, not as an ambiguity "
                          f"group); another tyre effect added in {other}/{n}; drift absorbed "
                          f"in {drift}/{n}")
+            for key in SETS[s]:
+                k1 = sum(key in r["accepted_keys"] for r in rs)
+                lines.append(f"  {key} named in {k1}/{n}")
         else:
             k = sum(not r["false_addition"] for r in rs)
             lines.append(f"nothing hidden: no false addition in {k}/{n} (target >= "
