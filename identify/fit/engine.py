@@ -32,7 +32,7 @@ from scipy import optimize
 
 from identify.fit.problem import FitProblem
 
-__all__ = ["DISCOVERY", "STRICT", "CountingModel", "Estimate", "Tolerances", "counted",
+__all__ = ["DISCOVERY", "SEARCH", "STRICT", "CountingModel", "Estimate", "Tolerances", "counted",
            "covariance", "fd_jacobian", "least_squares", "polish", "problem_covariance",
            "pseudo_solve", "residual_jacobian"]
 
@@ -75,6 +75,11 @@ STRICT = Tolerances(xtol=1e-15, ftol=1e-15, gtol=1e-15, nfev_per_parameter=200)
 """Relation and MF-stage fits (identify.fit.optimize.fit): the solver runs to round-off, so that
 the reported optimum is the optimum (the thesis acceptance compares it with the best of five
 differential-evolution runs to 0.5 %, and noise-free recovery to 1e-6 relative)."""
+
+SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60)
+"""The MF stages' global search on a subsample (identify.fit.mf_search.search): each start only
+has to reach its basin (1e-8 relative); the candidates are then solved on all points with
+STRICT."""
 
 DISCOVERY = Tolerances(xtol=1e-10, ftol=1e-10, gtol=1e-10, nfev_per_parameter=60,
                        interior=1e-9)

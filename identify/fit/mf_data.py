@@ -125,6 +125,17 @@ def levels(x: np.ndarray, resolution: float) -> int:
     return 0 if x.size == 0 else int(1 + np.sum(np.diff(x) > resolution))
 
 
+def level_values(x: np.ndarray, resolution: float) -> np.ndarray:
+    """The distinct levels of ``x`` (values closer than ``resolution`` merge), each the median
+    of its values, ascending (e.g. the pressures of a test whose pressure channel is measured
+    continuously: a few levels, not one value per sample)."""
+    x = np.sort(np.asarray(x, dtype=float)[np.isfinite(x)])
+    if x.size == 0:
+        return x
+    group = np.r_[0, np.cumsum(np.diff(x) > resolution)]
+    return np.array([np.median(x[group == g]) for g in range(group[-1] + 1)])
+
+
 @dataclass(frozen=True)
 class Coverage:
     """What a stage's points cover (for the identifiability rules of StageDef coefficients).

@@ -4,32 +4,62 @@ Start points (n_starts chosen deliberately: a stage has up to 29 free coefficien
 engine's 8 x free parameters Latin-hypercube starts over the full bounds would cost minutes and
 mostly land in flat, meaningless regions): the carried-forward values, the parameter table's
 defaults, and N_LHS Latin-hypercube points in a box of +/-BOX x max(|start|, |default|) around
-the carried-forward values (+/-0.05 where both are 0), each solved within MAX_NFEV
-evaluations.
+the carried-forward values (+/-0.05 where both are 0).
+
+Search, then solve (:func:`search`): every start is solved by least squares (SEARCH
+tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUBSAMPLE points
+(all points when there are fewer), where a start costs SUBSAMPLE/points of what it would on
+all of them; only the distinct end points whose subsample objective is within CANDIDATE_RTOL
+of the best (at most MAX_CANDIDATES) are then solved on every point (identify.fit.optimize.fit:
+STRICT tolerances, MAX_NFEV evaluations, the constrained polish where a constraint is
+violated), and the best of those is the stage's optimum.
 """
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 from scipy.stats import qmc
 
+from identify.fit import engine
+from identify.fit.engine import SEARCH
 from identify.fit.metric import thesis_error_by_group
+from identify.fit.mf_jacobian import CHUNK
 from identify.fit.mf_stage_defs import stage_model
+from identify.fit.optimize import BEST_ATOL, BEST_RTOL
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import spec
 from identify.model.state import OperatingState
 
-__all__ = ["N_LHS", "MAX_NFEV", "BOX", "start_points", "canonical_br", "final_predictions"]
+__all__ = ["N_LHS", "MAX_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "CANDIDATE_RTOL",
+           "MAX_CANDIDATES", "Search", "start_points", "subsample", "search", "canonical_br",
+           "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
 MAX_NFEV = 100
-"""Budget of model evaluations per start's least-squares solve (Jacobian evaluations not
-counted). Starts near the optimum converge in 15-60; a start that crawls through a flat
-region for longer is reported as not converged instead of costing minutes."""
+"""Budget of model evaluations of each candidate's least-squares solve on all points
+(Jacobian evaluations not counted). A candidate from the subsample search starts near the
+optimum and converges in a few tens; one that crawls for longer is reported as not converged
+instead of costing minutes."""
+SEARCH_NFEV = 200
+"""Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
+SUBSAMPLE = CHUNK
+"""Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
+order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
+Equal to the exact Jacobian's chunk (identify.fit.mf_jacobian.CHUNK): one call per Jacobian."""
+CANDIDATE_RTOL = 0.05
+"""A search end point is a candidate for the solve on all points when its subsample objective
+is within this fraction of the best one's (the subsample may rank close optima wrongly)."""
+MAX_CANDIDATES = 2
+"""At most this many candidates (the best ones) are solved on all points."""
+DISTINCT_RTOL = 1e-4
+"""Two end points are the same candidate when their subsample objectives agree to
+identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
+max(|value|, 1e-3)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
 
@@ -54,6 +84,67 @@ def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:
         u = qmc.LatinHypercube(d=x0.size, seed=np.random.default_rng(seed)).random(n_lhs)
         rows.extend(a + u * (b - a))
     return np.vstack(rows)
+
+
+def subsample(n: int, size: int = SUBSAMPLE) -> np.ndarray | None:
+    """Positions of an evenly spaced subsample of ``size`` of ``n`` points, or None when
+    ``n <= size`` (all points are used)."""
+    if n <= size:
+        return None
+    return np.unique(np.round(np.linspace(0, n - 1, size)).astype(int))
+
+
+@dataclass(frozen=True)
+class Search:
+    """The outcome of a stage's search on the subsample.
+
+    Attributes
+    ----------
+    candidates : ndarray       distinct end points to solve on all points, best first (c, k)
+    n_starts : int             starts searched
+    starts_at_best : int       starts whose end point reached the best subsample objective
+                               (identify.fit.optimize.BEST_RTOL)
+    points : int               points of the subsample
+    nfev : int                 model evaluations of the search (on the subsample)
+    """
+
+    candidates: np.ndarray
+    n_starts: int
+    starts_at_best: int
+    points: int
+    nfev: int
+
+
+def search(problem: FitProblem, starts: np.ndarray) -> Search:
+    """Solve every start by least squares on ``problem`` (the stage's subsample) with the
+    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module)."""
+    problem, counter = engine.counted(problem)
+    jac = problem.residual_jacobian if problem.jacobian is not None else None
+    ends = [engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
+                                 max_nfev=SEARCH_NFEV) for x0 in np.atleast_2d(starts)]
+    objs = np.array([problem.objective_value(e.x) for e in ends])
+    objs = np.where(np.isfinite(objs), objs, np.inf)
+    order = np.argsort(objs, kind="stable")
+    best = objs[order[0]]
+    at_best = int(np.sum(np.abs(objs - best) <= BEST_RTOL * abs(best) + BEST_ATOL))
+    chosen: list[np.ndarray] = []
+    kept: list[float] = []
+    for i in order:
+        x = ends[i].x
+        if chosen and not objs[i] <= best + CANDIDATE_RTOL * abs(best):
+            break
+        # the same optimum: the same objective (the search's loose tolerance leaves flat
+        # directions unconverged, so the points may differ) or the same point
+        scale = np.maximum(np.abs(x), 1e-3)
+        if any(abs(objs[i] - o) <= BEST_RTOL * abs(o) + BEST_ATOL for o in kept) or \
+                any(np.all(np.abs(x - c) <= DISTINCT_RTOL * scale) for c in chosen):
+            continue
+        chosen.append(x)
+        kept.append(float(objs[i]))
+        if len(chosen) == MAX_CANDIDATES:
+            break
+    return Search(candidates=np.vstack(chosen), n_starts=len(ends), starts_at_best=at_best,
+                  points=int(problem.measured.size), nfev=counter.calls)
 
 
 def canonical_br(result: FitResult, start: Mapping[str, float]) -> FitResult:
