@@ -81,7 +81,11 @@ def main() -> None:
     ap.add_argument("--nompres", type=float, help="--trailer: nominal pressure [Pa]")
     ap.add_argument("--r0", type=float, help="--trailer: unloaded radius [m]")
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
+    ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
+                    help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
+    if args.jacobian:
+        os.environ["MFID_JACOBIAN"] = args.jacobian
     if args.trailer:
         trailer = pd.read_pickle(args.trailer)
         base = start_values(args.fnomin, args.nompres, args.r0)
@@ -101,7 +105,8 @@ def main() -> None:
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     commit = args.label or commit
-    print(f"{name} at {commit}: {len(trailer)} trailer samples; "
+    print(f"{name} at {commit} (MFID_JACOBIAN={os.environ.get('MFID_JACOBIAN', 'auto')}): "
+          f"{len(trailer)} trailer samples; "
           f"yardstick: numpy evaluate(), all outputs, useMode 211, best of {REPEATS}")
     print(f"{'stage':9} {'points':>7} {'fit s':>8} {'eval ms':>8} {'fit/eval':>9} {'nfev':>7} "
           f"{'conv':>4}  message")

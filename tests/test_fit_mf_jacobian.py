@@ -135,3 +135,17 @@ def test_progress_reports_every_stage_with_its_time(truth, data):
         mine = [t for t in lines if t.startswith(f"MF {stage}:")]
         assert any("search" in t for t in mine) and any("solve on all" in t for t in mine)
         assert " s, " in mine[-1] and "converged" in mine[-1]
+
+
+def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data):
+    """MF_SOLVE stops once chi^2 no longer moves; the optimum is STRICT's to < 0.05 sd."""
+    from identify.fit.engine import MF_SOLVE, STRICT
+
+    noisy = add_noise(data, 5)
+    sp = stage_problem("Mz0", noisy, _perturb(truth, STAGES["Mz0"].coefficients, seed=2))
+    strict = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=STRICT, max_nfev=400)
+    noise = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=MF_SOLVE, max_nfev=400)
+    assert strict.converged and noise.converged
+    assert noise.nfev <= strict.nfev
+    for n in strict.free:
+        assert abs(noise.parameters[n] - strict.parameters[n]) <= 0.05 * strict.stderr[n], n

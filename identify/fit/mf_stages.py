@@ -53,6 +53,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from identify.fit import mf_data
+from identify.fit.engine import MF_SOLVE
 from identify.fit.mf_constraints import FIT_MODE, stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import MFFit, point_columns
@@ -61,6 +62,8 @@ from identify.fit.mf_search import (
     N_LHS,
     canonical_br,
     final_predictions,
+    ladder_sizes,
+    refine_on,
     search,
     start_points,
     subsample,
@@ -222,8 +225,13 @@ def _say(progress: Progress | None, text: str) -> None:
         progress(text)
 
 
-def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None) -> FitResult:
-    """Search on the subsample, then solve the candidates on all points (see module)."""
+def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
+                give_up: bool = False) -> FitResult | int:
+    """Search on the subsample, then solve the candidates on all points (see module).
+    ``give_up``: when the search on the subsample did not converge, return its number of
+    model evaluations instead (a re-fit whose added coefficients run off along a flat valley,
+    e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC session: the re-fit would not be taken, and
+    solving it on all points cost minutes)."""
     t0 = time.perf_counter()
     stage, n = sp.problem.form, sp.problem.measured.size
     index = subsample(n)
@@ -231,13 +239,20 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None)
     _say(progress, f"MF {stage}: search, {len(starts)} starts on "
                    f"{sub.measured.size if index is not None else 'all'} of {n} points")
     found = search(sub, starts)
-    _say(progress, f"MF {stage}: solve on all {n} points from {len(found.candidates)} "
-                   "candidate(s)")
-    result = fit(sp.problem, starts=found.candidates, max_nfev=MAX_NFEV)
+    if give_up and not found.converged:
+        return found.nfev
+    candidates, nfev = list(found.candidates), found.nfev
+    for size in ladder_sizes(n):
+        _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
+        rung = _subproblem(sp, subsample(n, size))
+        moved = [refine_on(rung, x) for x in candidates]
+        candidates = [x for x, _ in moved]
+        nfev += sum(k for _, k in moved)
+    _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
+    result = fit(sp.problem, starts=np.vstack(candidates), max_nfev=MAX_NFEV, tol=MF_SOLVE)
     return dataclasses.replace(result, n_starts=found.n_starts,
                                starts_at_best=found.starts_at_best,
-                               seconds=time.perf_counter() - t0,
-                               nfev=result.nfev + found.nfev)
+                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev)
 
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
@@ -264,8 +279,10 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
         # from the optimum as the global search does: on the subsample first (the added
         # coefficients can move the optimum far), then on all points
-        refit = _global_fit(trial, trial.problem.x0()[None, :], None)
-        if not refit.converged or refit.wls > result.wls:
+        refit = _global_fit(trial, trial.problem.x0()[None, :], None, give_up=True)
+        spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
+        if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
+            result = dataclasses.replace(result, nfev=result.nfev + spent)
             # e.g. a product of two weakly determined coefficients: keep the global optimum
             sp = dataclasses.replace(sp, held={**sp.held, **{
                 n: "sensitivity: effective only after the fit, and the re-fit with it did not "
@@ -373,11 +390,14 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 result = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i), progress)
             else:
                 _say(progress, f"{label}: solve on all {sp.problem.measured.size} points")
-                result = fit(sp.problem, starts=sp.problem.x0()[None, :], max_nfev=MAX_NFEV)
+                result = fit(sp.problem, starts=sp.problem.x0()[None, :], max_nfev=MAX_NFEV,
+                             tol=MF_SOLVE)
             if screen:
                 result, sp = _refine(result, sp, stage, trailer, params, free, progress)
             if stage == "Mz0":
                 result = canonical_br(result, params)
+            # the stage's whole wall time: screen (and the Jacobian's compile), search, solves
+            result = dataclasses.replace(result, seconds=time.perf_counter() - t_stage)
             params.update({n: float(result.parameters[n]) for n in result.free})
             results.append(result)
             problems.append(sp)

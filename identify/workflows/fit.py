@@ -159,7 +159,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
         _say(progress, "fit: Magic Formula stages on trailer data")
         mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
-                    fittyp=settings.fittyp)
+                    fittyp=settings.fittyp, progress=progress)
         for r in mf.results:
             if settings.mcmc:
                 _say(progress, f"mcmc: MF [{r.form}]")
