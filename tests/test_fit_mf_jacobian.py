@@ -149,3 +149,17 @@ def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data
     assert noise.nfev <= strict.nfev
     for n in strict.free:
         assert abs(noise.parameters[n] - strict.parameters[n]) <= 0.05 * strict.stderr[n], n
+
+
+def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
+    from identify.fit.mf_search import prune
+
+    noisy = add_noise(data, 4)
+    p = stage_problem("Fx0", noisy, truth).problem
+    best = fit(p, starts=p.x0()[None, :]).parameters
+    x = np.array([best[n] for n in p.free])
+    far = x * 1.05
+    kept = prune(p, [far, x])
+    assert len(kept) == 1 and np.array_equal(kept[0], x)
+    near = x + 1e-9 * np.maximum(np.abs(x), 1e-3)
+    assert len(prune(p, [x, near])) == 2

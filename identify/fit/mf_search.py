@@ -38,8 +38,8 @@ from identify.model.parameters import spec
 from identify.model.state import OperatingState
 
 __all__ = ["N_LHS", "MAX_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER", "CANDIDATE_RTOL",
-           "MAX_CANDIDATES", "Search", "start_points", "subsample", "ladder_sizes", "search",
-           "refine_on", "canonical_br", "final_predictions"]
+           "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample", "ladder_sizes",
+           "search", "refine_on", "prune", "canonical_br", "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
@@ -62,6 +62,12 @@ CANDIDATE_RTOL = 0.05
 is within this fraction of the best one's (the subsample may rank close optima wrongly)."""
 MAX_CANDIDATES = 2
 """At most this many candidates (the best ones) are solved on all points."""
+CHI2_GAP = 25.0
+"""After each rung of the ladder, a candidate whose objective exceeds the best one's by more
+than CHI2_GAP in chi^2 = r^T r / s^2 (s^2 the best one's residual variance on that rung) is
+dropped: on thousands of points such an optimum is worse beyond doubt (5 standard deviations
+of a chi^2 difference of one parameter), and its constrained polish on all points would cost
+as much as the best one's."""
 DISTINCT_RTOL = 1e-4
 """Two end points are the same candidate when their subsample objectives agree to
 identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
@@ -108,6 +114,16 @@ def ladder_sizes(n: int) -> list[int]:
         sizes.append(size)
         size *= LADDER
     return sizes
+
+
+def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
+    """The candidates within CHI2_GAP of the best on ``problem`` (a rung), best first."""
+    costs = np.array([problem.objective_value(x) for x in candidates])  # 0.5 r^T r
+    costs = np.where(np.isfinite(costs), costs, np.inf)
+    order = np.argsort(costs, kind="stable")
+    best = costs[order[0]]
+    s2 = 2.0 * best / max(problem.measured.size - len(problem.free), 1)
+    return [candidates[i] for i in order if 2.0 * (costs[i] - best) <= CHI2_GAP * s2]
 
 
 def refine_on(problem: FitProblem, x0: np.ndarray) -> tuple[np.ndarray, int]:

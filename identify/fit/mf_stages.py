@@ -63,6 +63,7 @@ from identify.fit.mf_search import (
     canonical_br,
     final_predictions,
     ladder_sizes,
+    prune,
     refine_on,
     search,
     start_points,
@@ -246,8 +247,8 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
         _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
         rung = _subproblem(sp, subsample(n, size))
         moved = [refine_on(rung, x) for x in candidates]
-        candidates = [x for x, _ in moved]
-        nfev += sum(k for _, k in moved)
+        nfev += sum(k for _, k in moved) + len(moved)
+        candidates = prune(rung, [x for x, _ in moved])
     _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
     result = fit(sp.problem, starts=np.vstack(candidates), max_nfev=MAX_NFEV, tol=MF_SOLVE)
     return dataclasses.replace(result, n_starts=found.n_starts,
