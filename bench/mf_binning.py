@@ -1,4 +1,4 @@
-"""Effect of sweep binning (identify.fit.mf_binning) on the MF stages: time and coefficients.
+"""Effect of sweep binning (identify.workflows.sweep_bins) on the MF stages: time, coefficients.
 
 Fits the same trailer table twice, as sampled and binned, and prints per stage the points, the
 wall time and, for every coefficient free in both fits, the difference binned - sampled in
@@ -26,9 +26,10 @@ import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from fit_cost import FOLDER, start_values  # noqa: E402
-from identify.fit.mf_binning import ALPHA_BIN_DEG, KAPPA_BIN, bin_sweeps  # noqa: E402
 from identify.fit.mf_stages import fit_mf  # noqa: E402
+from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
+from identify.workflows.sweep_bins import bin_sweeps  # noqa: E402
 
 
 def main() -> None:
@@ -37,8 +38,8 @@ def main() -> None:
     ap.add_argument("--fnomin", type=float)
     ap.add_argument("--nompres", type=float)
     ap.add_argument("--r0", type=float)
-    ap.add_argument("--alpha-deg", type=float, default=ALPHA_BIN_DEG)
-    ap.add_argument("--kappa", type=float, default=KAPPA_BIN)
+    ap.add_argument("--alpha-deg", type=float, default=BIN_ALPHA_DEG)
+    ap.add_argument("--kappa", type=float, default=BIN_KAPPA)
     args = ap.parse_args()
     if args.trailer:
         trailer = pd.read_pickle(args.trailer)
@@ -48,7 +49,7 @@ def main() -> None:
         trailer, t = mset.trailer, mset.manifest.tyre
         fnomin, nompres, r0 = t.nominal_load_N, t.nominal_pressure_Pa, t.unloaded_radius_m
     base = start_values(fnomin, nompres, r0)
-    binned = bin_sweeps(trailer, fnomin, alpha_deg=args.alpha_deg, kappa=args.kappa)
+    binned, _ = bin_sweeps(trailer, fnomin, alpha_deg=args.alpha_deg, kappa=args.kappa)
     fits = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)

@@ -164,25 +164,3 @@ def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
     near = x + 1e-9 * np.maximum(np.abs(x), 1e-3)
     assert len(prune(p, [x, near])) == 2
 
-
-def test_sweep_binning_averages_each_bin_and_keeps_free_rolling():
-    import pandas as pd
-
-    from identify.fit.mf_binning import bin_sweeps
-
-    n = 2000
-    alpha = np.deg2rad(np.linspace(-10, 10, n, endpoint=False))
-    sweep = pd.DataFrame({"run": "lat", "t": np.arange(n) * 0.01, "Vx": 11.0, "alpha": alpha,
-                          "kappa": 0.0, "gamma": 0.0, "p": 2.5e5, "Fz": 4000.0,
-                          "Fy": 1e4 * alpha})
-    free = pd.DataFrame({"run": "rr", "t": np.arange(5) * 0.01, "Vx": [5.0, 10, 15, 20, 25],
-                         "alpha": 0.0, "kappa": 0.0, "gamma": 0.0, "p": 2.5e5, "Fz": 4000.0,
-                         "Fy": 0.0})
-    table = pd.concat([sweep, free], ignore_index=True)
-    out = bin_sweeps(table, 4000.0, alpha_deg=0.25)
-    lat = out[out["run"] == "lat"]
-    assert len(lat) == 80 and list(out.columns) == list(table.columns)
-    # 25 samples 0.01 deg apart per bin; a sample on a bin edge may fall on either side
-    np.testing.assert_allclose(np.diff(np.rad2deg(lat["alpha"].to_numpy())), 0.25, atol=0.006)
-    np.testing.assert_allclose(lat["Fy"].to_numpy(), 1e4 * lat["alpha"].to_numpy())
-    pd.testing.assert_frame_equal(out[out["run"] == "rr"].reset_index(drop=True), free)

@@ -91,7 +91,7 @@ def summary_table(run: FitRun) -> Table:
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                   no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None, forms=(),
-                  hold=()) -> str:
+                  hold=(), bin_alpha=None, bin_kappa=None, no_bin=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -117,6 +117,12 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args += ["--form", f]
     for h in hold:
         args += ["--hold", h]
+    if no_bin:
+        args.append("--no-bin")
+    if bin_alpha is not None:
+        args += ["--bin-alpha", f"{bin_alpha:g}"]
+    if bin_kappa is not None:
+        args += ["--bin-kappa", f"{bin_kappa:g}"]
     if no_report:
         args.append("--no-report")
     return shlex.join(args)
@@ -160,6 +166,16 @@ def fit_command(
                                    help="Hold this coefficient at its default in every "
                                         "relation fit (repeatable), e.g. one the summary "
                                         "reports poorly identified."),
+    bin_alpha: float | None = typer.Option(
+        None, "--bin-alpha", metavar="DEG",
+        help="Bin width [deg] of dense slip-angle sweeps of trailer data: every sweep with at "
+             "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
+             "docs/procedures.md, 'Sweep binning', states the effect)."),
+    bin_kappa: float | None = typer.Option(
+        None, "--bin-kappa", metavar="K",
+        help="Bin width [-] of dense slip-ratio sweeps (default 0.0025)."),
+    no_bin: bool = typer.Option(False, "--no-bin",
+                                help="Fit every trailer sample: no sweep binning."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -177,7 +193,7 @@ def fit_command(
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
-                            hold)
+                            hold, bin_alpha, bin_kappa, no_bin)
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -188,10 +204,19 @@ def fit_command(
         if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
             raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
                                    f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+        if no_bin and (bin_alpha is not None or bin_kappa is not None):
+            raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
+                             key="--no-bin")
+        for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
+            if width is not None and not width > 0:
+                raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
+        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
+            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
+            if v is not None}
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
                                mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               forms=only_names(form), hold=only_names(hold))
+                               forms=only_names(form), hold=only_names(hold), **bins)
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

@@ -28,10 +28,16 @@ from identify.fit.result import FitResult
 from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
-__all__ = ["SCHEMA", "FitRun", "FitSettings", "InputFile", "Provenance", "failures"]
+__all__ = ["BIN_ALPHA_DEG", "BIN_KAPPA", "SCHEMA", "FitRun", "FitSettings", "InputFile",
+           "Provenance", "failures"]
 
 SCHEMA = "mfid.fit/1"
 """The schema string of fit.json (its ``"schema"`` key)."""
+
+BIN_ALPHA_DEG = 0.25
+"""[deg] default bin width of dense slip-angle sweeps (docs/procedures.md, "Sweep binning")."""
+BIN_KAPPA = 0.0025
+"""[-] default bin width of dense slip-ratio sweeps."""
 
 JSON_NAME = "fit.json"
 CSV_NAME = "measured_vs_model.csv"
@@ -54,6 +60,10 @@ class FitSettings:
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
     hold : tuple of str    coefficients held at their default in every relation fit
                            (``--hold``)
+    bin_alpha_deg : float or None   bin width [deg] of dense slip-angle sweeps of trailer data
+                           before the MF stages (identify.workflows.sweep_bins); None: every
+                           sample is fitted
+    bin_kappa : float or None       the same for slip-ratio sweeps [-]
     """
 
     seed: int = 0
@@ -65,6 +75,8 @@ class FitSettings:
     mcmc_max_steps: int = MAX_STEPS
     forms: tuple[str, ...] = ()
     hold: tuple[str, ...] = ()
+    bin_alpha_deg: float | None = BIN_ALPHA_DEG
+    bin_kappa: float | None = BIN_KAPPA
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""

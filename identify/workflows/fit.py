@@ -30,6 +30,7 @@ from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
 from identify.model.parameters import defaults
 from identify.workflows import tir_assembly as TA
+from identify.workflows.sweep_bins import bin_sweeps
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
@@ -43,6 +44,17 @@ stages."""
 def _say(progress: Progress | None, text: str) -> None:
     if progress is not None:
         progress(text)
+
+
+def _binned(trailer: pd.DataFrame, fnomin: float, settings: FitSettings,
+            progress: Progress | None) -> pd.DataFrame:
+    """The trailer table the MF stages fit: dense sweeps binned as the settings ask."""
+    table, count = bin_sweeps(trailer, fnomin, alpha_deg=settings.bin_alpha_deg,
+                              kappa=settings.bin_kappa)
+    if count.applied:
+        _say(progress, f"bin: {len(trailer)} trailer samples -> {count.remaining} points "
+                       f"({count.note}; dense sweeps only)")
+    return table
 
 
 def _chain_file(settings: FitSettings, out_root, tyre_id: str, name: str) -> Path | None:
@@ -160,14 +172,15 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                             if k in ef.result.parameters})
 
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
+        trailer = _binned(mset.trailer, float(tyre.nominal_load_N), settings, progress)
         _say(progress, "fit: Magic Formula stages on trailer data")
-        mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
+        mf = fit_mf(trailer, _numeric(tir), seed=settings.seed,
                     fittyp=settings.fittyp, progress=progress)
         for r in mf.results:
             if settings.mcmc:
                 _say(progress, f"mcmc: MF [{r.form}]")
                 chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
-                r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
+                r = stage_mcmc(trailer, mf, r.form, seed=settings.seed,
                                ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
                                chain_file=chain)
             results.append(assess(r))
