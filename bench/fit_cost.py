@@ -9,11 +9,15 @@ every version, so ratios of different versions compare the fits, not the kernels
 
     python bench/fit_cost.py [--folder DIR] [--json out.json]
     python bench/fit_cost.py --trailer table.pkl --fnomin 4980 --nompres 256600 --r0 0.3255
+    python bench/fit_cost.py --trailer table.pkl ... --bin     # dense sweeps binned first
 
 ``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
 e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
 given nominal load [N], pressure [Pa] and unloaded radius [m], so that two checkouts fit the
-same samples.
+same samples. ``--bin`` bins dense sweeps first as ``mfid fit`` does by default
+(identify.workflows.sweep_bins, widths FitSettings.bin_alpha_deg/bin_kappa); the binning is
+part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
+every trailer sample (the same yardstick with and without binning, and in every version).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
@@ -81,6 +85,8 @@ def main() -> None:
     ap.add_argument("--nompres", type=float, help="--trailer: nominal pressure [Pa]")
     ap.add_argument("--r0", type=float, help="--trailer: unloaded radius [m]")
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
+    ap.add_argument("--bin", action="store_true",
+                    help="bin dense sweeps first, as mfid fit does by default")
     ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
                     help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
@@ -100,13 +106,21 @@ def main() -> None:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         t0 = time.perf_counter()
-        mf = fit_mf(trailer, base)
+        table = trailer
+        if args.bin:
+            from identify.fit.run import FitSettings  # not in versions before binning
+            from identify.workflows.sweep_bins import bin_sweeps
+
+            s = FitSettings()
+            table, _ = bin_sweeps(trailer, base["FNOMIN"], alpha_deg=s.bin_alpha_deg,
+                                  kappa=s.bin_kappa)
+        mf = fit_mf(table, base)
         total_fit = time.perf_counter() - t0
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     commit = args.label or commit
     print(f"{name} at {commit} (MFID_JACOBIAN={os.environ.get('MFID_JACOBIAN', 'auto')}): "
-          f"{len(trailer)} trailer samples; "
+          f"{len(trailer)} trailer samples{f', binned to {len(table)}' if args.bin else ''}; "
           f"yardstick: numpy evaluate(), all outputs, useMode 211, best of {REPEATS}")
     print(f"{'stage':9} {'points':>7} {'fit s':>8} {'eval ms':>8} {'fit/eval':>9} {'nfev':>7} "
           f"{'conv':>4}  message")
@@ -124,11 +138,17 @@ def main() -> None:
               f"{r.message[:60]}")
     print(f"{'total':9} {sum(x['points'] for x in rows):7d} {total_fit:8.2f} "
           f"{1e3 * all_eval:8.2f} {total_fit / all_eval:9.0f}")
+    every = evaluation_seconds(mf.params, trailer)
+    print(f"{'samples':9} {len(trailer):7d} {total_fit:8.2f} {1e3 * every:8.2f} "
+          f"{total_fit / every:9.0f}  (MF wall time / one evaluation of every trailer sample)")
     if args.json:
         args.json.write_text(json.dumps({"folder": name, "commit": commit,
                                          "stages": rows, "total_fit_s": total_fit,
                                          "total_eval_s": all_eval,
-                                         "total_ratio": total_fit / all_eval}, indent=1))
+                                         "total_ratio": total_fit / all_eval,
+                                         "samples": len(trailer), "binned": bool(args.bin),
+                                         "samples_eval_s": every,
+                                         "samples_ratio": total_fit / every}, indent=1))
 
 
 if __name__ == "__main__":
