@@ -14,9 +14,9 @@ every version, so ratios of different versions compare the fits, not the kernels
 ``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
 e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
 given nominal load [N], pressure [Pa] and unloaded radius [m], so that two checkouts fit the
-same samples. ``--bin`` bins dense sweeps first as ``mfid fit`` does by default
-(identify.workflows.sweep_bins, widths FitSettings.bin_alpha_deg/bin_kappa); the binning is
-part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
+same samples. ``--bin`` selects the points as ``mfid fit`` does by default
+(identify.workflows.sweep_bins.mf_table: logged runs segmented, dense sweeps binned); that
+step is part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
 every trailer sample (the same yardstick with and without binning, and in every version).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
@@ -86,7 +86,7 @@ def main() -> None:
     ap.add_argument("--r0", type=float, help="--trailer: unloaded radius [m]")
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
     ap.add_argument("--bin", action="store_true",
-                    help="bin dense sweeps first, as mfid fit does by default")
+                    help="segment logged runs and bin dense sweeps first, as mfid fit does")
     ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
                     help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
@@ -109,11 +109,11 @@ def main() -> None:
         table = trailer
         if args.bin:
             from identify.fit.run import FitSettings  # not in versions before binning
-            from identify.workflows.sweep_bins import bin_sweeps
+            from identify.workflows.sweep_bins import mf_table
 
             s = FitSettings()
-            table, _ = bin_sweeps(trailer, base["FNOMIN"], alpha_deg=s.bin_alpha_deg,
-                                  kappa=s.bin_kappa)
+            table, _ = mf_table(trailer, base["FNOMIN"], segment=s.segment,
+                                alpha_deg=s.bin_alpha_deg, kappa=s.bin_kappa)
         mf = fit_mf(table, base)
         total_fit = time.perf_counter() - t0
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],

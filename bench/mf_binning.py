@@ -1,6 +1,7 @@
 """Effect of sweep binning (identify.workflows.sweep_bins) on the MF stages: time, coefficients.
 
-Fits the same trailer table twice, as sampled and binned, and prints per stage the points, the
+Fits the same trailer table twice, as sampled and binned (both with the runs that hold a
+warm-up segmented, as ``mfid fit`` does), and prints per stage the points, the
 wall time and, for every coefficient free in both fits, the difference binned - sampled in
 standard errors of the sampled fit (|z| < 1: within its standard error).
 
@@ -29,7 +30,7 @@ from fit_cost import FOLDER, start_values  # noqa: E402
 from identify.fit.mf_stages import fit_mf  # noqa: E402
 from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
-from identify.workflows.sweep_bins import bin_sweeps  # noqa: E402
+from identify.workflows.sweep_bins import mf_table  # noqa: E402
 
 
 def main() -> None:
@@ -49,7 +50,10 @@ def main() -> None:
         trailer, t = mset.trailer, mset.manifest.tyre
         fnomin, nompres, r0 = t.nominal_load_N, t.nominal_pressure_Pa, t.unloaded_radius_m
     base = start_values(fnomin, nompres, r0)
-    binned, _ = bin_sweeps(trailer, fnomin, alpha_deg=args.alpha_deg, kappa=args.kappa)
+    # both as mfid fit selects the points (logged runs segmented), with and without binning
+    binned, _ = mf_table(trailer, fnomin, segment=True, alpha_deg=args.alpha_deg,
+                         kappa=args.kappa)
+    trailer, _ = mf_table(trailer, fnomin, segment=True, alpha_deg=None, kappa=None)
     fits = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)

@@ -91,7 +91,8 @@ def summary_table(run: FitRun) -> Table:
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                   no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None, forms=(),
-                  hold=(), bin_alpha=None, bin_kappa=None, no_bin=False) -> str:
+                  hold=(), bin_alpha=None, bin_kappa=None, no_bin=False,
+                  no_segment=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -117,6 +118,8 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args += ["--form", f]
     for h in hold:
         args += ["--hold", h]
+    if no_segment:
+        args.append("--no-segment")
     if no_bin:
         args.append("--no-bin")
     if bin_alpha is not None:
@@ -176,6 +179,10 @@ def fit_command(
         help="Bin width [-] of dense slip-ratio sweeps (default 0.0025)."),
     no_bin: bool = typer.Option(False, "--no-bin",
                                 help="Fit every trailer sample: no sweep binning."),
+    no_segment: bool = typer.Option(
+        False, "--no-segment",
+        help="Fit trailer runs with a warm-up (logged test programmes such as a TTC session) "
+             "on all their samples, not on their quasi-steady sweeps only."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -193,7 +200,7 @@ def fit_command(
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
-                            hold, bin_alpha, bin_kappa, no_bin)
+                            hold, bin_alpha, bin_kappa, no_bin, no_segment)
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -216,7 +223,8 @@ def fit_command(
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
                                mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               forms=only_names(form), hold=only_names(hold), **bins)
+                               forms=only_names(form), hold=only_names(hold),
+                               segment=not no_segment, **bins)
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

@@ -64,6 +64,8 @@ class FitSettings:
                            before the MF stages (identify.workflows.sweep_bins); None: every
                            sample is fitted
     bin_kappa : float or None       the same for slip-ratio sweeps [-]
+    segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
+                           their quasi-steady sweeps only (identify.workflows.sweep_bins)
     """
 
     seed: int = 0
@@ -77,6 +79,7 @@ class FitSettings:
     hold: tuple[str, ...] = ()
     bin_alpha_deg: float | None = BIN_ALPHA_DEG
     bin_kappa: float | None = BIN_KAPPA
+    segment: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""

@@ -30,7 +30,7 @@ from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
 from identify.model.parameters import defaults
 from identify.workflows import tir_assembly as TA
-from identify.workflows.sweep_bins import bin_sweeps
+from identify.workflows.sweep_bins import mf_table
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
@@ -46,14 +46,14 @@ def _say(progress: Progress | None, text: str) -> None:
         progress(text)
 
 
-def _binned(trailer: pd.DataFrame, fnomin: float, settings: FitSettings,
-            progress: Progress | None) -> pd.DataFrame:
-    """The trailer table the MF stages fit: dense sweeps binned as the settings ask."""
-    table, count = bin_sweeps(trailer, fnomin, alpha_deg=settings.bin_alpha_deg,
-                              kappa=settings.bin_kappa)
-    if count.applied:
-        _say(progress, f"bin: {len(trailer)} trailer samples -> {count.remaining} points "
-                       f"({count.note}; dense sweeps only)")
+def _mf_trailer(trailer: pd.DataFrame, fnomin: float, settings: FitSettings,
+                progress: Progress | None) -> pd.DataFrame:
+    """The trailer table the MF stages fit: logged runs segmented, dense sweeps binned
+    (identify.workflows.sweep_bins)."""
+    table, notes = mf_table(trailer, fnomin, segment=settings.segment,
+                            alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa)
+    for note in notes:
+        _say(progress, note)
     return table
 
 
@@ -172,7 +172,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                             if k in ef.result.parameters})
 
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        trailer = _binned(mset.trailer, float(tyre.nominal_load_N), settings, progress)
+        trailer = _mf_trailer(mset.trailer, float(tyre.nominal_load_N), settings, progress)
         _say(progress, "fit: Magic Formula stages on trailer data")
         mf = fit_mf(trailer, _numeric(tir), seed=settings.seed,
                     fittyp=settings.fittyp, progress=progress)
@@ -234,6 +234,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results),
                  tir_values=tir, form_choices=tuple(choices))
+    _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
 
 

@@ -1,4 +1,19 @@
-"""Binning of dense trailer sweeps before the MF stages (``mfid fit --bin-alpha/--bin-kappa``).
+"""The trailer points of the MF stages: quasi-steady sweeps of logged test programmes, binned.
+
+``mf_table`` is what ``mfid fit`` hands the MF stages:
+
+1. **Segmentation** (``FitSettings.segment``, on unless ``--no-segment``): a run logged
+   continuously through a test programme, recognised by the warm-up that
+   :func:`identify.segment.segment_trailer` finds in it (a TTC session's runs, as imported by
+   ``mfid import``), is fitted on its quasi-steady sweeps at their condition levels only: warm-ups,
+   transitions between set points, pauses, partial sweeps, cold-tread and slow samples are
+   dropped and every channel is averaged over one wheel revolution (identify.segment.filters).
+   Without this a TTC session's load ramps bridge its load steps, the data seem to hold one load
+   level and the load and pressure terms are held (docs/procedures.md, "Logged sessions").
+   Runs without a warm-up (the simulated folders, hand-made tables) are kept as they are.
+2. **Binning** (``--bin-alpha``/``--bin-kappa``, ``--no-bin``), below.
+
+Binning of dense trailer sweeps:
 
 A trailer logging at 100 Hz records a slip sweep as thousands of samples whose neighbours carry
 the same information. The averaging itself is the segmentation's ``binning`` filter
@@ -28,10 +43,10 @@ import numpy as np
 import pandas as pd
 
 from identify.fit import mf_data
-from identify.segment import FilterCount, SegmentSettings
+from identify.segment import FilterCount, SegmentSettings, segment_trailer
 from identify.segment.filters import binning
 
-__all__ = ["GAMMA_RESOLUTION", "MIN_PER_BIN", "bin_sweeps"]
+__all__ = ["GAMMA_RESOLUTION", "MIN_PER_BIN", "bin_sweeps", "mf_table"]
 
 MIN_PER_BIN = 3.0
 """A sweep is dense (binned) with at least this many samples per occupied bin on average."""
@@ -98,3 +113,59 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     frame = trailer.assign(segment=segment, sweep=_kinds(trailer, segment, widths))
     out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa))
     return out.drop(columns=["segment", "sweep"])[list(trailer.columns)], count
+
+
+def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: float | None,
+             kappa: float | None) -> tuple[pd.DataFrame, list[str]]:
+    """The trailer points of the MF stages: logged runs segmented, dense sweeps binned.
+
+    Parameters
+    ----------
+    trailer : DataFrame
+        The tidy trailer table (identify.io.trailer); not modified.
+    fnomin : float [N]
+        Nominal load.
+    segment : bool
+        Fit the runs with a warm-up on their quasi-steady sweeps only (see module).
+    alpha_deg, kappa : float or None
+        Bin widths [deg], [-] (None: not binned).
+
+    Returns
+    -------
+    table : DataFrame
+        The same columns: the segmented runs' selected (and binned) samples, then the other
+        runs, dense sweeps binned.
+    notes : list of str
+        One line per step that changed the table (for the progress and the log).
+    """
+    notes: list[str] = []
+    parts = []
+    rest = trailer
+    if segment and not trailer.empty:
+        seg = segment_trailer(trailer, SegmentSettings(bin_alpha_deg=alpha_deg,
+                                                       bin_kappa=kappa))
+        runs = list(dict.fromkeys(s.run for s in seg.segmentation.segments
+                                  if s.kind == "warmup"))
+        if runs:
+            mine = trailer["run"].isin(runs).to_numpy()
+            picked = seg.table[seg.table["run"].isin(runs)][list(trailer.columns)]
+            sweeps = sum(1 for s in seg.segmentation.segments
+                         if s.run in runs and s.kind == "sweep")
+            filters = "; ".join(f"{f.name} {f.removed}" for f in seg.segmentation.filters
+                                if f.applied)
+            notes.append(f"segment: {', '.join(map(str, runs))} (runs with a warm-up): "
+                         f"{int(mine.sum())} samples -> {len(picked)} points on {sweeps} "
+                         f"quasi-steady sweeps (samples removed by filter, all runs: "
+                         f"{filters})")
+            parts.append(picked)
+            rest = trailer[~mine]
+    binned, count = bin_sweeps(rest, fnomin, alpha_deg=alpha_deg, kappa=kappa)
+    if count.applied and len(rest) and parts:
+        notes.append(f"bin: the other runs' {len(rest)} samples -> {count.remaining} points "
+                     f"({count.note}; dense sweeps only)")
+    elif count.applied and count.removed:
+        notes.append(f"bin: {len(rest)} trailer samples -> {count.remaining} points "
+                     f"({count.note}; dense sweeps only)")
+    if not parts:
+        return binned, notes
+    return pd.concat(parts + [binned], ignore_index=True), notes
