@@ -110,7 +110,10 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     if all(w is None for w in widths.values()) or trailer.empty:
         return trailer, FilterCount("binning", 0, len(trailer), False, "not requested")
     segment = _segments(trailer, fnomin)
-    frame = trailer.assign(segment=segment, sweep=_kinds(trailer, segment, widths))
+    kinds = _kinds(trailer, segment, widths)
+    if not pd.notna(kinds).any():  # no dense sweep: the table as it is, in its order
+        return trailer, FilterCount("binning", 0, len(trailer), True, "no dense sweep")
+    frame = trailer.assign(segment=segment, sweep=kinds)
     out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa))
     return out.drop(columns=["segment", "sweep"])[list(trailer.columns)], count
 
