@@ -71,7 +71,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     frame : DataFrame
         The trailer table.
     selection : str
-        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"`` or ``"all"``
+        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``
+        or ``"all"``
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, see quantity_values).
@@ -94,6 +95,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
         ok &= (k <= PURE_KAPPA) & lateral_sweep
     elif selection == "combined":
         ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
+    elif selection == "kappa_slip":
+        ok &= k > PURE_KAPPA
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

@@ -43,8 +43,10 @@ class StageDef:
                            identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
                            in runs with a kappa sweep),
                            ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
-                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA)
-                           or ``"all"``
+                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA),
+                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle: the Fy
+                           stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
+                           a slip-ratio sweep at zero slip angle pins it) or ``"all"``
     coefficients : tuple of str   the stage's own coefficients, priority order
     """
 
@@ -73,7 +75,7 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
         "QDZ1 QBZ1 QCZ1 QEZ1 QDZ2 QBZ2 QEZ2 QHZ1 QHZ2 QDZ6 QDZ7 QBZ9 QBZ10 QBZ3 QEZ3 QEZ4 "
         "PPZ1 QDZ3 QDZ4 QBZ4 QBZ5 QHZ3 QHZ4 QDZ8 QDZ9 QDZ10 QDZ11 QEZ5 PPZ2")),
     StageDef("Fx", "Fx", "N", "combined", _names("RBX1 RBX2 RCX1 REX1 REX2 RHX1 RBX3")),
-    StageDef("Fy", "Fy", "N", "combined", _names(
+    StageDef("Fy", "Fy", "N", "kappa_slip", _names(
         "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
     StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
     StageDef("Mx", "Mx", "N m", "all", _names(
