@@ -19,6 +19,14 @@ same samples. ``--bin`` selects the points as ``mfid fit`` does by default
 step is part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
 every trailer sample (the same yardstick with and without binning, and in every version).
 
+Measured 2026-11-23 on the 2-core machine under a load average of 20-29 (the per-stage
+yardsticks vary by 2-10x between runs at that load; the totals are the numbers to compare):
+the bundled sample, total fit/eval 939 at ddb9f71 (MF stages 86.6 s), 310 and 421 in two runs
+at e85cb99/7bca3d3 (49 s, 70 s); 507 with ``--jacobian fd``. A generated 136k-sample TTC
+session (``mfid simulate default DIR --format ttc --seed 0``, ``mfid import DIR/*.mat``) with
+``--bin``: MF stages 92.8 s, 68 evaluations of every trailer sample; ddb9f71 did not finish
+on it (over 13 GB resident in its validity grid, then under 10 % of a core for 9 minutes).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
