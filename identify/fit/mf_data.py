@@ -95,8 +95,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
         ok &= (k <= PURE_KAPPA) & lateral_sweep
     elif selection == "combined":
         ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
-    elif selection == "kappa_slip":
-        ok &= k > PURE_KAPPA
+    elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
+        ok &= (k > PURE_KAPPA) & bool(np.any(ok & (a > PURE_ALPHA) & (k > PURE_KAPPA)))
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

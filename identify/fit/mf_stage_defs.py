@@ -44,7 +44,8 @@ class StageDef:
                            in runs with a kappa sweep),
                            ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
                            sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA),
-                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle: the Fy
+                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle, when
+                           there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
                            a slip-ratio sweep at zero slip angle pins it) or ``"all"``
     coefficients : tuple of str   the stage's own coefficients, priority order
