@@ -18,7 +18,7 @@ from identify.io.folder import load_folder
 from identify.workflows.fit import _skipped_sources
 from identify.workflows.import_session import import_session
 from identify.workflows.trailer_prep import prepare_trailer
-from tests.ttc_cases import decimated, session
+from tests.ttc_cases import UNUSABLE, decimated, session
 
 runner = CliRunner()
 
@@ -151,3 +151,41 @@ def test_import_then_fit_the_full_session_without_hand_edits(tmp_path, suffix):
     assert _tree_hashes(s.path) == before_in
     before = _tree_hashes(folder)
     _check_fit(folder, tmp_path, _fit(folder, tmp_path), before)
+
+
+_MANIFEST = """[tyre]
+id = "bad"
+nominal_pressure_Pa = 83000.0
+nominal_load_N = 1000.0
+unloaded_radius_m = 0.26
+source = "measured"
+
+[[runs]]
+id = "B1run1"
+file = "trailer/B1run1.mat"
+kind = "trailer"
+test = "cornering"
+axes = "SAE"
+"""
+
+
+@pytest.mark.parametrize("name,make,expected",
+                         [c for c in UNUSABLE if c[0] in ("no-FZ", "unknown-unit",
+                                                          "truncated-mat")],
+                         ids=["no-FZ", "unknown-unit", "truncated-mat"])
+def test_fit_of_a_folder_with_an_unusable_file_exits_2_with_one_line(tmp_path, name, make,
+                                                                      expected):
+    """Acceptance 4: each unusable file class stops ``mfid fit`` (not only ``mfid import``)
+    with one line naming the file and the channel, writes nothing and changes nothing."""
+    folder = tmp_path / "folder"
+    (folder / "trailer").mkdir(parents=True)
+    (folder / "tyre.toml").write_text(_MANIFEST)
+    path = make(folder / "trailer" / "B1run1.mat")
+    before = _tree_hashes(folder)
+    result = runner.invoke(app, ["fit", str(folder), "--out", str(tmp_path / "fits"),
+                                 "--no-report"])
+    assert result.exit_code == 2
+    (line,) = result.stderr.splitlines()
+    text = "error: " + expected.format(p=path)
+    assert line.startswith(text[:-3]) if text.endswith("...") else line == text
+    assert _tree_hashes(folder) == before and not (tmp_path / "fits").exists()
