@@ -9,6 +9,7 @@ import json
 
 import numpy as np
 import pytest
+from pypdf import PdfReader
 from typer.testing import CliRunner
 
 from identify.cli.app import app
@@ -116,7 +117,9 @@ def _check_fit(folder, out, result, before):
     assert quality["trailer"]["segmentation"]["kept"] == quality["trailer"]["rows_fitted"]
     assert doc["tir"]["key_sources"]["QSY1"]["detail"] == "MF/My skipped: no My channel"
     assert "skipped My: no My channel" in result.stdout
-    assert (out / "reports").glob("*.pdf")
+    (pdf,) = (out / "reports").glob("*.pdf")
+    titles = [o.title for o in PdfReader(pdf).outline]
+    assert "data quality: trailer" in titles and "loading warnings" in titles
     return doc
 
 

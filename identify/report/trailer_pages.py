@@ -96,9 +96,8 @@ def trailer_pages(fd: FitDir) -> list[Page]:
     skipped = [c for c in coverage if c.skipped]
     fig = new_page("Data quality: trailer data",
                    f"{len(coverage) - len(skipped)} of {len(coverage)} MF stages had their data "
-                   f"({len(skipped)} skipped); {len(warnings)} loading warning(s) with "
-                   f"{sum(int(w.get('count', 0)) for w in warnings)} samples concerned; the "
-                   "segments of the continuous runs")
+                   f"({len(skipped)} skipped); {len(warnings)} loading warning(s), each with "
+                   "its count on the next page; the segments of the continuous runs")
     ax = fig.add_axes((0.04, 0.50, 0.92, 0.38))
     if coverage:
         draw_table(ax, ["stage", "points", "loads [kN]", "p [kPa]", "camber [deg]",
