@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from identify.cli.app import app
 from identify.fit.coverage import StageCoverage, coverage_text, mf_coverage
+from identify.fit.run import FitRun
 from identify.fit.sources import DEFAULT
 from identify.io.folder import load_folder
 from identify.workflows.fit import _skipped_sources
@@ -108,6 +109,7 @@ def _check_fit(folder, out, result, before):
     assert _tree_hashes(folder) == before  # the measurement folder is only read
     doc = json.loads(next((out / "fits").glob("*/fit.json")).read_text())
     assert doc["failed"] == []
+    assert FitRun.from_dict(doc).to_dict() == doc  # coverage and data_quality round-trip
     cov = {c["stage"]: c for c in doc["coverage"]}
     assert cov["My"]["skipped"] == "no My channel"
     fitted = [f["form"] for f in doc["fits"] if f["relation"] == "MF"]
