@@ -75,6 +75,18 @@ def test_skipped_stage_coefficients_are_defaults_with_the_reason(cornering):
     assert "PDY1" not in sources and "QBZ1" not in sources  # fitted stages
 
 
+def test_a_dropped_slip_ratio_skips_every_stage_with_the_reason(cornering):
+    _, mset, td, _ = cornering
+    table = td.table.assign(kappa=np.nan)
+    why = "dropped as implausible (SL in SIM1run4: slip ratio pinned at -1)"
+    cov = mf_coverage(table, mset.manifest.tyre.nominal_load_N,
+                      unavailable={**td.unavailable, "kappa": why})
+    by = {c.stage: c.skipped for c in cov}
+    assert not any(c.fitted for c in cov)
+    assert by["Fy0"] == by["Mx"] == by["Fx0"] == f"slip ratio (kappa) {why}"
+    assert by["geometry"].startswith("wheel speed (omega) dropped")  # the first reason
+
+
 def test_coverage_round_trips_through_json(cornering):
     _, _, _, cov = cornering
     for c in cov:

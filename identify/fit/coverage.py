@@ -10,8 +10,9 @@ workflow marks them so in the .tir key sources and fit.json).
 A stage is skipped when
 
 - a channel it needs is absent or was dropped as implausible while loading (``unavailable``
-  names those channels and why): the fitted quantity (Fx, Fy, Mz, Mx, My), kappa for every
-  slip-ratio stage, the wheel speed omega for the geometry stage;
+  names those channels and why): the fitted quantity (Fx, Fy, Mz, Mx, My), the wheel speed
+  omega for the geometry stage, and kappa for every stage (the model takes it, and the
+  pure-slip points are told apart by it);
 - the sweep it needs is not in the data: a slip-ratio sweep (a run whose kappa spans more than
   ``mf_data.SWEEP_KAPPA``) at zero slip angle for Fx0, at a non-zero slip angle for the
   combined stages Fx, Fy, Mz (noise on a cornering run's kappa is no combined-slip data); a
@@ -140,9 +141,8 @@ def _sweeps(trailer: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 def _channel_reason(stage: str, trailer: pd.DataFrame,
                     unavailable: Mapping[str, str]) -> str:
     sd = STAGES[stage]
-    needed = ["omega"] if sd.quantity == "Re" else [sd.quantity]
-    if stage in ("Fx0", "Fx", "Fy", "Mz"):
-        needed.append("kappa")
+    # every stage's model and selection take kappa (pure-slip points are |kappa| ~ 0)
+    needed = ["omega" if sd.quantity == "Re" else sd.quantity, "kappa"]
     for col in needed:
         name = _CHANNEL_NAMES.get(col, col)
         if col in unavailable and unavailable[col] != "absent":
