@@ -257,6 +257,24 @@ def fit_command(
         raise typer.Exit(failure.exit_code)
 
 
+def data_lines(run: FitRun) -> list[str]:
+    """What the data could not support: each skipped MF stage with why, and the loading
+    warnings counted (the report's data-quality pages list them one by one)."""
+    lines = []
+    if run.skipped:
+        lines.append("MF stages skipped (their coefficients keep their default values):")
+        lines += [f"  {stage}: {why}" for stage, why in run.skipped.items()]
+    found = (run.data_quality or {}).get("warnings") or []
+    if found:
+        kinds: dict[str, int] = {}
+        for w in found:
+            kinds[w["kind"]] = kinds.get(w["kind"], 0) + int(w["count"])
+        lines.append(f"data quality: {len(found)} loading warning(s), fitted all the same "
+                     "(counts: " + ", ".join(f"{k} {n}" for k, n in kinds.items())
+                     + "); listed on the report's data-quality pages and in fit.json")
+    return lines
+
+
 def _print_outputs(run: FitRun, report: Report | None) -> None:
 
     if out_console.is_terminal:
@@ -267,6 +285,8 @@ def _print_outputs(run: FitRun, report: Report | None) -> None:
         out_console.print(line, markup=False, highlight=False)
     for line in mcmc_warnings(run):
         err_console.print(f"warning: {line}", markup=False, highlight=False)
+    for line in data_lines(run):
+        out_console.print(line, markup=False, highlight=False)
     fit_dir = run.fit_dir
     out_console.print("outputs:", markup=False)
     for path in (run.tir_path, run.json_path, run.csv_path, fit_dir / EXTRACTION_NAME,

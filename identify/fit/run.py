@@ -22,6 +22,7 @@ from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
+from identify.fit.coverage import StageCoverage
 from identify.fit.forms import FormChoice
 from identify.fit.mcmc import MAX_STEPS
 from identify.fit.result import FitResult
@@ -198,6 +199,14 @@ class FitRun:
                                       extraction
     failed : tuple of str             fits that did not converge (``relation[form]: why``);
                                       empty when every fit succeeded
+    coverage : tuple of StageCoverage  what the trailer data held for each MF stage, which
+                                      coefficients they can identify, and why a stage was
+                                      skipped (identify.fit.coverage); empty without trailer
+                                      data
+    data_quality : Mapping            the loading warnings (``warnings``: DataWarning dicts,
+                                      each with its count), the trailer runs segmented, their
+                                      segmentation and the channels the fit could not use
+                                      (``trailer``); empty when there is nothing to say
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
@@ -212,6 +221,8 @@ class FitRun:
     flags: tuple[Mapping[str, Any], ...] = ()
     failed: tuple[str, ...] = ()
     form_choices: tuple[FormChoice, ...] = ()
+    coverage: tuple[StageCoverage, ...] = ()
+    data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
 
@@ -228,6 +239,11 @@ class FitRun:
     def ok(self) -> bool:
         """Every fit converged."""
         return not self.failed
+
+    @property
+    def skipped(self) -> dict[str, str]:
+        """MF stage -> why it was skipped (the data lack what it needs)."""
+        return {c.stage: c.skipped for c in self.coverage if c.skipped}
 
     @property
     def poorly_identified(self) -> tuple[str, ...]:
@@ -322,15 +338,18 @@ class FitRun:
             "tir": {"path": self.tir_name, "fittyp": self.fittyp,
                     "key_sources": {k: s.to_dict() for k, s in self.key_sources.items()},
                     "forms": [c.to_dict() for c in self.form_choices]},
-            "flags": [dict(f) for f in self.flags], "failed": list(self.failed)})
+            "flags": [dict(f) for f in self.flags], "failed": list(self.failed),
+            "coverage": [c.to_dict() for c in self.coverage],
+            "data_quality": dict(self.data_quality)})
 
     @classmethod
     def from_dict(cls, doc: Any) -> FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        Documents from before ``failed``, ``key_sources`` or ``forms`` were recorded read as
-        empty; a key source written as a plain string (before typed sources) reads as fitted.
+        Documents from before ``failed``, ``key_sources``, ``forms``, ``coverage`` or
+        ``data_quality`` were recorded read as empty; a key source written as a plain string
+        (before typed sources) reads as fitted.
 
         Raises
         ------
@@ -360,9 +379,14 @@ class FitRun:
             tir_name = str(tir.get("path") or f"{tyre.id}.tir")
         with _entry("flags"):
             flags = tuple(dict(f) for f in doc.get("flags") or ())
+        with _entry("coverage"):
+            coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
+        with _entry("data_quality"):
+            quality = dict(doc.get("data_quality") or {})
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
-                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms)
+                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
+                   coverage=coverage, data_quality=quality)
 
 
 class _entry:
