@@ -29,7 +29,7 @@ from identify.core.tyre_size import parse_tyre_size
 from identify.fit.limits import LIMIT_COLUMNS
 from identify.fit.run import FitRun
 from identify.fit.sources import KINDS, KeySource
-from identify.io.tir import read_tir
+from identify.io.tir import read_tir, write_tir
 from identify.model.parameters import PARAMETERS
 from identify.simulate.default_tyre import default_tir_path, write_default_tir
 from identify.workflows.fit import FitSettings, fit_folder
@@ -208,6 +208,35 @@ def test_discover_tir_reads_with_the_simplest_reader(tmp_path):
     assert res.exit_code == 0, res.output
     naive = naive_read(tmp_path / "out" / "tyre.tir")
     assert naive["STRUCTURAL"]["PCFX3"] != 0.0
+
+
+def test_fit_tir_is_plain_ascii_whatever_the_names(tmp_path):
+    # a tyre id and an input folder with accented letters: the .tir header names them without
+    # accents, and the file stays plain ASCII (FILE_FORMAT : ASCII) with CRLF line ends
+    folder = tmp_path / "Messungen-Reifen-\u00e4"
+    folder.mkdir()
+    for f in THESIS.iterdir():
+        if f.is_file():
+            (folder / f.name).write_bytes(f.read_bytes())
+    toml = folder / "tyre.toml"
+    toml.write_text(toml.read_text(encoding="utf-8").replace(
+        'id = "thesis-225-50R17"', 'id = "Stra\u00dfenreifen-\u00e9t\u00e9"'), encoding="utf-8")
+    run = fit_folder(folder, out_root=tmp_path / "out", settings=FitSettings(only=("CFx",)))
+    naive = naive_read(run.tir_path)
+    assert naive["MODEL"]["FITTYP"] == 61.0
+    header = run.tir_path.read_bytes().decode("ascii")
+    assert "from Stra?enreifen-ete (" in header
+
+
+def test_writer_keeps_to_ascii_and_one_equals_sign(tmp_path):
+    path = write_tir(tmp_path / "w.tir", {"PKY1": -21.5}, fittyp=62,
+                     comment_lines=["inputs: M\u00fcnchen/run=1.csv", "\u03bc = 1.1 \u2713"],
+                     sources={"PKY1": "fitted K\u00e4fer = 3"})
+    naive = naive_read(path)
+    assert naive["LATERAL_COEFFICIENTS"]["PKY1"] == -21.5 and naive["MODEL"]["FITTYP"] == 62.0
+    text = path.read_bytes().decode("ascii")
+    assert "inputs: Munchen/run:1.csv" in text and "? : 1.1 ?" in text
+    assert "fitted Kafer : 3" in text
 
 
 def test_relation_with_one_form_per_mode_writes_every_mode(tmp_path):
