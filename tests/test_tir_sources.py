@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+from hypothesis import given, settings, strategies as st
 from typer.testing import CliRunner
 
 from identify.cli.app import app
@@ -29,7 +30,7 @@ from identify.core.tyre_size import parse_tyre_size
 from identify.fit.limits import LIMIT_COLUMNS
 from identify.fit.run import FitRun
 from identify.fit.sources import KINDS, KeySource
-from identify.io.tir import read_tir
+from identify.io.tir import format_tir, read_tir, write_tir
 from identify.model.parameters import PARAMETERS
 from identify.simulate.default_tyre import default_tir_path, write_default_tir
 from identify.workflows.fit import FitSettings, fit_folder
@@ -102,7 +103,7 @@ def test_thesis_limits_are_the_measured_ranges_and_dimensions_the_size(thesis):
     size = parse_tyre_size(thesis.tyre.size)
     assert thesis.tyre.size == "225/50 R17"
     assert (tir["WIDTH"], tir["ASPECT_RATIO"]) == (0.225, 0.5)
-    assert tir["RIM_RADIUS"] == pytest.approx(0.2159, abs=1e-12) == size.rim_radius_m
+    assert tir["RIM_RADIUS"] == 0.2159 == size.rim_radius_m  # written as 0.2159, not 0.21589999...
     assert thesis.key_sources["WIDTH"] == KeySource("tyre.toml", "size 225/50 R17")
     assert tir["UNLOADED_RADIUS"] == 0.3284
     assert thesis.key_sources["UNLOADED_RADIUS"].detail == "unloaded_radius_m"
@@ -208,6 +209,69 @@ def test_discover_tir_reads_with_the_simplest_reader(tmp_path):
     assert res.exit_code == 0, res.output
     naive = naive_read(tmp_path / "out" / "tyre.tir")
     assert naive["STRUCTURAL"]["PCFX3"] != 0.0
+
+
+def test_fit_tir_is_plain_ascii_whatever_the_names(tmp_path):
+    # a tyre id and an input folder with accented letters: the .tir header names them without
+    # accents, and the file stays plain ASCII (FILE_FORMAT : ASCII) with CRLF line ends
+    folder = tmp_path / "Messungen-Reifen-\u00e4"
+    folder.mkdir()
+    for f in THESIS.iterdir():
+        if f.is_file():
+            (folder / f.name).write_bytes(f.read_bytes())
+    toml = folder / "tyre.toml"
+    toml.write_text(toml.read_text(encoding="utf-8").replace(
+        'id = "thesis-225-50R17"', 'id = "Stra\u00dfenreifen-\u00e9t\u00e9"'), encoding="utf-8")
+    run = fit_folder(folder, out_root=tmp_path / "out", settings=FitSettings(only=("CFx",)))
+    naive = naive_read(run.tir_path)
+    assert naive["MODEL"]["FITTYP"] == 61.0
+    header = run.tir_path.read_bytes().decode("ascii")
+    assert "from Stra?enreifen-ete (" in header
+
+
+def test_writer_keeps_to_ascii_and_one_equals_sign(tmp_path):
+    path = write_tir(tmp_path / "w.tir", {"PKY1": -21.5}, fittyp=62,
+                     comment_lines=["inputs: M\u00fcnchen/run=1.csv", "\u03bc = 1.1 \u2713"],
+                     sources={"PKY1": "fitted K\u00e4fer = 3"})
+    naive = naive_read(path)
+    assert naive["LATERAL_COEFFICIENTS"]["PKY1"] == -21.5 and naive["MODEL"]["FITTYP"] == 62.0
+    text = path.read_bytes().decode("ascii")
+    assert "inputs: Munchen/run:1.csv" in text and "? : 1.1 ?" in text
+    assert "fitted Kafer : 3" in text
+
+
+NUMERIC = [p.name for p in PARAMETERS if not isinstance(p.default, str) and p.name != "FITTYP"]
+FREE_TEXT = st.text(st.characters(blacklist_categories=("Cs",)), max_size=40)
+
+
+@settings(max_examples=60, deadline=None)
+@given(values=st.dictionaries(st.sampled_from(NUMERIC),
+                              st.floats(allow_nan=False, allow_infinity=False), max_size=30),
+       sources=st.dictionaries(st.sampled_from(NUMERIC), FREE_TEXT, max_size=10),
+       comments=st.lists(FREE_TEXT, max_size=4),
+       unknown=st.dictionaries(st.from_regex(r"[A-Z]{2,8}\.[A-Z][A-Z0-9_]{0,10}", fullmatch=True),
+                               st.floats(allow_nan=False, allow_infinity=False), max_size=4),
+       fittyp=st.sampled_from((61, 62)))
+def test_any_written_tir_reads_with_the_simplest_reader(tmp_path_factory, values, sources,
+                                                        comments, unknown, fittyp):
+    # every .tir mfid writes (fit, discover, the default tyre) is format_tir's text: whatever
+    # the values, source texts, provenance lines (file names, ids, commands) and keys carried
+    # over from an input file, the naive reader reads every value back exactly
+    path = tmp_path_factory.mktemp("w") / "any.tir"
+    known = {f"{sec}.{key}" for p in PARAMETERS for sec, key in [(p.section, p.tir_key)]}
+    unknown = {k: v for k, v in unknown.items() if k not in known and k.split(".")[1] not in
+               {p.tir_key for p in PARAMETERS}}
+    path.write_bytes(format_tir(values, fittyp=fittyp, comment_lines=comments,
+                                unknown=unknown, sources=sources).encode("ascii"))
+    naive = naive_read(path)
+    by_name = {p.name: p for p in PARAMETERS}
+    for name, value in values.items():
+        p = by_name[name]
+        if p.tir_key in naive.get(p.section, {}):
+            assert naive[p.section][p.tir_key] == value, name
+    for dotted, value in unknown.items():
+        section, key = dotted.split(".")
+        assert naive[section][key] == value, dotted
 
 
 def test_relation_with_one_form_per_mode_writes_every_mode(tmp_path):

@@ -56,6 +56,12 @@ class TyreSize:
                 "RIM_RADIUS": self.rim_radius_m}
 
 
+def _um(length_m: float) -> float:
+    """A length from inches rounded to 0.1 um, which every whole or tenth inch is exactly:
+    RIM_RADIUS 0.2159, not the product's 0.21589999999999998 in the .tir."""
+    return round(length_m, 7)
+
+
 def parse_tyre_size(text: str) -> TyreSize | None:
     """Parse a size designation (see the module docstring); None if it is neither form or its
     numbers make no tyre (aspect ratio outside 0.1-1.5, rim not inside the tyre)."""
@@ -63,7 +69,7 @@ def parse_tyre_size(text: str) -> TyreSize | None:
     m = _METRIC.fullmatch(s)
     if m:
         width = int(m["w"]) / 1000.0
-        size = TyreSize(s, width, int(m["a"]) / 100.0, float(m["r"]) * _INCH / 2.0)
+        size = TyreSize(s, width, int(m["a"]) / 100.0, _um(float(m["r"]) * _INCH / 2.0))
     else:
         m = _FLOTATION.fullmatch(s)
         if not m:
@@ -71,7 +77,8 @@ def parse_tyre_size(text: str) -> TyreSize | None:
         diameter, width, rim = float(m["d"]), float(m["w"]), float(m["r"])
         if not diameter > rim > 0 or width <= 0:
             return None
-        size = TyreSize(s, width * _INCH, (diameter - rim) / 2.0 / width, rim * _INCH / 2.0)
+        size = TyreSize(s, _um(width * _INCH), (diameter - rim) / 2.0 / width,
+                        _um(rim * _INCH / 2.0))
     return size if 0.1 <= size.aspect_ratio <= 1.5 else None
 
 

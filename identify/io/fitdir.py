@@ -274,5 +274,5 @@ def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
     with ExitStack() as stack:
         for path, text in texts.items():
             tmp = stack.enter_context(atomic_path(path))
-            tmp.write_text(text, encoding="utf-8")
+            tmp.write_bytes(text.encode("utf-8"))  # bytes: the .tir's CRLF kept on every OS
     return run

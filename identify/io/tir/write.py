@@ -10,13 +10,16 @@ unknown keys and tabular sections carried over from an input file, and last mfid
 Written for the simplest reader: CRLF line endings as in the reference files (some readers cut
 each line at "newline minus 2"), and no ``=`` anywhere but between a key and its value (a
 line-based reader that skips ``$``/``!`` lines and splits at ``=`` reads every data line and
-nothing else). With ``sources``, each key's comment also says where its value came from
+nothing else), and plain ASCII as the header declares (``FILE_FORMAT : ASCII``): accented
+letters in file names, tyre names or carried-over strings lose their accents, other non-ASCII
+characters become ``?``. With ``sources``, each key's comment also says where its value came from
 (fitted, with its standard error; taken from an input .tir; measured range; tyre.toml; or
 default, not identified by the data). Written atomically.
 """
 from __future__ import annotations
 
 import math
+import unicodedata
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -72,6 +75,13 @@ def format_value(value: float | str) -> str:
     if number.is_integer() and abs(number) < 1e15:
         return str(int(number))
     return repr(number)
+
+
+def ascii_text(text: str) -> str:
+    """``text`` in plain ASCII: accents dropped (NFKD), other non-ASCII characters ``?``."""
+    decomposed = unicodedata.normalize("NFKD", str(text))
+    kept = "".join(c for c in decomposed if not unicodedata.combining(c))
+    return kept.encode("ascii", "replace").decode("ascii")
 
 
 def comment_text(text: str) -> str:
@@ -183,7 +193,7 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
         else:
             lines[at] = comment_text("! : COMMENT : key sources (in each comment): " + ", ".join(
                 f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1])))
-    return LINE_END.join(lines) + LINE_END
+    return ascii_text(LINE_END.join(lines) + LINE_END)
 
 
 def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: int,
@@ -232,4 +242,4 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
     """
     text = format_tir(values, fittyp=fittyp, comment_lines=comment_lines, unknown=unknown,
                       tables=tables, sources=sources)
-    return atomic_write_text(path, text)
+    return atomic_write_text(path, text, encoding="ascii")
