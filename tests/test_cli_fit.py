@@ -173,14 +173,15 @@ def _start(args, tmp_path):
                             cwd=tmp_path, preexec_fn=_default_sigint)
 
 
-def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0) -> str:
+def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0,
+                    sig: int = signal.SIGINT) -> str:
     seen = []
     deadline = time.monotonic() + timeout
     for line in proc.stdout:
         seen.append(line)
         if marker in line:
             time.sleep(delay)  # inside the stage
-            proc.send_signal(signal.SIGINT)
+            proc.send_signal(sig)
             break
         if time.monotonic() > deadline:
             break
@@ -213,6 +214,25 @@ def test_sigint_leaves_no_partial_output(tmp_path, stage):
         assert len(tirs) == 1 and read_tir(tirs[0]).params()["LONGITUDINAL_STIFFNESS"] > 0
         doc = json.loads((tirs[0].parent / "fit.json").read_text())
         assert doc["schema"] == "mfid.fit/1"
+
+
+@pytest.mark.skipif(not MFID.exists(), reason=f"{MFID} not installed (pip install -e .)")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_mid_chain_leaves_no_chain_file(tmp_path, sig):
+    """SIGINT or SIGTERM while an MCMC chain runs (a chain before it complete, its file not
+    yet renamed into place): exit 130 or 143, no chain file, no temporary file, no mcmc/
+    folder, nothing else written."""
+    proc = _start([THESIS, "--only", "CFy", "--mcmc"], tmp_path)
+    text = _interrupt_when(proc, "mcmc: CFy [quadratic_load]", 1.0, sig=sig)
+    assert proc.returncode == (130 if sig == signal.SIGINT else 143), text
+    assert ("interrupted" if sig == signal.SIGINT else "terminated") in text
+    assert "Traceback" not in text
+    assert "mcmc CFy_linear_load: " in text  # the first chain had finished (its log line)
+    fits = tmp_path / "fits"
+    assert not _leftovers(fits, tmp_path)
+    left = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
+    assert left == [], left
+    assert not (fits / "thesis-225-50R17" / "mcmc").exists()
 
 
 # ----------------------------------------------------------------- make fits

@@ -49,6 +49,10 @@ class FitSettings:
     fittyp : int           61 or 62 for the written .tir
     mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
                            and its summary says converged = false if the cap came first
+    mcmc_budget_s : float or None   time budget of every MCMC chain [s]; a chain stopped by
+                           it says converged = false (None: no budget)
+    mcmc_reparam : bool    sample the Fy0 cornering stiffness at three loads in place of
+                           PKY1, PKY2, PKY4 (identify.fit.mcmc_reparam; same posterior)
     """
 
     seed: int = 0
@@ -58,6 +62,8 @@ class FitSettings:
     only: tuple[str, ...] = ()
     fittyp: int = 61
     mcmc_max_steps: int = MAX_STEPS
+    mcmc_budget_s: float | None = None
+    mcmc_reparam: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only`` as a list)."""
