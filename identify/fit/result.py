@@ -110,7 +110,8 @@ class MCMCSummary:
                    correlations=_floats(d.get("correlations")), noise=_floats(d.get("noise")),
                    seed=int(d["seed"]), converged=bool(d["converged"]),
                    seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"),
-                   stopped=str(d.get("stopped") or ("" if d["converged"] else "max_steps")),
+                   stopped=str(d["stopped"] if "stopped" in d  # older files: the cap
+                               else "" if d["converged"] else "max_steps"),
                    reparametrised=tuple(d.get("reparametrised") or ()))
 
 
