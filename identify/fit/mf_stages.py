@@ -56,7 +56,6 @@ from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import bounds, defaults, spec
 from identify.model.state import OperatingState, prepare
-from identify.fit.mcmc import run_mcmc
 
 __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
            "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
