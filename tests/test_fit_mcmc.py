@@ -43,6 +43,25 @@ def test_mcmc_summary_is_seeded_converged_and_kept_apart(tmp_path):
         assert f["mcmc"]["chain"].shape[1:] == (m.n_walkers, 4)
 
 
+def test_budget_stops_the_chain_and_progress_follows_it():
+    """A time budget stops a chain short of 50 tau (converged False, stopped "budget"), the
+    progress callback sees it run and stop; without a budget the same chain converges."""
+    problem = _problem(0)
+    result = fit(problem)
+    calls = []
+    m = run_mcmc(problem, result, seed=5, budget=0.02, progress=calls.append).mcmc
+    assert not m.converged and m.stopped == "budget" and m.n_steps < 500
+    assert calls[-1].stop == "budget" and calls[-1].steps == m.n_steps
+    assert calls[-1].budget == 0.02 and calls[-1].elapsed >= 0.02
+    assert all(not c.stop for c in calls[:-1])
+    calls.clear()
+    m = run_mcmc(problem, result, seed=5, progress=calls.append).mcmc
+    assert m.converged and m.stopped == "" and calls[-1].stop == "converged"
+    assert calls[-1].target == min(40000, int(np.ceil(50 * calls[-1].tau)) + 1)
+    m = run_mcmc(problem, result, seed=5, max_steps=500).mcmc
+    assert not m.converged and m.stopped == "max_steps" and m.n_steps == 500
+
+
 def test_mcmc_ar1_noise_model_runs_and_estimates_phi():
     sweeps = np.repeat(np.arange(5), 3)
     problem = _problem(1, sweeps=sweeps)

@@ -214,6 +214,9 @@ def mcmc_shortfall(mc: MCMCSummary) -> str:
         else:
             text += (f" ({steps} steps, largest tau {tau:.0f}: its intervals are provisional; "
                      f"--mcmc-max-steps {need} would let it reach 50 tau)")
+    elif budget:
+        text += (f" ({steps} steps in {mc.seconds:.1f} s, too few for an autocorrelation "
+                 "time: its intervals are not usable; give it a larger --mcmc-budget)")
     return text
 
 
