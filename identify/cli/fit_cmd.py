@@ -29,7 +29,7 @@ from rich.table import Table
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import CHUNK, MAX_STEPS
+from identify.fit.mcmc import CHUNK, MAX_STEPS, ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import FitSettings, fit_folder, only_names
 from identify.fit.summary import notes_lines  # lazy: see fit_command
@@ -37,7 +37,6 @@ from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
-    from identify.fit.mcmc import ChainProgress
     from identify.fit.run import FitRun
     from identify.report.pdf import Report
 
