@@ -224,8 +224,10 @@ def _start(args, tmp_path):
                             cwd=tmp_path, preexec_fn=_default_sigint)
 
 
-def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0,
+def _interrupt_when(proc, marker: str, delay: float, timeout: float = 600.0,
                     sig: int = signal.SIGINT) -> str:
+    """Send ``sig`` ``delay`` s after ``marker`` is printed. The timeout is generous: on a
+    heavily shared machine the fit took over 120 s to reach the CFy chain."""
     seen = []
     deadline = time.monotonic() + timeout
     for line in proc.stdout:
@@ -235,7 +237,9 @@ def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0,
             proc.send_signal(sig)
             break
         if time.monotonic() > deadline:
-            break
+            proc.kill()
+            proc.communicate()
+            pytest.fail(f"{marker!r} not printed within {timeout:.0f} s: {''.join(seen)}")
     out, err = proc.communicate(timeout=timeout)
     return "".join(seen) + out + err
 
