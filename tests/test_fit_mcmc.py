@@ -203,9 +203,9 @@ def _grid_posterior(problem, centre, cov, half=6.0, n=49):
 
 
 @pytest.mark.xfail(strict=False, reason="measured 2026-11-24 after merging main: PKY1's 16 % "
-                   "quantile 0.27 posterior sd below the exact one (median, 84 % within "
-                   "0.04 sd; flat in Kya: 1.46 sd off); not yet explained (tail of the "
-                   "Newton branch, or too few samples in the tail?)")
+                   "quantile 0.27 posterior sd below the exact one (its median and 84 % "
+                   "within 0.04 sd; flat in Kya: 1.46 sd off; PKY2, PKY4 not reached); not "
+                   "yet explained (the Newton branch's tail, or too few tail samples?)")
 def test_kya_reparametrisation_samples_the_exact_fy0_posterior():
     """Fy0 with PKY1, PKY2, PKY4 free on loads of 3-9 kN (below the stiffness peak: a curved,
     skewed posterior) sampled as Kya at three loads (identify.fit.mcmc_reparam): the 16/50/84 %
