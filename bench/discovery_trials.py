@@ -20,6 +20,8 @@ Usage::
     python bench/discovery_trials.py [--trials 50] [--null 200] [--jobs 2] [--json out.json]
     python bench/discovery_trials.py --only-confounded [--heldout pressure]
     python bench/discovery_trials.py --power 20     # power against effect size instead
+    python bench/discovery_trials.py --jsonl part.jsonl   # each record as it arrives
+    python bench/discovery_trials.py --summarise part.jsonl   # summarise a run stopped early
 """
 from __future__ import annotations
 
@@ -72,7 +74,7 @@ def run_one(task: tuple) -> dict:
         problem, truth = make_confounded(rng, hidden is not None)
     else:
         problem, truth = make_problem(scenario, rng, hidden, value, rho=NOISE[noise])
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     d = discover([problem], load_library(), Settings(seed=seed, heldout=heldout))
     p = d.problems[0]
     first = d.accepted[0] if d.accepted else None
@@ -93,25 +95,34 @@ def run_one(task: tuple) -> dict:
             "floor": p.noise_floor_pct, "final_error": p.final_error_pct,
             "noise_model": p.noise.kind, "phi": p.noise.phi,
             "fit_seconds": p.fit_seconds, "score_seconds": p.score_seconds,
-            "seconds": time.perf_counter() - t0}
+            "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0}
 
 
 def tasks(n_trials: int, n_null: int, effects, seed0: int = 1000,
           confounded: bool = True, heldout: str = "auto", standard: bool = True) -> list[tuple]:
-    """Every trial; each noise model, each effect and the confounded set get their own seeds."""
-    out = []
+    """Every trial; each noise model, each effect and the confounded set get their own seeds.
+    The sets are interleaved (the first trial of every set, then the second ...), so a run
+    stopped early (``--jsonl``) holds a balanced part of every set."""
+    sets = []
     for j, noise in enumerate(NOISE if standard else ()):
         base = seed0 + 100_000 * j
         for k, e in enumerate(effects):
-            out += [(EFFECTS[e][0], e, noise, base + 1000 * k + i) for i in range(n_trials)]
-        out += [(SCENARIOS[i % len(SCENARIOS)], None, noise, base + 50_000 + i)
-                for i in range(n_null)]
+            sets.append([(EFFECTS[e][0], e, noise, base + 1000 * k + i)
+                         for i in range(n_trials)])
+        sets.append([(SCENARIOS[i % len(SCENARIOS)], None, noise, base + 50_000 + i)
+                     for i in range(n_null)])
     if confounded:
         base = seed0 + 300_000
-        out += [("RR/confounded", CONFOUNDED, "confounded", base + i, None, heldout)
-                for i in range(n_trials)]
-        out += [("RR/confounded", None, "confounded", base + 50_000 + i, None, heldout)
-                for i in range(n_null)]
+        sets.append([("RR/confounded", CONFOUNDED, "confounded", base + i, None, heldout)
+                     for i in range(n_trials)])
+        sets.append([("RR/confounded", None, "confounded", base + 50_000 + i, None, heldout)
+                     for i in range(n_null)])
+    # null sets have 4x the trials: take 4 of theirs per round so all sets end together
+    per_round = [max(1, round(len(t) / max(n_trials, 1))) for t in sets]
+    out = []
+    for r in range(max((len(t) + k - 1) // k for t, k in zip(sets, per_round))):
+        for t, k in zip(sets, per_round):
+            out += t[r * k:(r + 1) * k]
     return out
 
 
@@ -147,13 +158,31 @@ def power(n: int, jobs: int = 2) -> str:
 
 
 def run(n_trials: int = 50, n_null: int = 200, jobs: int = 2, effects=None,
-        confounded: bool = True, heldout: str = "auto", standard: bool = True) -> list[dict]:
+        confounded: bool = True, heldout: str = "auto", standard: bool = True,
+        jsonl: str | None = None) -> list[dict]:
+    """Every trial's record; with ``jsonl``, each record is also appended to that file as it
+    arrives (one JSON object a line), so a run stopped early can be summarised."""
     todo = tasks(n_trials, n_null, effects or list(EFFECTS), confounded=confounded,
                  heldout=heldout, standard=standard)
-    if jobs <= 1:
-        return [run_one(t) for t in todo]
-    with ProcessPoolExecutor(max_workers=jobs) as ex:
-        return list(ex.map(run_one, todo, chunksize=4))
+    out = []
+    sink = open(jsonl, "a", encoding="utf-8") if jsonl else None
+    try:
+        if jobs <= 1:
+            records = map(run_one, todo)
+        else:
+            ex = ProcessPoolExecutor(max_workers=jobs)
+            records = ex.map(run_one, todo, chunksize=4)
+        for rec in records:
+            out.append(rec)
+            if sink:
+                sink.write(json.dumps(rec, default=float) + "\n")
+                sink.flush()
+    finally:
+        if sink:
+            sink.close()
+        if jobs > 1:
+            ex.shutdown()
+    return out
 
 
 def summarise(records: list[dict]) -> dict:
@@ -242,14 +271,24 @@ def main(argv=None) -> int:
     ap.add_argument("--only-confounded", action="store_true",
                     help="only the confounded rolling-resistance set")
     ap.add_argument("--heldout", default="auto", help="held-out scheme of the confounded set")
+    ap.add_argument("--jsonl", default=None,
+                    help="append every record to this file as it arrives")
+    ap.add_argument("--summarise", default=None, metavar="JSONL",
+                    help="only summarise the records of a --jsonl file (a run stopped early)")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
+    if args.summarise:
+        with open(args.summarise, encoding="utf-8") as f:
+            records = [json.loads(line) for line in f if line.strip()]
+        print(table(summarise(records)))
+        print(f"{len(records)} trials (from {args.summarise})")
+        return 0
     if args.power:
         print(power(args.power, args.jobs))
         print(f"total {time.perf_counter() - t0:.0f} s")
         return 0
     records = run(args.trials, args.null, args.jobs, args.effects, heldout=args.heldout,
-                  standard=not args.only_confounded)
+                  standard=not args.only_confounded, jsonl=args.jsonl)
     s = summarise(records)
     print(table(s))
     print(f"total {time.perf_counter() - t0:.0f} s for {len(records)} trials")

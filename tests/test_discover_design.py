@@ -132,3 +132,47 @@ def test_table_floor_never_above_the_best_error(library):
         s = discover([problem], library, Settings()).problems[0]
         assert s.floor_source.startswith("richest candidate model")
         assert s.noise_floor_pct <= s.final_error_pct + 1e-12, (seed, s.noise_floor_pct)
+
+
+def test_measured_pressure_channel_groups_into_levels():
+    """A trailer session logs the pressure of every sample: the MF stage problem groups its
+    points by pressure level (the sweep means, clustered), not by the 1e4 distinct readings;
+    the model still takes each sample's reading."""
+    from identify.discover.problems import Base, apply_base, trailer_problems
+    from identify.discover.scenarios import base_tir, make_session
+    from identify.fit.relations import Context
+
+    rng = np.random.default_rng(3)
+    frame, _ = make_session(rng, 12_000, rho=0.0)
+    exact = frame["p"].to_numpy(float).copy()
+    frame["p"] = exact * (1 + 0.003 * rng.standard_normal(len(frame)))
+    tir = base_tir()
+    ctx = Context(fz0=tir["FNOMIN"], p0_bar=tir["NOMPRES"] / 1e5, tir=tir)
+    problems = [apply_base(p, Base(), load_library(), tir)
+                for p in trailer_problems(frame, tir, ctx, with_rr=False)]
+    fy = next(p for p in problems if p.extra["name"] == "MF/Fy")
+    got = np.unique(fy.pressure_bar)
+    assert got.size == 3
+    assert np.sort(got) == pytest.approx(np.sort(np.unique(exact)) / 1e5, rel=2e-3)
+
+
+def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
+    """A TTC session (warm-ups, transitions, stops between the sweeps) enters discovery with
+    its sweeps only, each sample as logged; a folder of test runs stays whole."""
+    from identify.io.folder import load_folder
+    from identify.workflows.discover import sweeps_only
+    from identify.workflows.import_session import import_session
+    from tests.discover_cases import ROOT
+    from tests.ttc_cases import session
+
+    s = session(tmp_path / "s", seed=2, cornering_only=True)
+    import_session([f for f in s.files if f.suffix == ".mat"], tmp_path / "f")
+    trailer = load_folder(tmp_path / "f").trailer
+    notes = []
+    kept = sweeps_only(trailer, notes)
+    assert 0.4 * len(trailer) < len(kept) < 0.9 * len(trailer)
+    assert notes and "warm-ups" in notes[0]
+    assert kept["Fz"].min() > 1000.0  # no stops: the log's Fz near zero is gone
+    assert np.isin(kept["t"], trailer["t"]).all()  # samples as logged, not averaged
+    sample = load_folder(ROOT / "measurements" / "sample-225-50R17").trailer
+    assert sweeps_only(sample, notes) is sample and len(notes) == 1

@@ -41,6 +41,9 @@ def test_thesis_table_tir_equals_discovery(tmp_path):
     text = (out / f"{run.tir_path.name}").read_text()
     assert re.search(r"^PCFY3 .*mfid discover CFy", text, re.M)
     assert assert_consistent(out, THESIS, "thesis-225-50R17") == 4
+    # issue 19, acceptance 5: a table's printed noise floor is never above its best error
+    for p in d.problems:
+        assert p.noise_floor_pct <= p.final_error_pct + 1e-12, (p.name, p.floor_source)
 
 
 def test_fy_effect_reaches_the_moment_stages():

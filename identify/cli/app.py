@@ -38,10 +38,13 @@ class LazyCommands(TyperGroup):
     def get_command(self, ctx: click.Context, name: str) -> click.Command | None:
         if name in COMMANDS and name not in self.commands:
             importlib.import_module(f"identify.cli.{COMMANDS[name]}")
-            info = next(c for c in app.registered_commands if c.name == name)
+            # the commands register on this module's app as imported by name (not __main__
+            # under ``python -m identify.cli.app``)
+            registry = importlib.import_module("identify.cli.app").app
+            info = next(c for c in registry.registered_commands if c.name == name)
             self.add_command(typer.main.get_command_from_info(
-                info, pretty_exceptions_short=app.pretty_exceptions_short,
-                rich_markup_mode=app.rich_markup_mode), name)
+                info, pretty_exceptions_short=registry.pretty_exceptions_short,
+                rich_markup_mode=registry.rich_markup_mode), name)
         return super().get_command(ctx, name)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import median_filter
 
+from identify.discover.design import levels
 from identify.discover.drift import session_positions
 from identify.fit.problem import FitProblem
 from identify.model import aligning, lateral, longitudinal, moments
@@ -113,6 +114,9 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     brk = np.ones(len(df), dtype=bool)
     brk[1:] = ((run[1:] != run[:-1]) | (dt > 1.5 * step) | (dt <= 0)
                | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0)))
+    if "segment_id" in df:  # sweeps found by identify.segment: never one across two
+        seg = df["segment_id"].to_numpy()
+        brk[1:] |= seg[1:] != seg[:-1]
     df["sweep"] = np.cumsum(brk) - 1
     df["session_pos"] = session_positions(len(df))
     known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}
@@ -210,8 +214,27 @@ def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
     if "session_pos" in d:
         extra["session_pos"] = d["session_pos"].to_numpy(float)
     return FitProblem("MF", name, P, model, d[stage.output].to_numpy(float),
-                      cols["p"] / 1e5, objective="wls", sweeps=d["sweep"].to_numpy(),
+                      level_pressure(cols["p"], d["sweep"].to_numpy()) / 1e5, objective="wls",
+                      sweeps=d["sweep"].to_numpy(),
                       unit="N" if stage.output.startswith("F") else "N*m", extra=extra)
+
+
+def level_pressure(p: np.ndarray, sweep: np.ndarray) -> np.ndarray:
+    """Each point's pressure level [Pa]: its sweep's mean pressure, clustered into levels
+    (:func:`identify.discover.design.levels`) and replaced by the level's mean.
+
+    The problem's ``pressure_bar`` groups the points (thesis metric per pressure, noise
+    floor, leave-one-pressure-out folds); the model itself takes every sample's measured
+    pressure. A measured pressure channel has a value per sample: grouped as it is, every
+    sample was its own "pressure" and the per-pressure metric went through ~60k groups of a
+    60k-sample problem (the base diagnosis of a TTC session ran for tens of minutes).
+    """
+    p = np.asarray(p, dtype=float)
+    sweep_mean = pd.Series(p).groupby(np.asarray(sweep)).transform("mean").to_numpy()
+    lv = levels(sweep_mean)
+    out = pd.Series(sweep_mean).groupby(lv).transform("mean").to_numpy(dtype=float, copy=True)
+    out[lv < 0] = np.nan
+    return out
 
 
 def _model(name: str, t: Mapping[str, float], s):
