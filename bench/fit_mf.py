@@ -93,14 +93,19 @@ def main() -> None:
     if args.mcmc:
         from identify.report.tables import mcmc_shortfall
 
+        cpu0 = time.process_time()
         r = stage_mcmc(trailer, mf, args.mcmc)
+        cpu = time.process_time() - cpu0
         mcmc = r.mcmc.to_dict()
         tau, name = max((t, n) for n, t in r.mcmc.tau.items())
         print(f"MCMC {args.mcmc}: {r.n_points} points, {len(r.free)} free, "
               f"{r.mcmc.n_walkers} walkers x {r.mcmc.n_steps} steps, largest tau {tau:.0f} "
-              f"({name}), acceptance {r.mcmc.acceptance:.2f}, {r.mcmc.seconds:.0f} s, "
-              f"converged {r.mcmc.converged}" + (f"; {mcmc_shortfall(mcmc)}"
-                                                  if not r.mcmc.converged else ""))
+              f"({name}), steps/tau {r.mcmc.n_steps / tau:.1f}, acceptance "
+              f"{r.mcmc.acceptance:.2f}, {r.mcmc.seconds:.0f} s wall, {cpu:.0f} s CPU, "
+              f"converged {r.mcmc.converged}"
+              + (f" (sampled {', '.join(r.mcmc.reparametrised)})"
+                 if r.mcmc.reparametrised else "")
+              + (f"; {mcmc_shortfall(r.mcmc)}" if not r.mcmc.converged else ""))
     if args.json:
         args.json.write_text(json.dumps({"folder": str(args.folder), "start": args.start,
                                          "load_seconds": t_load, "fit_seconds": t_fit,

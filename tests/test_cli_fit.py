@@ -6,7 +6,9 @@ constrained solver reports incompatible constraints), which must exit 1 with the
 """
 from __future__ import annotations
 
+import dataclasses
 import json
+import math
 import os
 import re
 import shutil
@@ -20,6 +22,7 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.cli.fit_cmd import chain_text
 from identify.fit.run import FitRun
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -90,6 +93,48 @@ def test_mcmc_stopped_at_the_cap_is_a_warning_with_the_cap_that_suffices(tmp_pat
         assert 50 * tau < cap <= 55 * tau + 1000
 
 
+def test_mcmc_stopped_by_the_budget_is_a_warning_with_a_budget_that_suffices(tmp_path):
+    """--mcmc-budget 0.02 stops every CFx chain (tau ~ 20: ~1000 steps) long before 50 tau:
+    the run succeeds, fit.json says stopped = "budget", and stderr names each chain with its
+    steps, seconds and a --mcmc-budget that would suffice."""
+    result = _fit(tmp_path, THESIS, "--only", "CFx", "--mcmc", "--mcmc-budget", "0.02",
+                  "--no-report")
+    assert result.exit_code == 0, result.output
+    doc = json.loads((tmp_path / "fits" / "thesis-225-50R17" / "fit.json").read_text())
+    assert doc["provenance"]["command"].endswith("--mcmc-budget 0.02 --only CFx --no-report")
+    assert doc["provenance"]["settings"]["mcmc_budget_s"] == 0.02
+    run = FitRun.from_dict(doc)
+    assert run.results and all(not f.mcmc.converged and f.mcmc.stopped == "budget"
+                               and f.mcmc.n_steps < 40000 for f in run.results)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == len(run.results), result.stderr
+    for fit, line in zip(run.results, lines):
+        assert line.startswith(f"warning: CFx [{fit.form}]: MCMC chain stopped by the time "
+                               "budget (--mcmc-budget) shorter than 50 autocorrelation "
+                               f"times ({fit.mcmc.n_steps} steps in "), line
+    # the chain files are in place (renamed from their temporary names), no temporary left
+    assert sorted(p.name for p in (tmp_path / "fits" / "thesis-225-50R17" / "mcmc").iterdir()) \
+        == sorted(f"CFx_{f.form}.h5" for f in run.results)
+    assert not _leftovers(tmp_path)
+
+
+def test_chain_text_says_steps_tau_and_time_left():
+    from identify.fit.mcmc import ChainProgress
+
+    running = ChainProgress(steps=1000, max_steps=40000, tau=40.0, target=2001, elapsed=10.0,
+                            budget=None)
+    assert running.eta == pytest.approx(1001 * 10.0 / 1000)
+    assert chain_text(running) == "1000/2001 steps (50 tau; cap 40000), tau 40, ~0:10 left"
+    capped = dataclasses.replace(running, budget=15.0)  # the budget leaves 5 s, not 10
+    assert capped.eta == 5.0 and chain_text(capped).endswith("~0:05 left, budget 0:15")
+    early = dataclasses.replace(running, steps=0, tau=math.nan, target=40000)
+    assert chain_text(early) == "0/40000 steps (50 tau; cap 40000), tau -, ~-:-- left"
+    done = dataclasses.replace(running, steps=2500, stop="budget", elapsed=75.0)
+    assert done.eta == 0.0
+    assert chain_text(done) == ("2500 steps, tau 40: STOPPED at the time budget, < 50 tau "
+                                "(1:15)")
+
+
 def test_single_csv_with_nominal_conditions_and_no_report(tmp_path):
     csv = tmp_path / "cfx.csv"
     lines = (THESIS / "characteristics.csv").read_text().splitlines()
@@ -114,6 +159,8 @@ def test_single_csv_with_nominal_conditions_and_no_report(tmp_path):
     (["{thesis}", "--mcmc-ar1"], "--mcmc-ar1 needs --mcmc"),
     (["{thesis}", "--mcmc-max-steps", "5000"], "--mcmc-max-steps needs --mcmc"),
     (["{thesis}", "--mcmc", "--mcmc-max-steps", "100"], "--mcmc-max-steps must be at least 500"),
+    (["{thesis}", "--mcmc-budget", "60"], "--mcmc-budget needs --mcmc"),
+    (["{thesis}", "--mcmc", "--mcmc-budget", "0"], "--mcmc-budget must be a positive number"),
     (["{tmp}/bad.csv"], "bad.csv:2: value: not a number: 'abc'"),
 ])
 def test_bad_input_exits_2_with_one_line(tmp_path, args, message):
@@ -177,17 +224,22 @@ def _start(args, tmp_path):
                             cwd=tmp_path, preexec_fn=_default_sigint)
 
 
-def _interrupt_when(proc, marker: str, delay: float, timeout: float = 120.0) -> str:
+def _interrupt_when(proc, marker: str, delay: float, timeout: float = 600.0,
+                    sig: int = signal.SIGINT) -> str:
+    """Send ``sig`` ``delay`` s after ``marker`` is printed. The timeout is generous: on a
+    heavily shared machine the fit took over 120 s to reach the CFy chain."""
     seen = []
     deadline = time.monotonic() + timeout
     for line in proc.stdout:
         seen.append(line)
         if marker in line:
             time.sleep(delay)  # inside the stage
-            proc.send_signal(signal.SIGINT)
+            proc.send_signal(sig)
             break
         if time.monotonic() > deadline:
-            break
+            proc.kill()
+            proc.communicate()
+            pytest.fail(f"{marker!r} not printed within {timeout:.0f} s: {''.join(seen)}")
     out, err = proc.communicate(timeout=timeout)
     return "".join(seen) + out + err
 
@@ -217,6 +269,25 @@ def test_sigint_leaves_no_partial_output(tmp_path, stage):
         assert len(tirs) == 1 and read_tir(tirs[0]).params()["LONGITUDINAL_STIFFNESS"] > 0
         doc = json.loads((tirs[0].parent / "fit.json").read_text())
         assert doc["schema"] == "mfid.fit/1"
+
+
+@pytest.mark.skipif(not MFID.exists(), reason=f"{MFID} not installed (pip install -e .)")
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_signal_mid_chain_leaves_no_chain_file(tmp_path, sig):
+    """SIGINT or SIGTERM while an MCMC chain runs (a chain before it complete, its file not
+    yet renamed into place): exit 130 or 143, no chain file, no temporary file, no mcmc/
+    folder, nothing else written."""
+    proc = _start([THESIS, "--only", "CFy", "--mcmc"], tmp_path)
+    text = _interrupt_when(proc, "mcmc: CFy [quadratic_load]", 1.0, sig=sig)
+    assert proc.returncode == (130 if sig == signal.SIGINT else 143), text
+    assert ("interrupted" if sig == signal.SIGINT else "terminated") in text
+    assert "Traceback" not in text
+    assert "mcmc CFy_linear_load: " in text  # the first chain had finished (its log line)
+    fits = tmp_path / "fits"
+    assert not _leftovers(fits, tmp_path)
+    left = sorted(p.relative_to(tmp_path) for p in tmp_path.rglob("*") if p.is_file())
+    assert left == [], left
+    assert not (fits / "thesis-225-50R17" / "mcmc").exists()
 
 
 # ----------------------------------------------------------------- make fits

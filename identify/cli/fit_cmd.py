@@ -3,27 +3,33 @@
 Exit codes: 0 success; 1 a fit failed (did not converge, constraint infeasible): the outputs
 are still written, complete and marked as failed (fit.json "failed", a red line on the
 report's cover) so that the reason can be inspected, and the reason is printed; 2 a usage error
-or bad input (one line on stderr); 130 interrupted (every output is written to a temporary
-name and renamed, so no partial file is left).
+or bad input (one line on stderr); 130 interrupted (SIGINT), 143 terminated (SIGTERM): every
+output, MCMC chains included, is written to a temporary name and renamed, so no partial file
+is left.
 """
 from __future__ import annotations
 
+import math
 import shlex
+import signal
 import time
 import warnings
+from contextlib import contextmanager
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 import typer
 from rich import box
 from rich.console import Console
-from rich.progress import Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from rich.progress import (BarColumn, Progress, ProgressColumn, SpinnerColumn, TextColumn,
+                           TimeElapsedColumn)
+from rich.text import Text
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import CHUNK, MAX_STEPS
+from identify.fit.mcmc import CHUNK, MAX_STEPS, ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import FitSettings, fit_folder, only_names
 from identify.fit.summary import notes_lines  # lazy: see fit_command
@@ -35,11 +41,44 @@ if TYPE_CHECKING:  # pragma: no cover
     from identify.report.pdf import Report
 
 
+def _clock(seconds: float) -> str:
+    if not math.isfinite(seconds):
+        return "-:--"
+    m, s = divmod(int(round(seconds)), 60)
+    return f"{m // 60}:{m % 60:02d}:{s:02d}" if m >= 60 else f"{m}:{s:02d}"
+
+
+def chain_text(p: ChainProgress) -> str:
+    """Steps, largest tau and estimated time left of a running chain; how it ended once
+    stopped."""
+    tau = "tau -" if not math.isfinite(p.tau) else f"tau {p.tau:.0f}"
+    if not p.stop:
+        budget = "" if p.budget is None else f", budget {_clock(p.budget)}"
+        return (f"{p.steps}/{p.target} steps (50 tau; cap {p.max_steps}), {tau}, "
+                f"~{_clock(p.eta)} left{budget}")
+    why = {"converged": "past 50 tau", "max_steps": "STOPPED at the step cap, < 50 tau",
+           "budget": "STOPPED at the time budget, < 50 tau"}[p.stop]
+    return f"{p.steps} steps, {tau}: {why} ({_clock(p.elapsed)})"
+
+
+class _ChainBar(ProgressColumn):
+    """A bar for MCMC chain tasks; nothing for the stage lines."""
+
+    def __init__(self):
+        super().__init__()
+        self.bar = BarColumn(bar_width=24)
+
+    def render(self, task) -> Text:
+        return self.bar.render(task) if task.fields.get("chain") else Text("")
+
+
 class StageProgress:
-    """The ``progress`` callback of the fit pipeline, shown with rich.
+    """The ``progress`` callbacks of the fit pipeline, shown with rich.
 
     On a terminal every stage is a line with a spinner while it runs and its elapsed time once
-    done; elsewhere (a pipe, make's log) each stage is printed as one line when it starts.
+    done, an MCMC chain a bar with its steps, autocorrelation time and estimated time left;
+    elsewhere (a pipe, make's log) each stage is printed as one line when it starts and each
+    chain one line when it stops.
     """
 
     def __init__(self, console=out_console):
@@ -53,6 +92,8 @@ class StageProgress:
         if self.live:
             self._progress = Progress(SpinnerColumn(finished_text="[green]done"),
                                       TextColumn("{task.description}", markup=False),
+                                      _ChainBar(), TextColumn("{task.fields[info]}",
+                                                              markup=False),
                                       TimeElapsedColumn(), console=self.console,
                                       transient=False)
             self._progress.start()
@@ -61,20 +102,55 @@ class StageProgress:
     def __call__(self, text: str) -> None:
         if self._progress is not None:
             self._finish()
-            self._task = self._progress.add_task(text, total=1)
+            self._task = self._progress.add_task(text, total=1, info="", chain=False)
         else:
-            self.console.print(f"[{time.perf_counter() - self.t0:6.1f} s] {text}", markup=False,
-                               highlight=False)
+            self._line(text)
+
+    def _line(self, text: str) -> None:
+        self.console.print(f"[{time.perf_counter() - self.t0:6.1f} s] {text}", markup=False,
+                           highlight=False)
+
+    def chain(self, name: str, p: ChainProgress) -> None:
+        """The ``chain_progress`` callback: the current stage line becomes the chain's bar."""
+        if self._progress is not None and self._task is not None:
+            total = p.steps if p.stop else max(p.target, 1)  # stopped: a finished task
+            self._progress.update(self._task, total=total, completed=p.steps,
+                                  info=chain_text(p), chain=True)
+        elif p.stop:
+            self._line(f"mcmc {name}: {chain_text(p)}")
 
     def _finish(self) -> None:
         if self._progress is not None and self._task is not None:
-            self._progress.update(self._task, completed=1)
+            task = next(t for t in self._progress.tasks if t.id == self._task)
+            self._progress.update(self._task, completed=task.total)
 
     def __exit__(self, exc_type, exc, tb) -> None:
         if self._progress is not None:
             if exc_type is None:
                 self._finish()
             self._progress.stop()
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that it unwinds like Ctrl-C: every temporary
+    output (chains included) is removed on the way out."""
+
+
+@contextmanager
+def _sigterm_interrupts():
+    """Turn SIGTERM into :class:`Terminated` while the block runs (main thread only)."""
+    def handler(signum, frame):
+        raise Terminated()
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave SIGTERM alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 def summary_table(run: FitRun) -> Table:
@@ -96,9 +172,9 @@ def summary_table(run: FitRun) -> Table:
 
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
-                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None, forms=(),
-                  hold=(), bin_alpha=None, bin_kappa=None, no_bin=False,
-                  no_segment=False) -> str:
+                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
+                  mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
+                  no_bin=False, no_segment=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -110,6 +186,8 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args.append("--mcmc-ar1")
     if mcmc_max_steps is not None:
         args += ["--mcmc-max-steps", str(mcmc_max_steps)]
+    if mcmc_budget is not None:
+        args += ["--mcmc-budget", f"{mcmc_budget:g}"]
     if seed:
         args += ["--seed", str(seed)]
     for o in only:
@@ -155,6 +233,11 @@ def fit_command(
         help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
              "is longer than 50 autocorrelation times; if the cap comes first its summary "
              "says converged = false."),
+    mcmc_budget: float | None = typer.Option(
+        None, "--mcmc-budget", metavar="SECONDS",
+        help="With --mcmc: time budget of each chain [s]. A chain stops at 50 "
+             "autocorrelation times, the step cap or the budget, whichever comes first; "
+             "stopped early, it says converged = false and a warning names it."),
     seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
     only: list[str] = typer.Option([], "--only", metavar="NAME",
                                    help="Fit only these relations (repeat or separate with "
@@ -202,8 +285,8 @@ def fit_command(
     # every other command (and --help) would pay
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
-                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
-                            hold, bin_alpha, bin_kappa, no_bin, no_segment)
+                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
+                            mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin, no_segment)
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -214,6 +297,11 @@ def fit_command(
         if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
             raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
                                    f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+        if mcmc_budget is not None and not mcmc:
+            raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
+        if mcmc_budget is not None and not (math.isfinite(mcmc_budget) and mcmc_budget > 0):
+            raise InputError(None, f"--mcmc-budget must be a positive number of seconds, not "
+                                   f"{mcmc_budget:g}", key="--mcmc-budget")
         if no_bin and (bin_alpha is not None or bin_kappa is not None):
             raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
                              key="--no-bin")
@@ -226,9 +314,9 @@ def fit_command(
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
                                mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               forms=only_names(form), hold=only_names(hold),
-                               segment=not no_segment, **bins)
-        with warnings.catch_warnings(), StageProgress() as progress:
+                               mcmc_budget_s=mcmc_budget, forms=only_names(form),
+                               hold=only_names(hold), segment=not no_segment, **bins)
+        with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
                 warnings.simplefilter("ignore", RuntimeWarning)
@@ -236,16 +324,18 @@ def fit_command(
             # failed, and reported before the exit code says so
             run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
                              nominal_pressure_Pa=nominal_pressure,
-                             nominal_load_N=nominal_load, command=command)
+                             nominal_load_N=nominal_load, command=command,
+                             chain_progress=progress.chain)
             report = None
             if not no_report:
                 progress("report: PDF")
                 report = write_report(run.fit_dir, reports / f"{run.fit_dir.name}.pdf",
                                       progress=progress)
-    except KeyboardInterrupt:
-        err_console.print("interrupted: no partial output was left (files are written to a "
+    except KeyboardInterrupt as exc:
+        what = "terminated" if isinstance(exc, Terminated) else "interrupted"
+        err_console.print(f"{what}: no partial output was left (files are written to a "
                           "temporary name and renamed)", markup=False)
-        raise typer.Exit(130) from None
+        raise typer.Exit(143 if isinstance(exc, Terminated) else 130) from None
     except MfidError as exc:
         fail(exc)
     _print_outputs(run, report)

@@ -5,8 +5,8 @@ on log(sigma), Gaussian likelihood of the weighted residuals r_i = w_i (model_i 
 the noise level sigma as a parameter, w_i from the problem's noise model
 (FitProblem.noise_weights: the relations' characteristics have relative noise, sigma the noise
 level as a fraction; the MF stages' channels noise relative to each sweep's RMS); optionally
-AR(1) noise along each sweep (innovations
-e_t - phi e_(t-1) ~ N(0, sigma^2), stationary start), phi in (-0.99, 0.99).
+AR(1) noise along each sweep (innovations e_t - phi e_(t-1) ~ N(0, sigma^2), stationary
+start), phi in (-0.99, 0.99).
 
 Walkers >= max(32, 2 x parameters); the chain runs in chunks until it is longer than 50
 autocorrelation times (or ``max_steps``); the first 3 tau are discarded and the chain thinned by
@@ -27,13 +27,18 @@ one).
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import emcee
+import h5py
 import numpy as np
 
 from identify.fit.engine import problem_covariance
+from identify.fit.mcmc_reparam import KyaRidge
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult, MCMCSummary
 
@@ -61,8 +66,14 @@ def _innovations(r: np.ndarray, phi: np.ndarray, starts: np.ndarray) -> tuple[np
 
 
 class _Posterior:
-    def __init__(self, problem: FitProblem, ar1: bool):
+    """Log posterior of [sampled free coordinates, log sigma, (phi)] rows; with ``reparam``
+    the sampled coordinates are mapped to the free vector and the log-Jacobian is added, so
+    that the prior stays flat in the free coefficients, and each row comes back as [log
+    posterior, the mapped coefficients, log-Jacobian] (emcee keeps the last ones as blobs)."""
+
+    def __init__(self, problem: FitProblem, ar1: bool, reparam: KyaRidge | None = None):
         self.problem = problem
+        self.reparam = reparam
         self.free = problem.free
         self.lo, self.hi = problem.bounds()
         self.w = problem.noise_weights()
@@ -92,14 +103,19 @@ class _Posterior:
         theta = np.atleast_2d(theta)
         k = len(self.free)
         x = theta[:, :k]
+        log_jac = 0.0
+        if self.reparam is not None:
+            x, log_jac = self.reparam.inverse(x)
+            theta = np.column_stack([x, theta[:, k:]])
         log_sigma = theta[:, k]
         out = np.full(theta.shape[0], -np.inf)
-        ok = np.all((x >= self.lo) & (x <= self.hi), axis=1) & (np.abs(log_sigma) < 50)
+        with np.errstate(invalid="ignore"):  # NaN rows (no inverse) fail the bounds
+            ok = np.all((x >= self.lo) & (x <= self.hi), axis=1) & (np.abs(log_sigma) < 50)
         if self.ar1:
             phi = theta[:, k + 1]
             ok &= np.abs(phi) < 0.99
         if not ok.any():
-            return out
+            return self._out(out, x, log_jac)
         pred = self._predict(theta[ok])
         r = (pred - self.meas) * self.w
         sigma = np.exp(log_sigma[ok])[:, None]
@@ -110,13 +126,151 @@ class _Posterior:
             extra = 0.0
         n = self.meas.size
         ll = -0.5 * np.sum((r / sigma) ** 2, axis=1) - n * np.log(sigma[:, 0]) + extra
+        if self.reparam is not None:
+            ll = ll + log_jac[ok]
         out[ok] = np.where(np.isfinite(ll), ll, -np.inf)
-        return out
+        return self._out(out, x, log_jac)
+
+    def _out(self, lp: np.ndarray, x: np.ndarray, log_jac) -> np.ndarray:
+        if self.reparam is None:
+            return lp
+        return np.column_stack([lp, x[:, list(self.reparam.index)], log_jac])
+
+
+
+@dataclass(frozen=True)
+class ChainProgress:
+    """Where a chain stands, for a progress bar (``run_mcmc(progress=...)``).
+
+    Attributes
+    ----------
+    steps : int              steps done
+    max_steps : int          the step cap
+    tau : float              largest autocorrelation time so far [steps]; NaN before the
+                             first estimate (after CHUNK steps)
+    target : int             steps the chain is expected to run: 50 tau (the cap while tau is
+                             unknown), at most the cap
+    elapsed : float          [s] since the chain started
+    budget : float or None   the time budget [s]
+    stop : str               "" while running; then "converged", "max_steps" or "budget"
+    """
+
+    steps: int
+    max_steps: int
+    tau: float
+    target: int
+    elapsed: float
+    budget: float | None
+    stop: str = ""
+
+    @property
+    def eta(self) -> float:
+        """Estimated seconds left (NaN before the first step), at most the budget left."""
+        if self.stop:
+            return 0.0
+        if self.steps == 0:
+            return math.nan
+        left = (max(self.target - self.steps, 0)) * self.elapsed / self.steps
+        if self.budget is not None:
+            left = min(left, max(self.budget - self.elapsed, 0.0))
+        return left
+
+
+STOPS = ("converged", "max_steps", "budget")
+"""Why a chain stopped: longer than 50 tau, the step cap, the time budget."""
+PROGRESS_EVERY = 1.0
+"""Seconds between progress calls while a chain runs."""
+
+
+def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int,
+           rng: np.random.Generator) -> np.ndarray:
+    """Walkers in a small ball (0.1 standard error) around the optimum, inside the bounds."""
+    free = problem.free
+    k = len(free)
+    xb = np.array([result.parameters[n] for n in free])
+    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
+    r = r[np.isfinite(r)]
+    sigma0 = max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
+    sd = (np.sqrt(np.clip(np.diag(problem_covariance(problem, xb)), 0, None)) if k
+          else np.zeros(0))
+    lo, hi = problem.bounds()
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
+    scale = np.where(sd > 0, sd, 1e-4 * span)
+    p0 = np.empty((nw, ndim))
+    p0[:, :k] = xb + 0.1 * scale * rng.standard_normal((nw, k))
+    p0[:, :k] = np.clip(p0[:, :k], lo + 1e-9 * span, hi - 1e-9 * span)
+    p0[:, k] = np.log(sigma0) + 0.01 * rng.standard_normal(nw)
+    if ar1:
+        p0[:, k + 1] = 0.5 + 0.01 * rng.standard_normal(nw)
+    return p0
+
+
+def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
+         tau_fn: Callable[[], np.ndarray]):
+    """Run in CHUNKs until 50 tau, the cap or the budget (checked every step); return the
+    last state, steps, the autocorrelation times ``tau_fn()`` and why it stopped."""
+    steps, tau, stop = 0, np.full(1, np.inf), ""
+    last = -math.inf
+
+    def report(stop_now=""):
+        tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
+        target = max_steps if not math.isfinite(tmax) else min(
+            max_steps, int(math.ceil(TAU_FACTOR * tmax)) + 1)
+        progress(ChainProgress(steps, max_steps, tmax, target, time.perf_counter() - t0,
+                               budget, stop_now))
+
+    while not stop:
+        for new in sampler.sample(state, iterations=min(CHUNK, max_steps - steps)):
+            state = new
+            steps += 1
+            now = time.perf_counter()
+            if budget is not None and now - t0 >= budget:
+                stop = "budget"
+                break
+            if progress is not None and now - last >= PROGRESS_EVERY:
+                last = now
+                report()
+        tau = tau_fn() if steps >= 2 else tau
+        if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
+            stop = "converged"
+        elif steps >= max_steps and not stop:
+            stop = "max_steps"
+    if progress is not None:
+        report(stop)
+    return state, steps, tau, stop
+
+
+def _map_chain_file(path, reparam: KyaRidge) -> None:
+    """Rewrite a saved chain from the sampled coordinates to the free coefficients (kept as
+    blobs) and its log-probabilities to the posterior density in them, so that the chain file
+    is in the names the report labels it with."""
+    idx = list(reparam.index)
+    with h5py.File(path, "r+") as f:
+        g = f["mcmc"]
+        n = int(g.attrs["iteration"])
+        for a in range(0, n, 1000):
+            b = min(n, a + 1000)
+            blobs = g["blobs"][a:b]
+            chain = g["chain"][a:b]
+            chain[..., idx] = blobs[..., :3]
+            g["chain"][a:b] = chain
+            g["log_prob"][a:b] = g["log_prob"][a:b] - blobs[..., 3]
+
+
+def _chain(sampler, reparam: KyaRidge | None, discard: int = 0, thin: int = 1) -> np.ndarray:
+    """The flat chain in the free coefficients (mapped back from the sampled coordinates)."""
+    c = sampler.get_chain(discard=discard, thin=thin)
+    if reparam is not None:
+        c = c.copy()
+        c[..., list(reparam.index)] = sampler.get_blobs(discard=discard, thin=thin)[..., :3]
+    return c.reshape(-1, c.shape[-1])
 
 
 def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool = False,
              n_walkers: int | None = None, max_steps: int = MAX_STEPS,
-             chain_file: str | Path | None = None, moves: str = "de") -> FitResult:
+             budget: float | None = None, chain_file: str | Path | None = None,
+             moves: str = "de", reparam: KyaRidge | None = None,
+             progress: Callable[[ChainProgress], None] | None = None) -> FitResult:
     """Sample the posterior around a least-squares result; return the result with ``mcmc`` set.
 
     Parameters
@@ -127,57 +281,65 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         Seeds the walkers' start and emcee's generator.
     ar1 : bool
         AR(1) noise along ``problem.sweeps``.
+    max_steps : int
+        Cap on the chain [steps].
+    budget : float, optional
+        Time budget of the chain [s]. The chain stops at 50 tau, ``max_steps`` or the budget,
+        whichever comes first; stopped early, the summary says ``converged = False`` and
+        ``stopped`` why.
     chain_file : path, optional
-        Save the chain to this HDF5 file (emcee HDFBackend, group ``mcmc``).
+        Save the chain to this HDF5 file (emcee HDFBackend, group ``mcmc``), in the free
+        coefficients (also with ``reparam``).
     moves : str
         ``"de"`` (differential evolution, the default) or ``"stretch"``.
+    reparam : KyaRidge, optional
+        Sample these coordinates instead of some free coefficients (identify.fit.
+        mcmc_reparam); the prior stays flat in the coefficients.
+    progress : callable, optional
+        Called with a :class:`ChainProgress` about once a second and when the chain stops.
     """
     t0 = time.perf_counter()
     move_list = _moves(moves)
     free = problem.free
     k = len(free)
-    xb = np.array([result.parameters[n] for n in free])
-    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
-    r = r[np.isfinite(r)]
-    sigma0 = max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
     ndim = k + 1 + int(ar1)
     nw = max(32, 2 * ndim, n_walkers or 0)
     nw += nw % 2
     rng = np.random.default_rng(seed)
-    sd = (np.sqrt(np.clip(np.diag(problem_covariance(problem, xb)), 0, None)) if k
-          else np.zeros(0))
-    lo, hi = problem.bounds()
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
-    scale = np.where(sd > 0, sd, 1e-4 * span)
-    p0 = np.empty((nw, ndim))
-    p0[:, :k] = xb + 0.1 * scale * rng.standard_normal((nw, k))
-    # keep the start inside the prior box (reflect off bounds)
-    p0[:, :k] = np.clip(p0[:, :k], lo + 1e-9 * span, hi - 1e-9 * span)
-    p0[:, k] = np.log(sigma0) + 0.01 * rng.standard_normal(nw)
-    if ar1:
-        p0[:, k + 1] = 0.5 + 0.01 * rng.standard_normal(nw)
+    p0 = _start(problem, result, ar1, nw, ndim, rng)
+    if reparam is not None:
+        p0[:, :k] = reparam.forward(p0[:, :k])
     backend = None
     if chain_file is not None:
         backend = emcee.backends.HDFBackend(str(chain_file), name="mcmc")
         backend.reset(nw, ndim)
-    posterior = _Posterior(problem, ar1)
+    posterior = _Posterior(problem, ar1, reparam)
     sampler = emcee.EnsembleSampler(nw, ndim, posterior, vectorize=True, backend=backend,
                                     moves=move_list)
     sampler.random_state = np.random.RandomState(seed).get_state()
-    state = p0
-    steps = 0
-    tau = np.full(ndim, np.inf)
-    while steps < max_steps:
-        state = sampler.run_mcmc(state, CHUNK, progress=False)
-        steps += CHUNK
-        tau = sampler.get_autocorr_time(tol=0)
-        if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
-            break
-    tau_max = float(np.max(tau)) if np.all(np.isfinite(tau)) else float(steps) / TAU_FACTOR
-    discard = int(np.ceil(3 * tau_max))
-    thin = max(1, int(tau_max / 2))
-    flat = sampler.get_chain(discard=discard, thin=thin, flat=True)
     names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
+    if reparam is not None:  # the sampled coordinates and the coefficients mapped back
+        names += list(reparam.labels)
+        idx = list(reparam.index)
+
+        def tau_fn():
+            tz = sampler.get_autocorr_time(tol=0)
+            tx = emcee.autocorr.integrated_time(sampler.get_blobs()[..., :3], tol=0)
+            tx_all = tz.copy()
+            tx_all[idx] = tx
+            return np.concatenate([tx_all, tz[idx]])
+    else:
+        def tau_fn():
+            return sampler.get_autocorr_time(tol=0)
+    _, steps, tau, stop = _run(sampler, p0, max_steps, budget, progress, t0, tau_fn)
+    finite = bool(np.all(np.isfinite(tau)))
+    tau_max = float(np.max(tau)) if finite else float(steps) / TAU_FACTOR
+    discard = min(int(np.ceil(3 * tau_max)), steps // 2)
+    thin = max(1, int(tau_max / 2))
+    tau_of = dict(zip(names, np.broadcast_to(tau, len(names))))
+    if reparam is not None and chain_file is not None:
+        _map_chain_file(chain_file, reparam)
+    flat = _chain(sampler, reparam, discard=discard, thin=thin)
     q = np.quantile(flat, [0.025, 0.16, 0.5, 0.84, 0.975], axis=0)
     corr_m = np.corrcoef(flat[:, :k], rowvar=False) if k > 1 else np.ones((k, k))
     corr = {f"{free[i]}|{free[j]}": float(corr_m[i, j]) for i in range(k) for j in range(i + 1, k)}
@@ -191,11 +353,11 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         q84={n: float(q[3, i]) for i, n in enumerate(free)},
         q025={n: float(q[0, i]) for i, n in enumerate(free)},
         q975={n: float(q[4, i]) for i, n in enumerate(free)},
-        tau={n: float(t) for n, t in zip(names, tau)},
+        tau={n: float(t) for n, t in tau_of.items()},
         acceptance=float(np.mean(sampler.acceptance_fraction)), n_walkers=nw, n_steps=steps,
         n_discard=discard, n_thin=thin, n_samples=n_eff, correlations=corr, noise=noise,
-        seed=seed, converged=bool(np.all(np.isfinite(tau)) and steps > TAU_FACTOR * tau_max),
-        seconds=time.perf_counter() - t0,
+        seed=seed, converged=stop == "converged", seconds=time.perf_counter() - t0,
         chain_file=None if chain_file is None else str(chain_file),
-        samples=flat[:, :k])
+        samples=flat[:, :k], stopped="" if stop == "converged" else stop,
+        reparametrised=() if reparam is None else tuple(reparam.labels))
     return dataclasses.replace(result, mcmc=summary)

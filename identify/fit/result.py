@@ -47,6 +47,10 @@ class MCMCSummary:
     seed : int
     converged : bool                chain longer than 50 tau for every parameter
     chain_file : str or None
+    stopped : str                   why an unconverged chain stopped: "max_steps" (the step
+                                    cap) or "budget" (the time budget); "" when converged
+    reparametrised : tuple of str   coordinates sampled in place of some coefficients (e.g.
+                                    Kya@3000N for PKY1, PKY2, PKY4; identify.fit.mcmc_reparam)
     """
 
     median: Mapping[str, float]
@@ -67,6 +71,8 @@ class MCMCSummary:
     converged: bool
     seconds: float
     chain_file: str | None = None
+    stopped: str = ""
+    reparametrised: tuple[str, ...] = ()
     samples: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     def interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
@@ -85,7 +91,8 @@ class MCMCSummary:
         """JSON-safe dict: one fit's ``mcmc`` entry in fit.json."""
         d = {k: getattr(self, k) for k in ("acceptance", "n_walkers", "n_steps", "n_discard",
                                            "n_thin", "n_samples", "seed", "converged",
-                                           "seconds", "chain_file")}
+                                           "seconds", "chain_file", "stopped")}
+        d["reparametrised"] = list(self.reparametrised)
         for k in ("median", "q16", "q84", "q025", "q975", "tau", "correlations", "noise"):
             d[k] = {n: _num(v) for n, v in getattr(self, k).items()}
         d["effective_samples"] = _num(self.n_samples)
@@ -102,7 +109,10 @@ class MCMCSummary:
                    n_thin=int(d["n_thin"]), n_samples=int(d["n_samples"]),
                    correlations=_floats(d.get("correlations")), noise=_floats(d.get("noise")),
                    seed=int(d["seed"]), converged=bool(d["converged"]),
-                   seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"))
+                   seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"),
+                   stopped=str(d["stopped"] if "stopped" in d  # older files: the cap
+                               else "" if d["converged"] else "max_steps"),
+                   reparametrised=tuple(d.get("reparametrised") or ()))
 
 
 @dataclass(frozen=True)

@@ -58,6 +58,10 @@ class FitSettings:
     fittyp : int           61 or 62 for the written .tir
     mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
                            and its summary says converged = false if the cap came first
+    mcmc_budget_s : float or None   time budget of every MCMC chain [s]; a chain stopped by
+                           it says converged = false (None: no budget)
+    mcmc_reparam : bool    sample the Fy0 cornering stiffness at three loads in place of
+                           PKY1, PKY2, PKY4 (identify.fit.mcmc_reparam; same posterior)
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
     hold : tuple of str    coefficients held at their default in every relation fit
                            (``--hold``)
@@ -76,6 +80,8 @@ class FitSettings:
     only: tuple[str, ...] = ()
     fittyp: int = 61
     mcmc_max_steps: int = MAX_STEPS
+    mcmc_budget_s: float | None = None
+    mcmc_reparam: bool = True
     forms: tuple[str, ...] = ()
     hold: tuple[str, ...] = ()
     bin_alpha_deg: float | None = BIN_ALPHA_DEG

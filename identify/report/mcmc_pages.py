@@ -18,6 +18,14 @@ def _read_chain(path):
     return backend.get_chain()  # (steps, walkers, ndim)
 
 
+def _status(mc) -> str:
+    if mc.converged:
+        return "chain > 50 tau"
+    if mc.stopped == "budget":
+        return "STOPPED BY THE TIME BUDGET, CHAIN SHORTER THAN 50 TAU"
+    return "CHAIN SHORTER THAN 50 TAU"
+
+
 def mcmc_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
     """Corner plot, walker traces and the tau/acceptance table of one fit with MCMC."""
     mc = fit.mcmc
@@ -31,8 +39,10 @@ def mcmc_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
     sub = (f"acceptance {T.fmt(mc.acceptance, 3)}, {mc.n_walkers} walkers x "
            f"{mc.n_steps} steps, discard {mc.n_discard}, thin {mc.n_thin}"
            f", ~{mc.n_samples} effective samples, "
-           f"{'chain > 50 tau' if mc.converged else 'CHAIN SHORTER THAN 50 TAU'}, "
+           f"{_status(mc)}, "
            f"seed {mc.seed}")
+    if mc.reparametrised:
+        sub += f"; sampled as {', '.join(mc.reparametrised)}"
     pages: list[Page] = []
     note = ""
     chain_path = fd.chain_file(fit)

@@ -190,24 +190,38 @@ def fit_diagnostics(run: FitRun) -> list[str]:
 
 
 def mcmc_shortfall(mc: MCMCSummary) -> str:
-    """Why an MCMC summary is not converged, with the cap that would let it converge; empty
-    when the chain is longer than 50 autocorrelation times."""
+    """Why an MCMC summary is not converged (the step cap or the time budget stopped it), with
+    what would let it converge; empty when the chain is longer than 50 autocorrelation
+    times."""
     if mc.converged:
         return ""
     steps = mc.n_steps
     taus = [t for t in mc.tau.values() if math.isfinite(t)]
-    text = "MCMC chain shorter than 50 autocorrelation times"
+    budget = mc.stopped == "budget"
+    text = ("MCMC chain stopped by the time budget (--mcmc-budget) shorter than 50 "
+            "autocorrelation times" if budget
+            else "MCMC chain shorter than 50 autocorrelation times")
     if steps and taus:
         tau = max(taus)
         # the next 1000-step multiple above 50 tau, with 10 % margin for tau still growing
         need = int(math.ceil(55.0 * tau / 1000.0) * 1000)
-        text += (f" ({steps} steps, largest tau {tau:.0f}: its intervals are provisional; "
-                 f"--mcmc-max-steps {need} would let it reach 50 tau)")
+        if budget and mc.seconds > 0:
+            secs = int(math.ceil(need * mc.seconds / steps / 60.0) * 60)
+            text += (f" ({steps} steps in {mc.seconds:.0f} s, largest tau {tau:.0f}: its "
+                     f"intervals are provisional; about {need} steps, --mcmc-budget {secs} "
+                     f"(and --mcmc-max-steps {need} if the cap is lower), would let it reach "
+                     "50 tau)")
+        else:
+            text += (f" ({steps} steps, largest tau {tau:.0f}: its intervals are provisional; "
+                     f"--mcmc-max-steps {need} would let it reach 50 tau)")
+    elif budget:
+        text += (f" ({steps} steps in {mc.seconds:.1f} s, too few for an autocorrelation "
+                 "time: its intervals are not usable; give it a larger --mcmc-budget)")
     return text
 
 
 def mcmc_warnings(run: FitRun) -> list[str]:
-    """The fit_diagnostics lines about MCMC chains that stopped at the cap."""
+    """The fit_diagnostics lines about MCMC chains that stopped at the cap or the budget."""
     return [f"{label(fit)}: {short}" for fit in run.results
             if fit.mcmc is not None and (short := mcmc_shortfall(fit.mcmc))]
 

@@ -11,6 +11,8 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Sequence
+from contextlib import ExitStack
+from functools import partial
 from pathlib import Path
 
 import numpy as np
@@ -18,9 +20,9 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.extract import extract_folder
-from identify.fit.mcmc import run_mcmc
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
+from identify.fit.mcmc import ChainProgress, run_mcmc
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.plan import PLAN, RELATION_NAMES
@@ -28,6 +30,7 @@ from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
 from identify.fit.sources import DEFAULT, FITTED, KeySource
+from identify.io.atomic import atomic_path
 from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
 from identify.model.parameters import defaults
@@ -40,6 +43,8 @@ from identify.workflows.trailer_prep import prepare_trailer
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
 Progress = Callable[[str], None]
+ChainProgressFn = Callable[[str, ChainProgress], None]
+"""Called with a chain's name (``MF_Fy0``, ``CFy_relaxation``) and where it stands."""
 
 GEOMETRY_INPUTS = ("VERTICAL_STIFFNESS", "PFZ1")
 """.tir keys the MF geometry stage holds: a plan entry writing them is fitted before the MF
@@ -49,6 +54,63 @@ stages."""
 def _say(progress: Progress | None, text: str) -> None:
     if progress is not None:
         progress(text)
+
+
+class _Chains:
+    """MCMC runs of one fit_folder call and their chain files.
+
+    Each chain is written to a temporary name next to fits/<id>/mcmc/<name>.h5 and renamed
+    only when the whole fit has been written (``with`` block left without an exception); an
+    exception (KeyboardInterrupt, the CLI's SIGTERM included) removes every temporary chain,
+    and the mcmc/ folder if this run created it, so an interrupted run leaves no chain file.
+    """
+
+    def __init__(self, settings: FitSettings, out_root, progress: ChainProgressFn | None):
+        self.settings = settings
+        self.folder = Path(out_root) / "mcmc"  # fits/<id>/mcmc once the id is known
+        self.progress = progress
+        self.stack = ExitStack()
+        self.made: list[Path] = []
+
+    def __enter__(self) -> _Chains:
+        self.stack.__enter__()
+        return self
+
+    def __exit__(self, *exc) -> bool:
+        try:
+            return self.stack.__exit__(*exc)
+        finally:
+            if exc[0] is not None:
+                for d in reversed(self.made):  # only folders this run created, if empty
+                    try:
+                        d.rmdir()
+                    except OSError:
+                        pass
+
+    def _tmp(self, name: str) -> tuple[Path, Path] | tuple[None, None]:
+        if not self.settings.save_chains:
+            return None, None
+        for d in (self.folder.parent.parent, self.folder.parent, self.folder):
+            if not d.exists():
+                d.mkdir()
+                self.made.append(d)
+        final = self.folder / f"{name}.h5"
+        tmp = self.stack.enter_context(atomic_path(final))
+        tmp.unlink()  # emcee's HDF backend creates the file
+        return final, tmp
+
+    def run(self, name: str, sample: Callable[..., FitResult]) -> FitResult:
+        """``sample(chain_file=..., progress=..., max_steps=..., budget=..., seed=...,
+        ar1=...)`` with this run's settings; the summary names the final chain file."""
+        final, tmp = self._tmp(name)
+        s = self.settings
+        progress = None if self.progress is None else partial(self.progress, name)
+        result = sample(chain_file=tmp, progress=progress, max_steps=s.mcmc_max_steps,
+                        budget=s.mcmc_budget_s, seed=s.seed, ar1=s.mcmc_ar1)
+        if final is not None:
+            result = dataclasses.replace(result, mcmc=dataclasses.replace(
+                result.mcmc, chain_file=str(final)))
+        return result
 
 
 def _mf_trailer(td, fnomin: float, settings: FitSettings,
@@ -62,15 +124,6 @@ def _mf_trailer(td, fnomin: float, settings: FitSettings,
     for note in notes:
         _say(progress, note)
     return pd.concat([td.table[done], table], ignore_index=True) if done.any() else table
-
-
-def _chain_file(settings: FitSettings, out_root, tyre_id: str, name: str) -> Path | None:
-    """fits/<id>/mcmc/<name>.h5 when chains are to be kept, else None."""
-    if not settings.save_chains:
-        return None
-    path = Path(out_root) / tyre_id / "mcmc" / f"{name}.h5"
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return path
 
 
 def _base_tir(mset, fittyp: int) -> dict:
@@ -135,8 +188,12 @@ def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
-               command: str = "") -> FitRun:
+               command: str = "", chain_progress: ChainProgressFn | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
+
+    ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
+    and a :class:`identify.fit.mcmc.ChainProgress` about once a second while it runs and when
+    it stops.
 
     Returns
     -------
@@ -151,6 +208,13 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         The folder or file is malformed, or an output cannot be written (exit 2 from the
         CLI).
     """
+    with _Chains(settings, out_root, chain_progress) as chains:
+        return _fit_folder(source, out_root, settings, progress, nominal_pressure_Pa,
+                           nominal_load_N, command, chains)
+
+
+def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | None,
+                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -161,6 +225,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
                        nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
+    chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
     key_sources: dict[str, KeySource] = TA.apply_tyre(tir, tyre)
@@ -212,10 +277,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
             for r in mf.results:
                 if settings.mcmc:
                     _say(progress, f"mcmc: MF [{r.form}]")
-                    chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
-                    r = stage_mcmc(trailer, mf, r.form, seed=settings.seed,
-                                   ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
-                                   chain_file=chain)
+                    r = chains.run(f"MF_{r.form}", partial(stage_mcmc, trailer, mf, r.form,
+                                                           reparam=settings.mcmc_reparam))
                 results.append(assess(r))
             key_sources.update(TA.mf_sources(mf.results, mf.held))
             tir.update(mf.params)
@@ -241,9 +304,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
             problem, result = ef.problem, ef.result
             if settings.mcmc:
                 _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
-                chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
-                result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
-                                  max_steps=settings.mcmc_max_steps, chain_file=chain)
+                result = chains.run(f"{entry.relation}_{entry.form}",
+                                    partial(run_mcmc, problem, result))
                 ef = dataclasses.replace(ef, result=result)
             fitted[entry.form] = ef
             results.append(result)

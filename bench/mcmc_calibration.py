@@ -1,0 +1,54 @@
+"""Calibration of the reparametrised Fy0 MCMC stage (issue 17, acceptance 5).
+
+Fy0 on trailer sessions like the bundled sample's (3 pressures x 3, 5, 7 kN, below the
+cornering-stiffness peak, where PKY1, PKY2, PKY4 lie on a curved ridge): each of ``--trials``
+seeded data sets (1 % noise, the simulator's definition) is fitted as ``mfid fit`` does
+(fit_mf, the other stages at the truth) and sampled by stage_mcmc with the Kya
+reparametrisation (identify.fit.mcmc_reparam); prints every trial's steps, largest tau and
+seconds, then the share of 90 % credible intervals that hold the true coefficient (the bar:
+>= 85 % of 40 trials) and how many chains passed 50 tau. The same count is the trials test
+``tests/test_fit_calibration_mf.py::test_reparametrised_fy0_covers_the_truth_on_the_sample_loads``.
+
+    python bench/mcmc_calibration.py [--trials 40] [--loads 3000 5000 7000] [--no-reparam]
+                                     [--json out.json]
+
+``--no-reparam`` samples PKY1, PKY2, PKY4 directly (tau ~ 1700 steps on these loads: hours).
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import sys  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
+
+from tests.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
+from tests.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--trials", type=int, default=N_TRIALS)
+    ap.add_argument("--loads", type=float, nargs="+", default=list(LOADS_N), metavar="N")
+    ap.add_argument("--no-reparam", action="store_true")
+    ap.add_argument("--json", type=Path)
+    args = ap.parse_args()
+    s = calibrate_stage("Fy0", n_trials=args.trials, points=design(loads=tuple(args.loads)),
+                        verbose=True, reparam=not args.no_reparam)
+    ok = s["rate"] >= MIN_RATE and s["converged"] == s["trials"]
+    print(f"Fy0 {'reparametrised' if not args.no_reparam else 'direct'}, loads "
+          f"{', '.join(f'{f:g}' for f in args.loads)} N: coverage {s['rate']:.1%} "
+          f"({s['hits']}/{s['total']}, bar {MIN_RATE:.0%}), {s['converged']}/{s['trials']} "
+          f"chains past 50 tau: {'PASS' if ok else 'FAIL'}")
+    if args.json:
+        args.json.write_text(json.dumps(s, indent=1))
+
+
+if __name__ == "__main__":
+    main()
