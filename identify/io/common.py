@@ -12,6 +12,8 @@ from __future__ import annotations
 import csv
 import gzip
 import hashlib
+import os
+import stat
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +26,7 @@ from identify.core.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text"]
+           "open_text", "file_problem"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -95,6 +97,31 @@ class Problems:
             if count > self.limit:
                 out.append(Problem(file, f"{count - self.limit} more {kind} problems not listed"))
         return out
+
+
+def file_problem(path: str | Path, what: str = "file") -> str | None:
+    """Why ``path`` cannot be read as a data file (None when it is a regular file).
+
+    Only regular files are opened: a FIFO would block a reader forever, a device
+    (``/dev/null``, ``/dev/zero``) is empty or endless. Symbolic links are followed; a link
+    loop or a dangling link is named as such.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return ("dangling symbolic link" if os.path.islink(path) else "no such file or "
+                "directory")
+    except (OSError, ValueError) as exc:  # ELOOP, ENAMETOOLONG, EACCES, an embedded NUL
+        return f"cannot read {what}: {getattr(exc, 'strerror', None) or exc}"
+    if stat.S_ISDIR(mode):
+        return f"is a directory, expected a {what}"
+    if stat.S_ISFIFO(mode):
+        return f"is a named pipe (FIFO), expected a regular {what}"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return f"is a device, expected a regular {what}"
+    if not stat.S_ISREG(mode):
+        return f"is not a regular {what}"
+    return None
 
 
 def split_header_name(text: str) -> tuple[str, str | None]:

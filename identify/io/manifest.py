@@ -16,6 +16,7 @@ from typing import Any, Mapping
 
 from identify.io.axes import AXES
 from identify.io.common import Problems
+from identify.core.names import name_problem
 from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
 
@@ -33,7 +34,7 @@ TESTS: dict[str, tuple[str, ...]] = {
 }
 _NUM, _INT, _STR = "number", "integer", "string"
 # key -> (type, required, check); check: "pos" (> 0), "nonneg" (>= 0) or None
-_TYRE = {"id": (_STR, True, None), "nominal_pressure_Pa": (_NUM, True, "pos"),
+_TYRE = {"id": (_STR, True, "name"), "nominal_pressure_Pa": (_NUM, True, "pos"),
          "nominal_load_N": (_NUM, True, "pos"), "unloaded_radius_m": (_NUM, True, "pos"),
          "source": (_STR, False, None), "size": (_STR, False, None),
          "description": (_STR, False, None)}
@@ -149,10 +150,19 @@ def _table(problems: Problems, file: str, where: str, data: Any, spec: dict) -> 
                          key=prefix + key)
             continue
         if kind == _NUM:
-            value = float(value)
+            try:
+                value = float(value)
+            except OverflowError:
+                problems.add(file, f"number too large ({len(str(value))} digits)",
+                             key=prefix + key)
+                continue
             if value != value or value in (float("inf"), float("-inf")):
                 problems.add(file, f"{value} is not allowed", key=prefix + key)
                 continue
+        if check == "name" and name_problem(value):
+            problems.add(file, f"{name_problem(value)}: the tyre id names the fit directory, "
+                               "the .tir and the report", key=prefix + key)
+            continue
         if (check == "pos" and value <= 0) or (check == "nonneg" and value < 0):
             problems.add(file, f"must be {'positive' if check == 'pos' else '>= 0'}, got {value}",
                          key=prefix + key)

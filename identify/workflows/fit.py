@@ -17,6 +17,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.names import name_problem
 from identify.extract import extract_folder
 from identify.fit.mcmc import run_mcmc
 from identify.fit.identifiability import assess
@@ -132,6 +133,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
                        nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
+    if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
+        raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
     key_sources: dict[str, KeySource] = TA.apply_tyre(tir, tyre)
