@@ -26,7 +26,7 @@ from identify.core.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text", "file_problem"]
+           "open_text", "file_problem", "decode_problem"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -122,6 +122,14 @@ def file_problem(path: str | Path, what: str = "file") -> str | None:
     if not stat.S_ISREG(mode):
         return f"is not a regular {what}"
     return None
+
+
+def decode_problem(data: bytes, exc: UnicodeDecodeError) -> tuple[int, str]:
+    """The 1-based line and a one-line message for a UTF-8 decoding error in ``data``."""
+    line = data.count(b"\n", 0, exc.start) + 1
+    byte = data[exc.start:exc.start + 1]
+    shown = f"0x{byte[0]:02X}" if byte else "end of data"
+    return line, f"not UTF-8 text: byte {shown} cannot be decoded"
 
 
 def split_header_name(text: str) -> tuple[str, str | None]:

@@ -18,6 +18,7 @@ import pandas as pd
 
 from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
 from identify.core.names import inside, safe_name
+from identify.core.plausible import judge
 from identify.io.common import (
     Problem,
     Problems,
@@ -180,7 +181,7 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
         if why and why != "no such file or directory":
             problems.add(toml, why)
             return None
-        manifest = read_manifest(toml, problems, partial=True)
+        manifest = read_manifest(toml, problems, partial=True, warnings=warnings)
         if manifest is None:
             return None
         folder = toml.parent
@@ -228,6 +229,22 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
     if manifest is None:
         manifest, more = _single_csv_manifest(path, frames["characteristics"], pressure, load)
         notes += more
+        for key, quantity, value, option in (
+                ("nominal pressure", "pressure", manifest.tyre.nominal_pressure_Pa,
+                 "--nominal-pressure"),
+                ("nominal load", "load", manifest.tyre.nominal_load_N, "--nominal-load")):
+            found = judge(quantity, value, what=key)
+            if math.isnan(value):
+                problems.add(path, f"no {key} given and none in the table (every "
+                                   f"{quantity} is 0 or missing): give {option}")
+            elif found is not None and (found.is_error or quantity == "load" and value <= 0):
+                problems.add(path, found.message if found.is_error else
+                             f"{key} must be > 0 N, got {value:.6g}", key=option)
+            elif found is not None:
+                warnings.append(DataWarning(str(path), "", "plausible", (option,), 1, 1,
+                                            found.message, "kept"))
+        if problems.total > start:
+            return None
     manifest = Manifest(manifest.path, manifest.tyre, manifest.rig, tuple(runs), manifest.extra,
                         manifest.notes + tuple(notes))
     return MeasurementSet(str(path), manifest, frames["trailer"], frames["flatplank"],

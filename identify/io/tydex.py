@@ -186,8 +186,17 @@ def read_tydex(path: str | Path, problems: Problems | None = None, *,
         return None
     factor = np.array([c.factor for c in channels])
     if (factor != 1).any() or any(c.offset1 or c.offset2 for c in channels):
-        data = (data + np.array([c.offset1 for c in channels])) * factor + np.array(
-            [c.offset2 for c in channels])
+        raw = data
+        with np.errstate(over="ignore", invalid="ignore"):
+            data = (data + np.array([c.offset1 for c in channels])) * factor + np.array(
+                [c.offset2 for c in channels])
+        lost = np.isfinite(raw) & ~np.isfinite(data)  # checked after the factor, not before
+        if lost.any():
+            row, col = (int(v[0]) for v in np.nonzero(lost))
+            problems.add(path, f"{raw[row, col]!r} times factor {channels[col].factor!r} "
+                               f"(and offsets) is not finite ({int(lost.sum())} value(s))",
+                         line=data_line + row, key=channels[col].name)
+            return None
     return TydexFile(header, comments, constants, tuple(channels), data, str(path), data_line)
 
 
