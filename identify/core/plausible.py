@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Band", "BANDS", "Finding", "judge", "judge_channel"]
+__all__ = ["Band", "BANDS", "Finding", "first_error", "judge", "judge_channel"]
 
 
 @dataclass(frozen=True)
@@ -150,3 +150,27 @@ def judge_channel(quantity: str, values: np.ndarray, *, what: str = ""
         return None if found is None else (found, int(np.flatnonzero(finite)[i]))
     found = judge(quantity, float(np.median(x)), what=what or f"median {quantity}")
     return None if found is None else (found, None)
+
+
+def first_error(quantity: str, values: np.ndarray, *, what: str = "",
+                allow_zero: bool = False) -> tuple[int, Finding] | None:
+    """The first sample [SI] in the error band of ``quantity`` (vectorised), or None.
+
+    ``allow_zero`` accepts exactly 0 where the band's lower bound is strict (a pressure of 0
+    in an operating-point table means "the .tir's INFLPRES")."""
+    band = BANDS[quantity]
+    x = np.asarray(values, dtype=np.float64)
+    a = np.abs(x) if band.absolute else x
+    with np.errstate(invalid="ignore"):
+        bad = ~np.isfinite(x)
+        if band.error_high is not None:
+            bad |= a > band.error_high
+        if band.error_low is not None:
+            bad |= (a <= band.error_low) if band.strict_low else (a < band.error_low)
+            if allow_zero:
+                bad &= x != 0.0
+    hits = np.flatnonzero(bad)
+    if hits.size == 0:
+        return None
+    i = int(hits[0])
+    return i, judge(quantity, float(x[i]), what=what)

@@ -268,7 +268,8 @@ def _load_run(run: RunSpec, file: Path, manifest: Manifest | None, problems: Pro
         if run.units:
             problems.add(where, "units do not apply to a characteristic table (each row names "
                                 "its unit)", key=f"runs[{i}].units")
-        frames = [read_characteristics(file, run=run.id, problems=problems)]
+        frames = [read_characteristics(file, run=run.id, problems=problems,
+                                       warnings=warnings)]
     return [f for f in frames if f is not None]
 
 
