@@ -11,7 +11,7 @@ import typer
 from rich.console import Console
 
 from identify.core.version import __version__
-from identify.core.errors import MfidError
+from identify.core.errors import MfidError, one_line
 
 app = typer.Typer(no_args_is_help=True, add_completion=False,
                   help="mfid: Magic Formula tyre-model identification workbench.")
@@ -41,7 +41,7 @@ def fail(exc: MfidError) -> None:
     """Print a user error as one line on stderr and exit with its code."""
     if _STATE["debug"]:
         raise exc
-    err_console.print(f"error: {exc}", markup=False)
+    err_console.print(f"error: {one_line(str(exc), 2000)}", markup=False)
     raise typer.Exit(exc.exit_code)
 
 

@@ -22,7 +22,7 @@ from typing import Any, Iterable
 import numpy as np
 import pandas as pd
 
-from identify.core.errors import InputError
+from identify.core.errors import InputError, one_line
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
@@ -185,7 +185,11 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
         problems.add(path, "empty file: expected a header line with the column names"
                      if first == "" else "blank first line: expected the header line", line=1)
         return None
-    return next(csv.reader([first]))
+    try:
+        return next(csv.reader([first]))
+    except csv.Error as exc:  # a header cell over the csv module's field limit
+        problems.add(path, f"cannot parse the header: {exc}", line=1)
+        return None
 
 
 def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
@@ -256,6 +260,36 @@ def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
         _walk_rows(path, width, names, problems, allow_nan)
     except (OSError, EOFError) as exc:  # truncated or corrupt gzip data
         problems.add(path, f"corrupt compressed data: {exc}")
+    except _RowError as exc:
+        problems.add(path, exc.message, line=exc.line)
+
+
+class _RowError(Exception):
+    """A row the csv module cannot parse (a field over its limit, a NUL byte)."""
+
+    def __init__(self, message: str, line: int) -> None:
+        super().__init__(message)
+        self.message, self.line = message, line
+
+
+def _rows(reader):
+    """(first line of the row, row) of a csv reader; a multi-line quoted cell counts from
+    the line it starts on."""
+    end = reader.line_num
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            raise _RowError(f"cannot parse CSV: {exc}", end + 1) from None
+        start, end = end + 1, reader.line_num
+        yield start, row
+
+
+def _cell(text: str) -> str:
+    """A cell for a message: escaped and cut (a quoted cell may hold line breaks)."""
+    return one_line(text, 60)
 
 
 def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
@@ -263,12 +297,11 @@ def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
     rows = 0
     with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
         reader = csv.reader(fh)
-        next(reader, None)
-        for row in reader:
+        next(_rows(reader), None)
+        for line, row in _rows(reader):
             if not row:
                 continue
             rows += 1
-            line = reader.line_num
             if len(row) != width:
                 problems.add(path, f"ragged row: {len(row)} fields, the header has {width}",
                              line=line, kind="ragged-row")
@@ -279,11 +312,13 @@ def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
                 try:
                     value = float(text)
                 except ValueError:
-                    why = "empty cell" if text == "" else f"not a number: '{text}'"
+                    why = ("empty cell" if text == "" else "not UTF-8 text: a byte cannot be "
+                           "decoded" if "\ufffd" in text else f"not a number: '{_cell(text)}'")
                     problems.add(path, why, line=line, key=name, kind="bad-cell")
                     continue
                 if not (allow_nan or np.isfinite(value)):
-                    problems.add(path, f"{text} is not allowed (NaN/inf)", line=line, key=name,
+                    problems.add(path, f"{_cell(text)} is not allowed (NaN/inf)", line=line,
+                                 key=name,
                                  kind="bad-cell")
     if rows == 0:
         problems.add(path, "no data rows below the header", line=1)

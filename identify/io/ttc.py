@@ -168,8 +168,10 @@ def _read_mat(path: Path, problems: Problems):
         problems.add(path, "a MATLAB v7.3 (HDF5) .mat file: save it as MATLAB v5 (-v7)")
         return None
     except (MatReadError, ValueError, TypeError, OSError, EOFError, IndexError, KeyError,
-            zlib.error) as exc:
-        problems.add(path, f"truncated or corrupt .mat file (scipy.io: {exc})")
+            zlib.error, AttributeError, OverflowError, MemoryError, RuntimeError,
+            UnicodeDecodeError, AssertionError) as exc:  # what scipy.io raises on bad bytes
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
+                           f"{type(exc).__name__}: {exc})")
         return None
     struct = mat.get("channel")
     names, unit_list = ([], [])
