@@ -142,7 +142,10 @@ def split_header_name(text: str) -> tuple[str, str | None]:
 
 
 def starts_with(path: str | Path, magic: bytes) -> bool:
-    """True when the file's first bytes are ``magic`` (False when it cannot be read)."""
+    """True when the file's first bytes are ``magic`` (False when it cannot be read or is
+    not a regular file: opening a FIFO blocks)."""
+    if file_problem(path) is not None:
+        return False
     try:
         with open(path, "rb") as fh:
             return fh.read(len(magic)) == magic
@@ -156,7 +159,13 @@ def is_gzip(path: str | Path) -> bool:
 
 
 def open_text(path: str | Path, **kwargs: Any):
-    """Open a text file for reading, decompressing it on the fly when it is gzip data."""
+    """Open a text file for reading, decompressing it on the fly when it is gzip data.
+
+    Raises OSError for anything but a regular file (a FIFO would block the reader)."""
+    why = file_problem(path)
+    if why is not None:
+        raise (FileNotFoundError if why.startswith("no such") else IsADirectoryError
+               if why.startswith("is a directory") else OSError)(why)
     if is_gzip(path):
         return gzip.open(path, "rt", **kwargs)
     return open(path, "r", **kwargs)  # noqa: SIM115 - the caller's context manager closes it

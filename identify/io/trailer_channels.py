@@ -23,7 +23,7 @@ from identify.core.units import (
     to_si,
     unit_problem,
 )
-from identify.io.common import Problems, read_numeric_csv
+from identify.io.common import Problems, file_problem, read_numeric_csv
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5
 from identify.io.ttc import (
     TTC_TO_TYDEX,
@@ -139,8 +139,9 @@ def read_channels(path: str | Path, *, run: str | None = None,
     problems = problems if problems is not None else Problems(strict=True)
     path = Path(path)
     start = problems.total
-    if not path.is_file():
-        problems.add(path, "is a directory, expected a file" if path.is_dir() else "file not found")
+    why = file_problem(path)
+    if why is not None:
+        problems.add(path, "file not found" if why.startswith("no such") else why)
         return None
     if is_tydex(path):
         tdx = read_tydex(path, problems, allow_nan=True)
