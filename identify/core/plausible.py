@@ -11,9 +11,9 @@ a warning band (possible but unusual, or the sign of a unit mix-up: reported, ke
 ==========  ======  ==================  ==================================================
 quantity    unit    error               warning
 ==========  ======  ==================  ==================================================
-pressure    Pa      <= 0 or > 5 MPa     < 1000 Pa (bar or kPa given as Pa?), > 1.5 MPa
+pressure    Pa      < 1 Pa or > 5 MPa   < 1000 Pa (bar or kPa given as Pa?), > 1.5 MPa
 load        N       < 0 or > 1 MN       > 100 kN
-radius      m       <= 0 or > 5 m       outside 0.1 .. 1.5 m
+radius      m       < 1 cm or > 5 m     outside 0.1 .. 1.5 m
 speed       m/s     abs > 500 m/s       abs > 100 m/s (km/h given as m/s?)
 angle       rad     abs > 2 pi          abs > pi/2 (degrees given as radians?)
 magnitude   SI      abs > 1e12          (a characteristic value: finite and not absurd)
@@ -53,10 +53,9 @@ class Band:
 
 
 BANDS: dict[str, Band] = {
-    "pressure": Band("Pa", 0.0, 1000.0, 1.5e6, 5e6, strict_low=True,
-                     hint_low="bar or kPa given as Pa?"),
+    "pressure": Band("Pa", 1.0, 1000.0, 1.5e6, 5e6, hint_low="bar or kPa given as Pa?"),
     "load": Band("N", 0.0, None, 1e5, 1e6),
-    "radius": Band("m", 0.0, 0.1, 1.5, 5.0, strict_low=True),
+    "radius": Band("m", 0.01, 0.1, 1.5, 5.0),
     "speed": Band("m/s", None, None, 100.0, 500.0, absolute=True,
                   hint_high="km/h given as m/s?"),
     "angle": Band("rad", None, None, math.pi / 2, 2 * math.pi, absolute=True,

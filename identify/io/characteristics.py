@@ -77,10 +77,11 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     try:
         raw = path.read_bytes()
         reader = csv.reader(io.StringIO(raw.decode("utf-8-sig"), newline=""))
-        rows, lines = [], []
+        rows, lines, previous = [], [], 0
         for row in reader:
             rows.append(row)
-            lines.append(reader.line_num)  # a quoted cell may span lines: the row's last
+            lines.append(previous + 1)  # a quoted cell may span lines: where the row starts
+            previous = reader.line_num
     except FileNotFoundError:
         problems.add(path, "file not found")
         return None

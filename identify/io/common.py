@@ -162,19 +162,32 @@ def open_text(path: str | Path, **kwargs: Any):
     """Open a text file for reading, decompressing it on the fly when it is gzip data.
 
     Raises OSError for anything but a regular file (a FIFO would block the reader)."""
-    why = file_problem(path)
-    if why is not None:
-        raise (FileNotFoundError if why.startswith("no such") else IsADirectoryError
-               if why.startswith("is a directory") else OSError)(why)
+    _refuse(path)
     if is_gzip(path):
         return gzip.open(path, "rt", **kwargs)
     return open(path, "r", **kwargs)  # noqa: SIM115 - the caller's context manager closes it
 
 
+def _refuse(path: str | Path) -> None:
+    """Raise the OSError (FileNotFoundError, IsADirectoryError) of a path that is not a
+    regular file."""
+    why = file_problem(path)
+    if why is not None:
+        raise (FileNotFoundError if why.startswith("no such") else IsADirectoryError
+               if why.startswith("is a directory") else OSError)(why)
+
+
+def _open_binary(path: Path):
+    _refuse(path)
+    if is_gzip(path):
+        return gzip.open(path, "rb")
+    return open(path, "rb")  # noqa: SIM115 - the caller's context manager closes it
+
+
 def _header(path: Path, problems: Problems) -> list[str] | None:
     try:
-        with open_text(path, encoding="utf-8-sig", newline="") as fh:
-            first = fh.readline()
+        with _open_binary(path) as fh:  # bytes: a bad byte further down is not line 1's
+            first = fh.readline().decode("utf-8-sig")
     except FileNotFoundError:
         problems.add(path, "file not found")
         return None

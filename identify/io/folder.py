@@ -237,9 +237,10 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
             if math.isnan(value):
                 problems.add(path, f"no {key} given and none in the table (every "
                                    f"{quantity} is 0 or missing): give {option}")
-            elif found is not None and (found.is_error or quantity == "load" and value <= 0):
-                problems.add(path, found.message if found.is_error else
-                             f"{key} must be > 0 N, got {value:.6g}", key=option)
+            elif quantity == "load" and value <= 0:
+                problems.add(path, f"{key} must be > 0 N, got {value:.6g}", key=option)
+            elif found is not None and found.is_error:
+                problems.add(path, found.message, key=option)
             elif found is not None:
                 warnings.append(DataWarning(str(path), "", "plausible", (option,), 1, 1,
                                             found.message, "kept"))

@@ -47,16 +47,22 @@ def read_points(path: str | Path) -> pd.DataFrame:
     except pd.errors.EmptyDataError:
         raise InputError(path, "empty file: expected a header line "
                                f"with columns {', '.join(REQUIRED)}") from None
-    except UnicodeDecodeError as exc:
-        line, message = decode_problem(path.read_bytes(), exc) if exc.start is not None \
-            else (None, "not UTF-8 text")
-        raise InputError(path, message, line=line) from None
+    except UnicodeDecodeError:
+        raw = path.read_bytes()  # pandas' offset is within a chunk: find the byte again
+        try:
+            raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line, message = decode_problem(raw, exc)
+            raise InputError(path, message, line=line) from None
+        raise InputError(path, "not UTF-8 text") from None
     except (pd.errors.ParserError, OSError, ValueError, OverflowError, MemoryError) as exc:
         raise InputError(path, f"cannot read file: {str(exc).strip().splitlines()[0]}"
                          if str(exc).strip() else "cannot read file") from None
     frame.columns = [str(c).strip() for c in frame.columns]
     seen: set[str] = set()
-    for name in frame.columns:
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:  # pandas renames "p" "p.1"
+        header = [c.strip() for c in fh.readline().split(",")]
+    for name in header:
         if name in seen:
             raise InputError(path, "duplicate column", line=1, key=name)
         seen.add(name)
