@@ -259,14 +259,19 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
     except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError,
             OSError, EOFError):
         frame = None
-    finite = frame is not None and bool(np.isfinite(frame.to_numpy()).all())
+    # column by column: frame.to_numpy() would copy the whole table (520 MB at 5e6 x 13)
+    finite = frame is not None and all(bool(np.isfinite(frame[c].to_numpy()).all())
+                                       for c in frame.columns)
     if frame is not None and frame.shape[1] == len(names) and (finite or allow_nan):
         if len(frame) == 0:
             problems.add(path, "no data rows below the header", line=1)
             return None
         if not finite:  # NaN cells, or short rows pandas filled with NaN: walk to tell
             _diagnose(path, len(names), names, problems, allow_nan)
-            frame = frame.where(np.isfinite(frame.to_numpy()))
+            for c in frame.columns:  # inf -> NaN in place, one column at a time
+                x = frame[c].to_numpy()
+                if not np.isfinite(x).all():
+                    frame[c] = np.where(np.isfinite(x), x, np.nan)
         frame.columns = names
         return (frame, header_units) if problems.total == start else None
     _diagnose(path, len(names), names, problems, allow_nan)
