@@ -258,7 +258,7 @@ def _load_run(run: RunSpec, file: Path, manifest: Manifest | None, problems: Pro
     if run.kind == "trailer":
         channels = read_channels(file, run=run.id, units=run.units, problems=problems) or []
         frames = [channels_to_tidy(ch, axes=run.axes, conditions=conditions, problems=problems,
-                                   warnings=warnings, copy=False) for ch in channels]
+                                   warnings=warnings) for ch in channels]
     elif run.kind == "flatplank":
         if manifest is None or manifest.rig is None:
             return []  # the manifest check has reported the missing [rig]

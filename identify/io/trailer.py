@@ -201,8 +201,8 @@ def read_trailer(path: str | Path, *, run: str | None = None, axes: str | None =
     the cleaning go to ``warnings`` when given.
     """
     runs = read_channels(path, run=run, units=units)
-    frames = [channels_to_tidy(ch, axes=axes, conditions=conditions, warnings=warnings,
-                               copy=False) for ch in runs]
+    frames = [channels_to_tidy(ch, axes=axes, conditions=conditions, warnings=warnings)
+              for ch in runs]
     return frames[0] if len(frames) == 1 else pd.concat(frames, ignore_index=True)
 
 
