@@ -14,7 +14,7 @@ from rich.console import Console
 from typer.core import TyperGroup
 
 from identify.core.version import __version__
-from identify.core.errors import MfidError
+from identify.core.errors import MfidError, one_line
 
 COMMANDS = {"check": "check_cmd", "import": "import_cmd", "convert": "convert_cmd",
             "extract": "extract_cmd", "fit": "fit_cmd", "report": "report_cmd",
@@ -76,7 +76,7 @@ def fail(exc: MfidError) -> None:
     """Print a user error as one line on stderr and exit with its code."""
     if _STATE["debug"]:
         raise exc
-    err_console.print(f"error: {exc}", markup=False)
+    err_console.print(f"error: {one_line(str(exc), 2000)}", markup=False)
     raise typer.Exit(exc.exit_code)
 
 

@@ -8,6 +8,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
+__all__ = ["MfidError", "InputError", "FitError", "one_line"]
+
 
 class MfidError(Exception):
     """Base class of the errors that the CLI reports as one line, without a traceback."""
@@ -41,11 +43,20 @@ class InputError(MfidError):
         super().__init__(self.__str__())
 
     def __str__(self) -> str:
-        where = self.file or ""
+        where = one_line(self.file or "")
         if self.line is not None:
             where = f"{where}:{self.line}"
-        parts = [p for p in (where, self.key, self.message) if p]
+        parts = [p for p in (where, one_line(self.key or "", 80), one_line(self.message)) if p]
         return ": ".join(parts)
+
+
+def one_line(text: str, limit: int = 400) -> str:
+    """``text`` as one printable line: line breaks and control characters escaped, cut to
+    ``limit`` characters (a 100,000-character CSV cell, a file name with a newline in it)."""
+    if text.isprintable() and len(text) <= limit:
+        return text
+    out = "".join(c if c.isprintable() else repr(c)[1:-1] for c in text)
+    return out if len(out) <= limit else out[:limit - 3] + "..."
 
 
 class FitError(MfidError):

@@ -8,12 +8,15 @@ added. The files are small, so every row is checked and each bad cell is reporte
 from __future__ import annotations
 
 import csv
+import io
 import math
 from pathlib import Path
 
 import pandas as pd
 
-from identify.io.common import Problems
+from identify.core.plausible import judge
+from identify.io.common import Problems, decode_problem
+from identify.io.data_warning import DataWarning
 from identify.core.quantities import CHARACTERISTICS_COLUMNS, MODES, QUANTITIES
 from identify.core.units import SI_UNITS, to_si, unit_problem
 
@@ -46,7 +49,8 @@ def _number(problems: Problems, path: Path, line: int, key: str, text: str, *,
 
 
 def read_characteristics(path: str | Path, *, run: str | None = None,
-                         problems: Problems | None = None) -> pd.DataFrame | None:
+                         problems: Problems | None = None,
+                         warnings: list | None = None) -> pd.DataFrame | None:
     """Read a characteristic table into :data:`CHARACTERISTICS_COLUMNS` (SI values).
 
     Parameters
@@ -57,6 +61,9 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
         Run id written into the ``run`` column (default: the file stem).
     problems : Problems, optional
         Collector; strict by default.
+    warnings : list, optional
+        Receives a DataWarning (kind ``"plausible"``) per value in a warning band
+        (:mod:`identify.core.plausible`, checked in SI).
 
     Returns
     -------
@@ -66,14 +73,28 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     problems = problems if problems is not None else Problems(strict=True)
     path = Path(path)
     start = problems.total
+    raw = b""
     try:
-        with path.open("r", encoding="utf-8-sig", newline="") as fh:
-            rows = list(csv.reader(fh))
+        raw = path.read_bytes()
+        reader = csv.reader(io.StringIO(raw.decode("utf-8-sig"), newline=""))
+        rows, lines, previous = [], [], 0
+        for row in reader:
+            rows.append(row)
+            lines.append(previous + 1)  # a quoted cell may span lines: where the row starts
+            previous = reader.line_num
     except FileNotFoundError:
         problems.add(path, "file not found")
         return None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        line, message = decode_problem(raw, exc)
+        problems.add(path, message, line=line)
+        return None
+    except OSError as exc:
         problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
+    except csv.Error as exc:  # a field over the csv module's limit, a NUL byte
+        problems.add(path, f"cannot parse CSV: {str(exc).splitlines()[0]}",
+                     line=reader.line_num or None)
         return None
     if not rows or not any(c.strip() for c in rows[0]):
         problems.add(path, "empty file: expected a header line "
@@ -90,14 +111,14 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     if problems.total > start:
         return None
     records = []
-    for line, row in enumerate(rows[1:], 2):
+    for line, row in zip(lines[1:], rows[1:], strict=True):
         if not any(c.strip() for c in row):
             continue
         if len(row) != len(header):
             problems.add(path, f"ragged row: {len(row)} fields, the header has {len(header)}",
                          line=line, kind="ragged-row")
             continue
-        record = _row(problems, path, line, dict(zip(header, row, strict=False)))
+        record = _row(problems, path, line, dict(zip(header, row, strict=False)), warnings)
         if record is not None:
             records.append(record)
     if not records and problems.total == start:
@@ -109,7 +130,8 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     return out
 
 
-def _row(problems: Problems, path: Path, line: int, cells: dict[str, str]) -> dict | None:
+def _row(problems: Problems, path: Path, line: int, cells: dict[str, str],
+         warnings: list | None = None) -> dict | None:
     start = problems.total
     quantity = cells["quantity"].strip()
     dim = QUANTITIES.get(quantity)
@@ -131,6 +153,24 @@ def _row(problems: Problems, path: Path, line: int, cells: dict[str, str]) -> di
         problems.add(path, f"{why} for {quantity}", line=line, key="unit")
     if problems.total > start:
         return None
+    si = to_si(value, unit, dimension=dim)
+    # plausibility in SI, after the unit conversion: 1e308 N/mm is inf in N/m
+    for key, band, x in (("pi_bar", "pressure", pi_bar * 1e5), ("Fz_N", "load", fz),
+                         ("value", "magnitude", si), ("Vx_mps", "speed", vx),
+                         ("gamma_deg", "angle", math.radians(gamma))):
+        if key in ("Vx_mps", "gamma_deg") and math.isnan(x):
+            continue  # an optional cell left empty
+        found = judge(band, x, what=f"{quantity} [{SI_UNITS[dim]}]" if key == "value"
+                      else f"{key} in SI")
+        if found is None:
+            continue
+        if found.is_error:
+            problems.add(path, found.message, line=line, key=key)
+        elif warnings is not None:
+            warnings.append(DataWarning(str(path), path.stem, "plausible", (key,), 1, 1,
+                                        found.message, "kept", line))
+    if problems.total > start:
+        return None
     return {"quantity": quantity, "pi_bar": pi_bar, "p_Pa": pi_bar * 1e5, "Fz_N": fz,
-            "value": to_si(value, unit, dimension=dim), "unit": SI_UNITS[dim],
+            "value": si, "unit": SI_UNITS[dim],
             "Vx_mps": vx, "gamma_deg": gamma, "mode": mode}

@@ -12,6 +12,8 @@ from __future__ import annotations
 import csv
 import gzip
 import hashlib
+import os
+import stat
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,11 +22,11 @@ from typing import Any, Iterable
 import numpy as np
 import pandas as pd
 
-from identify.core.errors import InputError
+from identify.core.errors import InputError, one_line
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text"]
+           "open_text", "file_problem", "decode_problem"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -97,6 +99,39 @@ class Problems:
         return out
 
 
+def file_problem(path: str | Path, what: str = "file") -> str | None:
+    """Why ``path`` cannot be read as a data file (None when it is a regular file).
+
+    Only regular files are opened: a FIFO would block a reader forever, a device
+    (``/dev/null``, ``/dev/zero``) is empty or endless. Symbolic links are followed; a link
+    loop or a dangling link is named as such.
+    """
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        return ("dangling symbolic link" if os.path.islink(path) else "no such file or "
+                "directory")
+    except (OSError, ValueError) as exc:  # ELOOP, ENAMETOOLONG, EACCES, an embedded NUL
+        return f"cannot read {what}: {getattr(exc, 'strerror', None) or exc}"
+    if stat.S_ISDIR(mode):
+        return f"is a directory, expected a {what}"
+    if stat.S_ISFIFO(mode):
+        return f"is a named pipe (FIFO), expected a regular {what}"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return f"is a device, expected a regular {what}"
+    if not stat.S_ISREG(mode):
+        return f"is not a regular {what}"
+    return None
+
+
+def decode_problem(data: bytes, exc: UnicodeDecodeError) -> tuple[int, str]:
+    """The 1-based line and a one-line message for a UTF-8 decoding error in ``data``."""
+    line = data.count(b"\n", 0, exc.start) + 1
+    byte = data[exc.start:exc.start + 1]
+    shown = f"0x{byte[0]:02X}" if byte else "end of data"
+    return line, f"not UTF-8 text: byte {shown} cannot be decoded"
+
+
 def split_header_name(text: str) -> tuple[str, str | None]:
     """``"SLIPANGL [deg]"`` -> ``("SLIPANGL", "deg")``; a plain name has unit None."""
     text = text.strip()
@@ -107,7 +142,10 @@ def split_header_name(text: str) -> tuple[str, str | None]:
 
 
 def starts_with(path: str | Path, magic: bytes) -> bool:
-    """True when the file's first bytes are ``magic`` (False when it cannot be read)."""
+    """True when the file's first bytes are ``magic`` (False when it cannot be read or is
+    not a regular file: opening a FIFO blocks)."""
+    if file_problem(path) is not None:
+        return False
     try:
         with open(path, "rb") as fh:
             return fh.read(len(magic)) == magic
@@ -121,16 +159,35 @@ def is_gzip(path: str | Path) -> bool:
 
 
 def open_text(path: str | Path, **kwargs: Any):
-    """Open a text file for reading, decompressing it on the fly when it is gzip data."""
+    """Open a text file for reading, decompressing it on the fly when it is gzip data.
+
+    Raises OSError for anything but a regular file (a FIFO would block the reader)."""
+    _refuse(path)
     if is_gzip(path):
         return gzip.open(path, "rt", **kwargs)
     return open(path, "r", **kwargs)  # noqa: SIM115 - the caller's context manager closes it
 
 
+def _refuse(path: str | Path) -> None:
+    """Raise the OSError (FileNotFoundError, IsADirectoryError) of a path that is not a
+    regular file."""
+    why = file_problem(path)
+    if why is not None:
+        raise (FileNotFoundError if why.startswith("no such") else IsADirectoryError
+               if why.startswith("is a directory") else OSError)(why)
+
+
+def _open_binary(path: Path):
+    _refuse(path)
+    if is_gzip(path):
+        return gzip.open(path, "rb")
+    return open(path, "rb")  # noqa: SIM115 - the caller's context manager closes it
+
+
 def _header(path: Path, problems: Problems) -> list[str] | None:
     try:
-        with open_text(path, encoding="utf-8-sig", newline="") as fh:
-            first = fh.readline()
+        with _open_binary(path) as fh:  # bytes: a bad byte further down is not line 1's
+            first = fh.readline().decode("utf-8-sig")
     except FileNotFoundError:
         problems.add(path, "file not found")
         return None
@@ -150,7 +207,11 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
         problems.add(path, "empty file: expected a header line with the column names"
                      if first == "" else "blank first line: expected the header line", line=1)
         return None
-    return next(csv.reader([first]))
+    try:
+        return next(csv.reader([first]))
+    except csv.Error as exc:  # a header cell over the csv module's field limit
+        problems.add(path, f"cannot parse the header: {exc}", line=1)
+        return None
 
 
 def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
@@ -198,14 +259,19 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
     except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError,
             OSError, EOFError):
         frame = None
-    finite = frame is not None and bool(np.isfinite(frame.to_numpy()).all())
+    # column by column: frame.to_numpy() would copy the whole table (520 MB at 5e6 x 13)
+    finite = frame is not None and all(bool(np.isfinite(frame[c].to_numpy()).all())
+                                       for c in frame.columns)
     if frame is not None and frame.shape[1] == len(names) and (finite or allow_nan):
         if len(frame) == 0:
             problems.add(path, "no data rows below the header", line=1)
             return None
         if not finite:  # NaN cells, or short rows pandas filled with NaN: walk to tell
             _diagnose(path, len(names), names, problems, allow_nan)
-            frame = frame.where(np.isfinite(frame.to_numpy()))
+            for c in frame.columns:  # inf -> NaN in place, one column at a time
+                x = frame[c].to_numpy()
+                if not np.isfinite(x).all():
+                    frame[c] = np.where(np.isfinite(x), x, np.nan)
         frame.columns = names
         return (frame, header_units) if problems.total == start else None
     _diagnose(path, len(names), names, problems, allow_nan)
@@ -221,6 +287,36 @@ def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
         _walk_rows(path, width, names, problems, allow_nan)
     except (OSError, EOFError) as exc:  # truncated or corrupt gzip data
         problems.add(path, f"corrupt compressed data: {exc}")
+    except _RowError as exc:
+        problems.add(path, exc.message, line=exc.line)
+
+
+class _RowError(Exception):
+    """A row the csv module cannot parse (a field over its limit, a NUL byte)."""
+
+    def __init__(self, message: str, line: int) -> None:
+        super().__init__(message)
+        self.message, self.line = message, line
+
+
+def _rows(reader):
+    """(first line of the row, row) of a csv reader; a multi-line quoted cell counts from
+    the line it starts on."""
+    end = reader.line_num
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            raise _RowError(f"cannot parse CSV: {exc}", end + 1) from None
+        start, end = end + 1, reader.line_num
+        yield start, row
+
+
+def _cell(text: str) -> str:
+    """A cell for a message: escaped and cut (a quoted cell may hold line breaks)."""
+    return one_line(text, 60)
 
 
 def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
@@ -228,12 +324,11 @@ def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
     rows = 0
     with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
         reader = csv.reader(fh)
-        next(reader, None)
-        for row in reader:
+        next(_rows(reader), None)
+        for line, row in _rows(reader):
             if not row:
                 continue
             rows += 1
-            line = reader.line_num
             if len(row) != width:
                 problems.add(path, f"ragged row: {len(row)} fields, the header has {width}",
                              line=line, kind="ragged-row")
@@ -244,11 +339,13 @@ def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
                 try:
                     value = float(text)
                 except ValueError:
-                    why = "empty cell" if text == "" else f"not a number: '{text}'"
+                    why = ("empty cell" if text == "" else "not UTF-8 text: a byte cannot be "
+                           "decoded" if "\ufffd" in text else f"not a number: '{_cell(text)}'")
                     problems.add(path, why, line=line, key=name, kind="bad-cell")
                     continue
                 if not (allow_nan or np.isfinite(value)):
-                    problems.add(path, f"{text} is not allowed (NaN/inf)", line=line, key=name,
+                    problems.add(path, f"{_cell(text)} is not allowed (NaN/inf)", line=line,
+                                 key=name,
                                  kind="bad-cell")
     if rows == 0:
         problems.add(path, "no data rows below the header", line=1)

@@ -17,7 +17,16 @@ import numpy as np
 import pandas as pd
 
 from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
-from identify.io.common import Problem, Problems, open_text, sha256_file, split_header_name
+from identify.core.names import inside, safe_name
+from identify.core.plausible import judge
+from identify.io.common import (
+    Problem,
+    Problems,
+    file_problem,
+    open_text,
+    sha256_file,
+    split_header_name,
+)
 from identify.io.flatplank import FLATPLANK_COLUMNS, read_flatplank
 from identify.io.hdf5 import is_hdf5
 from identify.io.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
@@ -168,7 +177,11 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
     start = problems.total
     if path.is_dir() or path.name == MANIFEST_NAME:
         toml = path / MANIFEST_NAME if path.is_dir() else path
-        manifest = read_manifest(toml, problems, partial=True)
+        why = file_problem(toml)
+        if why and why != "no such file or directory":
+            problems.add(toml, why)
+            return None
+        manifest = read_manifest(toml, problems, partial=True, warnings=warnings)
         if manifest is None:
             return None
         folder = toml.parent
@@ -180,13 +193,13 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
     elif path.is_file():
         manifest, folder, checksums = None, path.parent, {}
     else:
-        problems.add(path, "no such file or directory")
+        problems.add(path, file_problem(path, "folder or CSV file") or "no such file or directory")
         return None
     runs = list(manifest.runs) if manifest else [RunSpec(path.stem, path.name, "characteristics")]
     notes = []
     implicit = folder / IMPLICIT_TABLE
-    if manifest and implicit.is_file() and not any(
-            (folder / r.file).resolve() == implicit.resolve() for r in runs):
+    if manifest and file_problem(implicit) is None and not any(
+            inside(folder, r.file)[0] == inside(folder, IMPLICIT_TABLE)[0] for r in runs):
         run_id = "characteristics" if all(r.id != "characteristics" for r in runs) \
             else IMPLICIT_TABLE
         runs.append(RunSpec(run_id, IMPLICIT_TABLE, "characteristics"))
@@ -196,10 +209,15 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
                                              "characteristics": []}
     where = manifest.path if manifest else str(path)
     for i, run in enumerate(runs):
-        file = folder / run.file
-        if not file.is_file():
-            problems.add(where, f"file not found: {file}" if not file.is_dir()
-                         else f"is a directory, expected a file: {file}", key=f"runs[{i}].file")
+        file, why = inside(folder, run.file)
+        if file is None:
+            problems.add(where, why, key=f"runs[{i}].file")
+            continue
+        file = folder / run.file  # inside the folder: named as the manifest names it
+        why = file_problem(file)
+        if why:
+            problems.add(where, f"file not found: {file}" if why.startswith("no such")
+                         else f"{why}: {file}", key=f"runs[{i}].file")
             continue
         checksums[Path(run.file).as_posix()] = sha256_file(file)
         tables[run.kind] += _load_run(run, file, manifest, problems, where, i, warnings)
@@ -211,6 +229,23 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
     if manifest is None:
         manifest, more = _single_csv_manifest(path, frames["characteristics"], pressure, load)
         notes += more
+        for key, quantity, value, option in (
+                ("nominal pressure", "pressure", manifest.tyre.nominal_pressure_Pa,
+                 "--nominal-pressure"),
+                ("nominal load", "load", manifest.tyre.nominal_load_N, "--nominal-load")):
+            found = judge(quantity, value, what=key)
+            if math.isnan(value):
+                problems.add(path, f"no {key} given and none in the table (every "
+                                   f"{quantity} is 0 or missing): give {option}")
+            elif quantity == "load" and value <= 0:
+                problems.add(path, f"{key} must be > 0 N, got {value:.6g}", key=option)
+            elif found is not None and found.is_error:
+                problems.add(path, found.message, key=option)
+            elif found is not None:
+                warnings.append(DataWarning(str(path), "", "plausible", (option,), 1, 1,
+                                            found.message, "kept"))
+        if problems.total > start:
+            return None
     manifest = Manifest(manifest.path, manifest.tyre, manifest.rig, tuple(runs), manifest.extra,
                         manifest.notes + tuple(notes))
     return MeasurementSet(str(path), manifest, frames["trailer"], frames["flatplank"],
@@ -234,7 +269,8 @@ def _load_run(run: RunSpec, file: Path, manifest: Manifest | None, problems: Pro
         if run.units:
             problems.add(where, "units do not apply to a characteristic table (each row names "
                                 "its unit)", key=f"runs[{i}].units")
-        frames = [read_characteristics(file, run=run.id, problems=problems)]
+        frames = [read_characteristics(file, run=run.id, problems=problems,
+                                       warnings=warnings)]
     return [f for f in frames if f is not None]
 
 
@@ -258,6 +294,6 @@ def _single_csv_manifest(path: Path, table: pd.DataFrame, pressure: float | None
         load = float(np.median(loads)) if loads.size else math.nan
         notes.append(f"nominal load not given: took {load:.6g} N, the median of the table's "
                      "loads")
-    tyre = TyreInfo(path.stem, float(pressure), float(load), math.nan)
+    tyre = TyreInfo(safe_name(path.stem) or "tyre", float(pressure), float(load), math.nan)
     return Manifest(str(path), tyre, None, (), {}, ("no manifest: a single characteristic "
                                                     "table; unloaded radius unknown",)), notes

@@ -68,22 +68,33 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
     except (OSError, ValueError) as exc:
         problems.add(path, f"cannot read HDF5 file: {str(exc).splitlines()[0]}")
         return None
-    with fh:
-        groups = {k: v for k, v in fh.items() if isinstance(v, h5py.Group)}
-        if not groups and any(isinstance(v, h5py.Dataset) for v in fh.values()):
-            groups = {path.stem: fh}
-        if not groups:
-            problems.add(path, "no run groups (and no datasets) in the HDF5 file")
+    try:
+        with fh:
+            return _runs(path, fh, problems, run, time, allow_nan, start)
+    except (RuntimeError, KeyError, OSError, ValueError, TypeError, IndexError,
+            AttributeError, OverflowError) as exc:  # corrupt metadata, a dangling link
+        problems.add(path, f"corrupt HDF5 file ({type(exc).__name__}: "
+                           f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})")
+        return None
+
+
+def _runs(path: Path, fh, problems: Problems, run: str | None, time: str, allow_nan: bool,
+          start: int) -> list[RawRun] | None:
+    groups = {k: v for k, v in fh.items() if isinstance(v, h5py.Group)}
+    if not groups and any(isinstance(v, h5py.Dataset) for v in fh.values()):
+        groups = {path.stem: fh}
+    if not groups:
+        problems.add(path, "no run groups (and no datasets) in the HDF5 file")
+        return None
+    if run is not None:
+        if run in groups:
+            groups = {run: groups[run]}
+        elif len(groups) == 1:
+            groups = {run: next(iter(groups.values()))}
+        else:
+            problems.add(path, f"no group '{run}' (groups: {', '.join(groups)})", key=run)
             return None
-        if run is not None:
-            if run in groups:
-                groups = {run: groups[run]}
-            elif len(groups) == 1:
-                groups = {run: next(iter(groups.values()))}
-            else:
-                problems.add(path, f"no group '{run}' (groups: {', '.join(groups)})", key=run)
-                return None
-        runs = [_group(path, name, grp, problems, time, allow_nan) for name, grp in groups.items()]
+    runs = [_group(path, name, grp, problems, time, allow_nan) for name, grp in groups.items()]
     return None if problems.total > start else runs
 
 
@@ -91,7 +102,16 @@ def _group(path: Path, name: str, grp, problems: Problems, time: str,
            allow_nan: bool = False) -> RawRun | None:
 
     data, units, long_names = {}, {}, {}
-    for key, ds in grp.items():
+    for key in grp:
+        link = grp.get(key, getlink=True)
+        try:
+            ds = grp.get(key)
+        except (KeyError, OSError, RuntimeError):  # an external link to a missing file
+            ds = None
+        if ds is None and isinstance(link, (h5py.SoftLink, h5py.ExternalLink)):
+            problems.add(path, f"dangling link to {getattr(link, 'path', '?')}",
+                         key=f"{name}/{key}")
+            continue
         if not isinstance(ds, h5py.Dataset):
             continue
         if ds.ndim != 1 or ds.dtype.kind not in "fiu":
@@ -112,6 +132,8 @@ def _group(path: Path, name: str, grp, problems: Problems, time: str,
             long_names[key] = _text(ds.attrs["long_name"])
     lengths = {k: v.size for k, v in data.items()}
     ref = lengths.get(time, max(lengths.values(), default=0))
+    if data and ref == 0:
+        problems.add(path, "0 samples: the group's datasets are empty", key=name)
     for key, n in lengths.items():
         if n != ref:
             problems.add(path, f"{n} samples, but {time} has {ref}", key=f"{name}/{key}")

@@ -7,6 +7,7 @@ what is wrong. The format is documented in docs/measurement-folder.md.
 from __future__ import annotations
 
 import difflib
+import math
 import re
 import tomllib
 from dataclasses import dataclass, field
@@ -15,7 +16,10 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from identify.io.axes import AXES
-from identify.io.common import Problems
+from identify.io.common import Problems, decode_problem
+from identify.io.data_warning import DataWarning
+from identify.core.names import name_problem
+from identify.core.plausible import judge
 from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
 
@@ -33,7 +37,7 @@ TESTS: dict[str, tuple[str, ...]] = {
 }
 _NUM, _INT, _STR = "number", "integer", "string"
 # key -> (type, required, check); check: "pos" (> 0), "nonneg" (>= 0) or None
-_TYRE = {"id": (_STR, True, None), "nominal_pressure_Pa": (_NUM, True, "pos"),
+_TYRE = {"id": (_STR, True, "name"), "nominal_pressure_Pa": (_NUM, True, "pos"),
          "nominal_load_N": (_NUM, True, "pos"), "unloaded_radius_m": (_NUM, True, "pos"),
          "source": (_STR, False, None), "size": (_STR, False, None),
          "description": (_STR, False, None)}
@@ -47,6 +51,12 @@ _CONDITIONS = {"pressure_Pa": (_NUM, False, "pos"), "load_N": (_NUM, False, "non
                "slip_angle_deg": (_NUM, False, None), "speed_mps": (_NUM, False, None),
                "loaded_radius_m": (_NUM, False, "pos")}
 _SOURCES = ("simulated", "measured")
+#: key -> (quantity of identify.core.plausible, factor to SI): checked after the conversion
+_PLAUSIBLE = {"nominal_pressure_Pa": ("pressure", 1.0), "nominal_load_N": ("load", 1.0),
+              "unloaded_radius_m": ("radius", 1.0), "pressure_Pa": ("pressure", 1.0),
+              "load_N": ("load", 1.0), "loaded_radius_m": ("radius", 1.0),
+              "speed_mps": ("speed", 1.0), "gamma_deg": ("angle", math.pi / 180.0),
+              "slip_angle_deg": ("angle", math.pi / 180.0)}
 _TOML_LINE = re.compile(r"at line (\d+)")
 
 
@@ -127,8 +137,12 @@ def _typename(value: Any) -> str:
     return f"{'an' if name[0] in 'aeiou' else 'a'} {name}"
 
 
-def _table(problems: Problems, file: str, where: str, data: Any, spec: dict) -> dict | None:
-    """Check one table against ``spec``; return the valid values (floats for numbers)."""
+def _table(problems: Problems, file: str, where: str, data: Any, spec: dict,
+           warnings: list | None = None) -> dict | None:
+    """Check one table against ``spec``; return the valid values (floats for numbers).
+
+    Numbers are checked for plausibility (:mod:`identify.core.plausible`) in SI: an error
+    band value is a problem, a warning band value goes to ``warnings`` as a DataWarning."""
     if not isinstance(data, dict):
         problems.add(file, f"expected a table, got {_typename(data)}", key=where)
         return None
@@ -149,14 +163,32 @@ def _table(problems: Problems, file: str, where: str, data: Any, spec: dict) -> 
                          key=prefix + key)
             continue
         if kind == _NUM:
-            value = float(value)
+            try:
+                value = float(value)
+            except OverflowError:
+                problems.add(file, f"number too large ({len(str(value))} digits)",
+                             key=prefix + key)
+                continue
             if value != value or value in (float("inf"), float("-inf")):
                 problems.add(file, f"{value} is not allowed", key=prefix + key)
                 continue
+        if check == "name" and name_problem(value):
+            problems.add(file, f"{name_problem(value)}: the tyre id names the fit directory, "
+                               "the .tir and the report", key=prefix + key)
+            continue
         if (check == "pos" and value <= 0) or (check == "nonneg" and value < 0):
             problems.add(file, f"must be {'positive' if check == 'pos' else '>= 0'}, got {value}",
                          key=prefix + key)
             continue
+        if kind == _NUM and key in _PLAUSIBLE:
+            quantity, factor = _PLAUSIBLE[key]
+            found = judge(quantity, value * factor, what=key)
+            if found is not None and found.is_error:
+                problems.add(file, found.message, key=prefix + key)
+                continue
+            if found is not None and warnings is not None:
+                warnings.append(DataWarning(file, "", "plausible", (prefix + key,), 1, 1,
+                                            found.message, "kept"))
         out[key] = value
     for key, (kind, required, _) in spec.items():
         if required and key not in data:
@@ -165,7 +197,7 @@ def _table(problems: Problems, file: str, where: str, data: Any, spec: dict) -> 
 
 
 def read_manifest(path: str | Path, problems: Problems | None = None, *,
-                  partial: bool = False) -> Manifest | None:
+                  partial: bool = False, warnings: list | None = None) -> Manifest | None:
     """Read and validate ``tyre.toml``.
 
     Parameters
@@ -178,6 +210,8 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
         With a non-strict collector: return what is valid (the good runs; NaN for bad
         ``[tyre]`` values, no rig if ``[rig]`` is bad) instead of None, so that a check can go
         on to the data files.
+    warnings : list, optional
+        Receives a DataWarning (kind ``"plausible"``) per value in a warning band.
 
     Returns
     -------
@@ -188,20 +222,30 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
     path = Path(path)
     file = str(path)
     start = problems.total
+    raw = b""
     try:
-        data = tomllib.loads(path.read_text(encoding="utf-8-sig"))
+        raw = path.read_bytes()
+        data = tomllib.loads(raw.decode("utf-8-sig"))
     except FileNotFoundError:
         problems.add(file, f"no {MANIFEST_NAME} in the folder")
         return None
-    except (OSError, UnicodeDecodeError) as exc:
+    except UnicodeDecodeError as exc:
+        line, message = decode_problem(raw, exc)
+        problems.add(file, message, line=line)
+        return None
+    except OSError as exc:
         problems.add(file, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
+    except RecursionError:
+        problems.add(file, "invalid TOML: nested too deeply")
         return None
     except tomllib.TOMLDecodeError as exc:
         match = _TOML_LINE.search(str(exc))
         problems.add(file, f"invalid TOML: {str(exc).split(' (at')[0]}",
                      line=int(match.group(1)) if match else None)
         return None
-    tyre = _table(problems, file, "tyre", data["tyre"], _TYRE) if "tyre" in data else None
+    tyre = (_table(problems, file, "tyre", data["tyre"], _TYRE, warnings) if "tyre" in data
+            else None)
     if "tyre" not in data:
         problems.add(file, "missing required table [tyre]", key="tyre")
     elif tyre is not None and tyre.get("source", "measured") not in _SOURCES:
@@ -212,7 +256,7 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
     if not isinstance(runs_data, list) or not runs_data:
         problems.add(file, "expected at least one [[runs]] entry", key="runs")
         runs_data = runs_data if isinstance(runs_data, list) else []
-    runs = [_run(problems, file, i, entry) for i, entry in enumerate(runs_data)]
+    runs = [_run(problems, file, i, entry, warnings) for i, entry in enumerate(runs_data)]
     seen: dict[str, int] = {}
     for i, run in enumerate(runs):
         if run is None:
@@ -238,7 +282,8 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
                     tuple(r for r in runs if r is not None), extra)
 
 
-def _run(problems: Problems, file: str, i: int, entry: Any) -> RunSpec | None:
+def _run(problems: Problems, file: str, i: int, entry: Any,
+         warnings: list | None = None) -> RunSpec | None:
     where = f"runs[{i}]"
     start = problems.total
     run = _table(problems, file, where, entry, _RUN)
@@ -267,7 +312,7 @@ def _run(problems: Problems, file: str, i: int, entry: Any) -> RunSpec | None:
         if why:
             problems.add(file, why, key=f"{where}.units.{channel}")
     conditions = _table(problems, file, f"{where}.conditions", run.get("conditions", {}),
-                        _CONDITIONS)
+                        _CONDITIONS, warnings)
     if problems.total > start or "file" not in run:
         return None
     return RunSpec(id=run.get("id", Path(run["file"]).stem), file=run["file"], kind=kind,

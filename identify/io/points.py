@@ -10,8 +10,13 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.plausible import first_error
+from identify.io.common import decode_problem, file_problem
 
 REQUIRED = ("Fz", "kappa", "alpha", "gamma", "Vx", "p")
+#: Column -> quantity of identify.core.plausible (p = 0 means the .tir's INFLPRES; a
+#: negative Fz is clipped by the model, so only the upper load bound applies).
+_PLAUSIBLE = (("p", "pressure"), ("Vx", "speed"), ("alpha", "angle"), ("gamma", "angle"))
 OPTIONAL = ("phit", "omega")
 
 
@@ -30,6 +35,9 @@ def read_points(path: str | Path) -> pd.DataFrame:
         Line numbers count the header as line 1.
     """
     path = Path(path)
+    why = file_problem(path, "CSV file")
+    if why:  # a FIFO would block the reader forever, /dev/zero never ends
+        raise InputError(path, f"cannot read file: {why}")
     try:
         frame = pd.read_csv(path, dtype=str, keep_default_na=False, skipinitialspace=True)
     except FileNotFoundError:
@@ -39,9 +47,25 @@ def read_points(path: str | Path) -> pd.DataFrame:
     except pd.errors.EmptyDataError:
         raise InputError(path, "empty file: expected a header line "
                                f"with columns {', '.join(REQUIRED)}") from None
-    except (pd.errors.ParserError, UnicodeDecodeError, OSError) as exc:
-        raise InputError(path, f"cannot read file: {str(exc).splitlines()[0]}") from None
+    except UnicodeDecodeError:
+        raw = path.read_bytes()  # pandas' offset is within a chunk: find the byte again
+        try:
+            raw.decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            line, message = decode_problem(raw, exc)
+            raise InputError(path, message, line=line) from None
+        raise InputError(path, "not UTF-8 text") from None
+    except (pd.errors.ParserError, OSError, ValueError, OverflowError, MemoryError) as exc:
+        raise InputError(path, f"cannot read file: {str(exc).strip().splitlines()[0]}"
+                         if str(exc).strip() else "cannot read file") from None
     frame.columns = [str(c).strip() for c in frame.columns]
+    seen: set[str] = set()
+    with path.open(encoding="utf-8-sig", errors="replace") as fh:  # pandas renames "p" "p.1"
+        header = [c.strip() for c in fh.readline().split(",")]
+    for name in header:
+        if name in seen:
+            raise InputError(path, "duplicate column", line=1, key=name)
+        seen.add(name)
     missing = [c for c in REQUIRED if c not in frame.columns]
     if missing:
         raise InputError(path, f"missing column(s) {', '.join(missing)} "
@@ -61,4 +85,9 @@ def read_points(path: str | Path) -> pd.DataFrame:
                 ("nan", "inf", "infinity") else f"not a number: '{cell}'")
             raise InputError(path, what, line=row + 2, key=col)
         out[col] = values
+    for col, quantity in _PLAUSIBLE:  # after the numbers are read: the error bands in SI
+        found = first_error(quantity, out[col].to_numpy(), what=col,
+                            allow_zero=(col == "p"))
+        if found is not None:
+            raise InputError(path, found[1].message, line=found[0] + 2, key=col)
     return out

@@ -28,6 +28,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.plausible import judge_channel
 from identify.core.units import SI_UNITS
 from identify.io.atomic import atomic_write_text
 from identify.io.axes import AXES, to_iso_w
@@ -63,7 +64,8 @@ __all__ = [
 def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                      conditions: Mapping[str, float] | None = None,
                      problems: Problems | None = None,
-                     warnings: list[DataWarning] | None = None) -> pd.DataFrame | None:
+                     warnings: list[DataWarning] | None = None,
+                     copy: bool = True) -> pd.DataFrame | None:
     """The tidy table (:data:`TRAILER_COLUMNS` + present :data:`OPTIONAL_COLUMNS`, SI, ISO-W)
     of one run, with its quirks cleaned (:func:`identify.io.quirks.clean_run`).
 
@@ -81,6 +83,9 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         Collector; strict by default.
     warnings : list, optional
         Receives a :class:`~identify.io.quirks.DataWarning` per quirk found and cleaned.
+    copy : bool
+        False: the cleaning may change ``ch``'s arrays in place (a caller that drops ``ch``
+        saves a copy of the run).
     """
     problems = problems if problems is not None else Problems(strict=True)
     conditions = conditions or {}
@@ -133,7 +138,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     frame.insert(0, "run", ch.run)
     frame = to_iso_w(frame, axes, loaded_radius=rl)
     cleaned = clean_run(frame, file=ch.file, run=ch.run, names=names,
-                        first_line=ch.first_line)
+                        first_line=ch.first_line, copy=copy)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
@@ -146,6 +151,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if cleaned.frame is None:
         return None
     frame = cleaned.frame
+    _plausible(frame, ch, names, problems, warnings)
     check_declared(problems, ch.file, names.get("p", "INFLPRES"), frame["p"].to_numpy(),
                    conditions.get("pressure_Pa"), "pressure", "Pa")
     fz = frame["Fz"].to_numpy()
@@ -154,7 +160,35 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if "load_N" not in conditions and np.median(fz) < 0:
         problems.add(ch.file, f"median Fz is negative ({np.median(fz):.6g} N): in ISO-W Fz is "
                               "positive up (are the axes right?)", key=names.get("Fz", "FZW"))
+    elif "load_N" not in conditions and np.median(fz) == 0:
+        problems.add(ch.file, "median Fz is 0 N: the tyre carries no load",
+                     key=names.get("Fz", "FZW"))
     return frame if problems.total == start else None
+
+
+#: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
+_PLAUSIBLE = (("p", "pressure"), ("Fz", "load"), ("Vx", "speed"), ("alpha", "angle"),
+              ("gamma", "angle"))
+
+
+def _plausible(frame: pd.DataFrame, ch: Channels, names: Mapping[str, str],
+               problems: Problems, warnings: list[DataWarning] | None) -> None:
+    """The plausibility checks of one run, after the unit and axis conversion (SI, ISO-W)."""
+    for col, quantity in _PLAUSIBLE:
+        if col not in frame.columns or (col == "Fz" and np.nanmedian(frame[col]) <= 0):
+            continue  # a load <= 0 has its own message below (the axes, or no load)
+        found = judge_channel(quantity, frame[col].to_numpy())
+        if found is None:
+            continue
+        finding, row = found
+        line = None if row is None or ch.first_line is None else ch.first_line + row
+        name = names.get(col, col)
+        if finding.is_error:
+            problems.add(ch.file, finding.message, key=name,
+                         **({"line": line} if line is not None else {}))
+        elif warnings is not None:
+            warnings.append(DataWarning(ch.file, ch.run, "plausible", (name,), len(frame),
+                                        len(frame), finding.message, "kept", line))
 
 
 def read_trailer(path: str | Path, *, run: str | None = None, axes: str | None = None,

@@ -23,7 +23,7 @@ from identify.core.units import (
     to_si,
     unit_problem,
 )
-from identify.io.common import Problems, read_numeric_csv
+from identify.io.common import Problems, file_problem, read_numeric_csv
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5
 from identify.io.ttc import (
     TTC_TO_TYDEX,
@@ -139,14 +139,15 @@ def read_channels(path: str | Path, *, run: str | None = None,
     problems = problems if problems is not None else Problems(strict=True)
     path = Path(path)
     start = problems.total
-    if not path.is_file():
-        problems.add(path, "is a directory, expected a file" if path.is_dir() else "file not found")
+    why = file_problem(path)
+    if why is not None:
+        problems.add(path, "file not found" if why.startswith("no such") else why)
         return None
     if is_tydex(path):
         tdx = read_tydex(path, problems, allow_nan=True)
         measid = next((e.value for e in tdx.header if e.key == "MEASID"), "") if tdx else ""
-        raws = None if tdx is None else [(_from_tydex(tdx, run or measid or path.stem),
-                                          tdx.data_line)]
+        raws = None if tdx is None else [(_from_tydex(tdx, run or measid or path.stem,
+                                                      problems), tdx.data_line)]
     elif is_hdf5(path):
         found = read_hdf5(path, problems, run=run, allow_nan=True)
         raws = None if found is None else [(raw, None) for raw in found]
@@ -164,7 +165,7 @@ def read_channels(path: str | Path, *, run: str | None = None,
     return None if problems.total > start else out
 
 
-def _from_tydex(tdx: TydexFile, run: str) -> RawRun:
+def _from_tydex(tdx: TydexFile, run: str, problems: Problems) -> RawRun:
     data = {c.name: tdx.data[:, i] for i, c in enumerate(tdx.channels)}
     units = {c.name: c.unit for c in tdx.channels}
     names = {c.name: c.description for c in tdx.channels}
@@ -173,6 +174,10 @@ def _from_tydex(tdx: TydexFile, run: str) -> RawRun:
             try:
                 value = float(entry.value)
             except ValueError:
+                continue
+            if not np.isfinite(value):  # a constant stands for every sample: no NaN allowed
+                problems.add(tdx.path, f"constant {entry.value!r} is not a finite number",
+                             key=entry.key)
                 continue
             data[entry.key] = np.full(tdx.data.shape[0], value)
             units[entry.key], names[entry.key] = entry.unit, entry.description
@@ -213,10 +218,24 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
             else:
                 problems.add(path, why, key=name)
             continue
-        data[name] = to_si(values, unit, dimension=dim)
+        with np.errstate(over="ignore", invalid="ignore"):
+            data[name] = to_si(values, unit, dimension=dim)
+        _overflow(path, name, values, data[name], unit, first_line, problems)
         units[name] = SI_UNITS[UNITS[normalize_unit(unit)][2]]
     long_names = {n: raw.long_names.get(n) or (CHANNELS[canonical(n, ttc)][2]
                                                if canonical(n, ttc) else n) for n in data}
     return Channels(raw.name, data, units, str(path), long_names, first_line,
                     raw.attrs.get("axes") or None,
                     {k: str(v) for k, v in raw.attrs.items() if k != "axes"}, given)
+
+
+def _overflow(path: Path, name: str, raw: np.ndarray, si: np.ndarray, unit: str,
+              first_line: int | None, problems: Problems) -> None:
+    """A value finite as read but not in SI (``1e308 kPa``): the check after the conversion."""
+    lost = np.flatnonzero(np.isfinite(raw) & ~np.isfinite(si))
+    if lost.size:
+        i = int(lost[0])
+        where = {"line": first_line + i} if first_line is not None else {}
+        at = "" if where else f" (sample {i})"
+        problems.add(path, f"{float(raw[i])!r} {unit}{at} is not finite in SI: the unit "
+                           f"conversion overflows ({lost.size} sample(s))", key=name, **where)

@@ -22,7 +22,6 @@ channel without a unit.
 """
 from __future__ import annotations
 
-import zlib
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,7 +29,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import scipy.io
-from scipy.io.matlab import MatReadError
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
@@ -167,9 +165,11 @@ def _read_mat(path: Path, problems: Problems):
     except NotImplementedError:
         problems.add(path, "a MATLAB v7.3 (HDF5) .mat file: save it as MATLAB v5 (-v7)")
         return None
-    except (MatReadError, ValueError, TypeError, OSError, EOFError, IndexError, KeyError,
-            zlib.error) as exc:
-        problems.add(path, f"truncated or corrupt .mat file (scipy.io: {exc})")
+    except Exception as exc:  # noqa: BLE001 - scipy.io's parser of untrusted bytes raises
+        # any type on a corrupt file (MatReadError, ValueError, zlib.error, and even
+        # UnboundLocalError from its Cython reader, found by tests/test_hostile_hypothesis.py)
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
+                           f"{type(exc).__name__}: {exc})")
         return None
     struct = mat.get("channel")
     names, unit_list = ([], [])

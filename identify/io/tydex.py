@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems
+from identify.io.common import file_problem, Problems
 from identify.io.atomic import atomic_write_text
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
@@ -83,6 +83,8 @@ class TydexFile:
 
 def is_tydex(path: str | Path) -> bool:
     """True when the first line that is neither blank nor a ``!`` comment is ``**HEADER``."""
+    if file_problem(path) is not None:  # a FIFO would block
+        return False
     try:
         with open(path, "r", encoding="utf-8-sig", errors="replace") as fh:
             for _, line in zip(range(200), fh, strict=False):
@@ -122,6 +124,9 @@ def read_tydex(path: str | Path, problems: Problems | None = None, *,
     path = Path(path)
     start = problems.total
     try:
+        why = file_problem(path)
+        if why is not None:
+            raise OSError(why)
         raw = path.read_bytes()
     except OSError as exc:
         problems.add(path, f"cannot read file: {exc.strerror or exc}")
@@ -186,8 +191,17 @@ def read_tydex(path: str | Path, problems: Problems | None = None, *,
         return None
     factor = np.array([c.factor for c in channels])
     if (factor != 1).any() or any(c.offset1 or c.offset2 for c in channels):
-        data = (data + np.array([c.offset1 for c in channels])) * factor + np.array(
-            [c.offset2 for c in channels])
+        raw = data
+        with np.errstate(over="ignore", invalid="ignore"):
+            data = (data + np.array([c.offset1 for c in channels])) * factor + np.array(
+                [c.offset2 for c in channels])
+        lost = np.isfinite(raw) & ~np.isfinite(data)  # checked after the factor, not before
+        if lost.any():
+            row, col = (int(v[0]) for v in np.nonzero(lost))
+            problems.add(path, f"{raw[row, col]!r} times factor {channels[col].factor!r} "
+                               f"(and offsets) is not finite ({int(lost.sum())} value(s))",
+                         line=data_line + row, key=channels[col].name)
+            return None
     return TydexFile(header, comments, constants, tuple(channels), data, str(path), data_line)
 
 

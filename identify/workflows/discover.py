@@ -18,6 +18,7 @@ from pathlib import Path
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.names import name_problem
 from identify.core.jsonsafe import json_text
 from identify.core.version import __version__
 from identify.discover.library import load_library
@@ -176,6 +177,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     say(f"load: {source}")
     mset = load_folder(source)
     tyre = mset.manifest.tyre
+    if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
+        raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
     tir0, fittyp = start_tir(mset, base_tir)
     if base_form is not None:
         if base_form not in library.forms:

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.names import name_problem
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
@@ -225,6 +226,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
                        nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
+    if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
+        raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
     chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)

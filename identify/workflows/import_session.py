@@ -26,7 +26,6 @@ temporary directory and renamed into place when complete.
 """
 from __future__ import annotations
 
-import re
 import shutil
 import tempfile
 from collections.abc import Callable, Mapping, Sequence
@@ -37,6 +36,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.names import safe_name
 from identify.core.version import __version__
 from identify.io.common import Problems, sha256_file
 from identify.io.manifest import MANIFEST_NAME
@@ -80,8 +80,8 @@ class ImportResult:
 
 def safe_id(text: str) -> str:
     """A safe file name from a tyre id: ``"Hoosier 18.0x6.0-10 R25B"`` ->
-    ``"Hoosier-18.0x6.0-10-R25B"``."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-.") or ""
+    ``"Hoosier-18.0x6.0-10-R25B"`` (:func:`identify.core.names.safe_name`)."""
+    return safe_name(text)
 
 
 def classify_run(seg: Segmentation, run: str, gamma_span: float) -> str:

@@ -21,7 +21,9 @@ from types import MappingProxyType
 from typing import Any
 
 from identify.core.errors import InputError
+from identify.core.plausible import judge
 from identify.core.units import dimension_factor, unit_factor
+from identify.io.common import file_problem
 from identify.model.parameters import EXTENSION_PREFIX, PARAMETERS, spec
 
 __all__ = ["TirFile", "read_tir", "SUPPORTED_FITTYPS", "KNOWN_FITTYPS", "UNIT_KEYS"]
@@ -118,6 +120,9 @@ class _Entry:
 
 
 def _read_text(path: str) -> tuple[str, str]:
+    why = file_problem(path, ".tir file")
+    if why and not why.startswith(("no such", "is a directory")):  # a FIFO would block
+        raise InputError(path, f"cannot read file: {why}")
     try:
         data = Path(path).read_bytes()
     except FileNotFoundError:
@@ -302,6 +307,12 @@ def read_tir(path: str | Path) -> TirFile:
     return _assemble(path, digest, entries, tables, warnings)
 
 
+#: Keys the model divides by, with their quantity of identify.core.plausible: non-zero and
+#: plausible in SI.
+_DIVIDING = (("FNOMIN", "load"), ("UNLOADED_RADIUS", "radius"), ("NOMPRES", "pressure"),
+             ("LONGVL", "speed"))
+
+
 def _assemble(path: str, digest: str, entries: dict[str, _Entry],
               tables: dict[str, list[str]], warnings: list[str]) -> TirFile:
     units = {k: str(entries[k].value) for k in UNIT_KEYS if k in entries}
@@ -328,6 +339,15 @@ def _assemble(path: str, digest: str, entries: dict[str, _Entry],
         else:
             values[p.name] = p.default
             defaults_used.append(p.name)
+    for key, quantity in _DIVIDING:  # in SI, after the [UNITS] scaling
+        if key in entries and isinstance(values[key], float):
+            found = judge(quantity, values[key], what="value in SI")
+            if values[key] == 0.0 or (found is not None and found.is_error):
+                why = "must not be 0: the model divides by it" if values[key] == 0.0 \
+                    else found.message
+                raise InputError(path, why, line=entries[key].line, key=key)
+            if found is not None:
+                warnings.append(f"{key}: {found.message}")
     unknown = {k: e.value for k, e in entries.items() if "." in k}
     if unknown and any(v != 1.0 for v in scales.values()):
         warnings.append("unknown keys are kept as read, not converted to SI: "

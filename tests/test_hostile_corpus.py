@@ -1,0 +1,371 @@
+"""The hostile-input corpus (issue 15): every bad input is one line naming the file, exit 2.
+
+Each case mutates a copy of the good folder (tests/measurement_cases.py), runs one command
+(check, eval, convert, fit) and asserts: exit 2, exactly one error line, which names the file
+(and the line or channel where there is one) and says what is wrong; no traceback. The classes:
+unsafe names and paths, what the libraries raise (csv field limit, h5py, symlink loops, huge
+numbers, undecodable bytes, multi-line quoted cells), values that are only wrong after the unit
+conversion or a channel factor, implausible values, .tir keys the model divides by, files that
+are not regular files (FIFOs, devices). A case accepted with exit 0 fails the test.
+"""
+from __future__ import annotations
+
+import os
+import shutil
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from typer.testing import CliRunner
+
+from identify.cli.app import app
+from tests.measurement_cases import write_good_folder
+
+runner = CliRunner()
+TR = "trailer/cornering_p250.csv"
+H5 = "trailer/cornering_p220.h5"
+TDX = "trailer/cornering_p280.tdx"
+TAB = "tables/thesis.csv"
+TIR = "extra/tyre.tir"
+PTS = "extra/points.csv"
+TR_CONDITIONS = "conditions = { pressure_Pa = 250000, load_N = 5000 }\n"
+
+
+# ------------------------------------------------------------------ mutations
+
+def edit(rel: str, old: str, new: str, count: int = 1):
+    def apply(root: Path) -> None:
+        text = (root / rel).read_text()
+        assert old in text, (rel, old)
+        (root / rel).write_text(text.replace(old, new, count))
+    return apply
+
+
+def cell(rel: str, line: int, column: str, value: str):
+    def apply(root: Path) -> None:
+        lines = (root / rel).read_text().splitlines()
+        col = lines[0].split(",").index(column)
+        cells = lines[line - 1].split(",")
+        cells[col] = value
+        lines[line - 1] = ",".join(cells)
+        (root / rel).write_text("\n".join(lines) + "\n")
+    return apply
+
+
+def column(rel: str, name: str, fn):
+    def apply(root: Path) -> None:
+        lines = (root / rel).read_text().splitlines()
+        col = lines[0].split(",").index(name)
+        out = [lines[0]]
+        for line in lines[1:]:
+            cells = line.split(",")
+            cells[col] = repr(fn(float(cells[col])))
+            out.append(",".join(cells))
+        (root / rel).write_text("\n".join(out) + "\n")
+    return apply
+
+
+def raw_line(rel: str, line: int, data: bytes):
+    def apply(root: Path) -> None:
+        lines = (root / rel).read_bytes().split(b"\n")
+        lines[line - 1] = data
+        (root / rel).write_bytes(b"\n".join(lines))
+    return apply
+
+
+def tir_key(key: str, value: str):
+    def apply(root: Path) -> None:
+        lines = (root / TIR).read_text().splitlines()
+        i = next(i for i, x in enumerate(lines) if x.split("=")[0].strip() == key)
+        lines[i] = f"{key} = {value}"
+        (root / TIR).write_text("\n".join(lines) + "\n")
+    return apply
+
+
+def both(*fns):
+    def apply(root: Path) -> None:
+        for fn in fns:
+            fn(root)
+    return apply
+
+
+def fifo(rel: str):
+    def apply(root: Path) -> None:
+        (root / rel).unlink()
+        os.mkfifo(root / rel)
+    return apply
+
+
+def symlink(rel: str, target):
+    def apply(root: Path) -> None:
+        to = target(root) if callable(target) else target
+        (root / rel).unlink()
+        (root / rel).symlink_to(to)
+    return apply
+
+
+def outside_file(root: Path) -> Path:
+    target = root.parent / "outside.csv"
+    shutil.copy(root / TR, target)
+    return target
+
+
+def h5_rewrite(fn):
+    def apply(root: Path) -> None:
+        with h5py.File(root / H5, "r+") as fh:
+            fn(fh["cornering_p220"])
+    return apply
+
+
+def h5_empty(grp) -> None:
+    for key in list(grp):
+        del grp[key]
+        grp.create_dataset(key, data=np.zeros(0))
+
+
+def h5_dangling(grp) -> None:
+    del grp["FYW"]
+    grp["FYW"] = h5py.SoftLink("/nowhere/FYW")
+
+
+def h5_overflow(grp) -> None:
+    grp["INFLPRES"].attrs["units"] = "kPa"
+    grp["INFLPRES"][4] = 1e308
+
+
+def truncate(rel: str, keep: int):
+    def apply(root: Path) -> None:
+        data = (root / rel).read_bytes()
+        (root / rel).write_bytes(data[:keep])
+    return apply
+
+
+def tdx_constant_nan(root: Path) -> None:
+    text = (root / TDX).read_text()
+    text = text.replace("INFLPRES  inflpres", "XINFLPRES inflpres", 1)
+    text = text.replace("**CONSTANTS\n", "**CONSTANTS\n" + "INFLPRES".ljust(10)
+                        + "inflation pressure".ljust(30) + "bar".ljust(10) + "nan\n", 1)
+    (root / TDX).write_text(text)
+
+
+nothing = both()
+BIG = "9" * 200_000
+ROOT_CMD = ["check", "{root}"]
+EVAL = ["eval", "{root}/" + TIR, "-i", "{root}/" + PTS, "-o", "{out}/eval.csv"]
+
+
+# ------------------------------------------------------------------ the corpus
+# (id, mutation, command (with {root} and {out}), file the line names, the rest of the line:
+#  fragments that must all appear, in order, after the file)
+CASES = [
+    # names and paths
+    ("id-dotdot", edit("tyre.toml", '"225-50R17-test"', '"../../escaped_by_id"'), ROOT_CMD,
+     "tyre.toml", ["tyre.id: ", "not a safe file name"]),
+    ("id-empty", edit("tyre.toml", '"225-50R17-test"', '""'), ROOT_CMD, "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    ("id-dot", edit("tyre.toml", '"225-50R17-test"', '"."'), ROOT_CMD, "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    ("id-slash", edit("tyre.toml", '"225-50R17-test"', '"a/b"'), ROOT_CMD, "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    ("id-space", edit("tyre.toml", '"225-50R17-test"', '"x y"'), ROOT_CMD, "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    ("id-newline", edit("tyre.toml", '"225-50R17-test"', '"a\\nb"'), ROOT_CMD, "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    ("run-file-dotdot", both(outside_file, edit("tyre.toml", f'"{TR}"', '"../outside.csv"')),
+     ROOT_CMD, "tyre.toml", ["runs[2].file: ", "leads outside the measurement folder"]),
+    ("run-file-absolute", both(outside_file, edit("tyre.toml", f'"{TR}"', '"/etc/passwd"')),
+     ROOT_CMD, "tyre.toml", ["runs[2].file: ", "an absolute path is not allowed"]),
+    ("run-file-symlink-out", symlink(TR, outside_file), ROOT_CMD, "tyre.toml",
+     ["runs[2].file: ", "leads outside the measurement folder"]),
+    ("run-file-symlink-loop", symlink(TR, lambda root: root / TR), ROOT_CMD, "tyre.toml",
+     ["runs[2].file: ", "cannot resolve"]),
+    ("run-file-dangling", symlink(TR, lambda root: root / "trailer" / "gone.csv"), ROOT_CMD,
+     "tyre.toml", ["runs[2].file: ", "dangling symbolic link"]),
+    ("run-file-fifo", fifo(TR), ROOT_CMD, "tyre.toml",
+     ["runs[2].file: ", "is a named pipe (FIFO)"]),
+    ("run-file-fifo-table", fifo(TAB), ROOT_CMD, "tyre.toml",
+     ["runs[5].file: ", "is a named pipe (FIFO)"]),
+    ("manifest-fifo", fifo("tyre.toml"), ROOT_CMD, "tyre.toml", ["is a named pipe (FIFO)"]),
+    ("check-dev-null", nothing, ["check", "/dev/null"], "/dev/null", ["is a device"]),
+    ("check-fifo", lambda root: os.mkfifo(root / "pipe.csv"), ["check", "{root}/pipe.csv"],
+     "pipe.csv", ["is a named pipe (FIFO)"]),
+    # tyre.toml numbers
+    ("toml-huge-integer", edit("tyre.toml", "nominal_load_N = 5000", "nominal_load_N = 1"
+                               + "0" * 400), ROOT_CMD, "tyre.toml",
+     ["tyre.nominal_load_N: ", "number too large"]),
+    ("toml-pressure-1e308", edit("tyre.toml", "nominal_pressure_Pa = 250000",
+                                 "nominal_pressure_Pa = 1e308"), ROOT_CMD, "tyre.toml",
+     ["tyre.nominal_pressure_Pa: ", "not physical"]),
+    ("toml-radius-1e-300", edit("tyre.toml", "unloaded_radius_m = 0.3205",
+                                "unloaded_radius_m = 1e-300"), ROOT_CMD, "tyre.toml",
+     ["tyre.unloaded_radius_m: ", "not physical"]),
+    ("toml-radius-50", edit("tyre.toml", "unloaded_radius_m = 0.3205",
+                            "unloaded_radius_m = 50.0"), ROOT_CMD, "tyre.toml",
+     ["tyre.unloaded_radius_m: ", "not physical"]),
+    ("toml-load-2e6", edit("tyre.toml", TR_CONDITIONS, "conditions = { pressure_Pa = 250000, "
+                           "load_N = 2e6 }\n"), ROOT_CMD, "tyre.toml",
+     ["runs[2].conditions.load_N: ", "not physical"]),
+    ("toml-gamma-1000deg", edit("tyre.toml", "gamma_deg = 5.0", "gamma_deg = 1000.0"),
+     ROOT_CMD, "tyre.toml", ["runs[1].conditions.gamma_deg: ", "not physical"]),
+    ("toml-speed-1e4", edit("tyre.toml", TR_CONDITIONS, "conditions = { pressure_Pa = 250000, "
+                            "load_N = 5000, speed_mps = 1e4 }\n"), ROOT_CMD, "tyre.toml",
+     ["runs[2].conditions.speed_mps: ", "not physical"]),
+    ("toml-not-utf8", raw_line("tyre.toml", 3, b"nominal_pressure_Pa = 250000 # \xff\xfe"),
+     ROOT_CMD, "tyre.toml", [":3: ", "not UTF-8 text"]),
+    ("toml-deep-nesting", edit("tyre.toml", "[rig]", "x = " + "[" * 5000 + "]" * 5000
+                               + "\n[rig]"), ROOT_CMD, "tyre.toml", ["invalid TOML"]),
+    # trailer CSV
+    ("csv-cell-over-field-limit", cell(TR, 5, "FYW", BIG), ROOT_CMD, TR,
+     [":5: ", "cannot parse CSV: field larger than field limit"]),
+    ("csv-header-over-field-limit", raw_line(TR, 1, b'"' + b"A" * 200_000 + b'"'), ROOT_CMD,
+     TR, [":1: ", "cannot parse the header"]),
+    ("csv-multiline-quoted-cell", cell(TR, 5, "FYW", '"12\n34"'), ROOT_CMD, TR,
+     [":5: FYW: ", "not a number: '12\\n34'"]),
+    ("csv-not-utf8", raw_line(TR, 6, b"0.5,16.7,53.8,-5.0,0.0,0.0,250.0,\xff\xfe,1,1,1,1,1"),
+     ROOT_CMD, TR, [":6: FX: ", "not UTF-8 text"]),
+    ("csv-overflow-after-kpa", cell(TR, 5, "INFLPRES", "1e308"), ROOT_CMD, TR,
+     [":5: INFLPRES: ", "not finite in SI"]),
+    ("csv-negative-pressure-no-nominal", both(
+        edit("tyre.toml", TR_CONDITIONS, "\n"), column(TR, "INFLPRES", lambda v: -v)),
+     ROOT_CMD, TR, ["INFLPRES: ", "median pressure", "not physical"]),
+    ("csv-zero-load", both(edit("tyre.toml", TR_CONDITIONS, "\n"),
+                           column(TR, "FZW", lambda v: 0.0)), ROOT_CMD, TR,
+     ["FZW: ", "median Fz is 0 N"]),
+    ("csv-pressure-too-high", both(edit("tyre.toml", TR_CONDITIONS, "\n"),
+                                   column(TR, "INFLPRES", lambda v: v * 1e5)), ROOT_CMD, TR,
+     ["INFLPRES: ", "not physical"]),
+    ("csv-load-too-high", both(edit("tyre.toml", TR_CONDITIONS, "\n"),
+                               column(TR, "FZW", lambda v: v * 1e4)), ROOT_CMD, TR,
+     ["FZW: ", "not physical"]),
+    ("csv-degrees-as-radians", both(edit("tyre.toml", 'SLIPANGL = "deg"', 'SLIPANGL = "rad"'),
+                                    column(TR, "SLIPANGL", lambda v: 3 * v)), ROOT_CMD, TR,
+     ["SLIPANGL: ", "not physical", "degrees given as radians?"]),
+    ("csv-kmh-as-ms", column(TR, "LONGVEL", lambda v: 100 * v), ROOT_CMD, TR,
+     ["LONGVEL: ", "median speed", "not physical"]),
+    # HDF5
+    ("hdf5-zero-samples", h5_rewrite(h5_empty), ROOT_CMD, H5,
+     ["cornering_p220: ", "0 samples"]),
+    ("hdf5-dangling-link", h5_rewrite(h5_dangling), ROOT_CMD, H5,
+     ["cornering_p220/FYW: ", "dangling link"]),
+    ("hdf5-overflow-after-kpa", h5_rewrite(h5_overflow), ROOT_CMD, H5,
+     ["INFLPRES: ", "not finite in SI"]),
+    ("hdf5-truncated", truncate(H5, 3000), ROOT_CMD, H5, ["HDF5"]),
+    ("hdf5-signature-only", truncate(H5, 8), ROOT_CMD, H5, ["HDF5"]),
+    # TYDEX
+    ("tdx-factor-overflow", edit(TDX, "bar       1 0 0", "bar       1e308 0 0"), ROOT_CMD,
+     TDX, [":", "INFLPRES: ", "is not finite"]),
+    ("tdx-constant-nan", tdx_constant_nan, ROOT_CMD, TDX,
+     ["INFLPRES: ", "constant 'nan' is not a finite number"]),
+    ("tdx-overflow-after-unit", edit(TDX, "km/h      1 0 0", "km/h      1e307 0 0"), ROOT_CMD,
+     TDX, ["LONGVEL: "]),
+    # characteristic tables
+    ("table-cell-over-field-limit", edit(TAB, "251700.0", BIG), ROOT_CMD, TAB,
+     [":2: ", "cannot parse CSV: field larger than field limit"]),
+    ("table-1e308-n-per-mm", edit(TAB, "145.2,N/mm", "1e308,N/mm"), ROOT_CMD, TAB,
+     [":3: value: ", "not finite after the unit conversion"]),
+    ("table-value-1e300", edit(TAB, "251700.0", "1e300"), ROOT_CMD, TAB,
+     [":2: value: ", "not physical"]),
+    ("table-multiline-quoted", edit(TAB, "CFy,", '"CF\ny",'), ROOT_CMD, TAB,
+     [":3: quantity: ", "unknown quantity 'CF\\ny'"]),
+    ("table-not-utf8", raw_line(TAB, 4, b"sigma_y,2.5,5000,385.0,\xe9m"), ROOT_CMD, TAB,
+     [":4: ", "not UTF-8 text"]),
+    ("table-pressure-1e6-bar", edit(TAB, "CFz,2.5,", "CFz,1e6,"), ROOT_CMD, TAB,
+     [":2: pi_bar: ", "not physical"]),
+    ("table-load-2e6", edit(TAB, "CFz,2.5,5000,", "CFz,2.5,2e6,"), ROOT_CMD, TAB,
+     [":2: Fz_N: ", "not physical"]),
+    ("single-table-all-loads-zero", nothing, ["check", "{root}/characteristics.csv"],
+     "characteristics.csv", ["no nominal load given and none in the table"]),
+    ("single-table-negative-pressure", nothing,
+     ["check", "{root}/" + TAB, "--nominal-pressure", "-1"], TAB,
+     ["--nominal-pressure: ", "not physical"]),
+    ("single-table-zero-load", nothing, ["check", "{root}/" + TAB, "--nominal-load", "0"], TAB,
+     ["--nominal-load: ", "must be > 0"]),
+    ("fit-single-table-negative-pressure", nothing,
+     ["fit", "{root}/" + TAB, "--nominal-pressure", "-1", "--out", "{out}/f", "--reports",
+      "{out}/r"], TAB, ["--nominal-pressure: ", "not physical"]),
+    ("fit-unsafe-id", edit("tyre.toml", '"225-50R17-test"', '"../../escaped_by_id"'),
+     ["fit", "{root}", "--out", "{out}/f", "--reports", "{out}/r"], "tyre.toml",
+     ["tyre.id: ", "not a safe file name"]),
+    # .tir keys the model divides by, and .tir files that are not files
+    ("tir-fnomin-zero", tir_key("FNOMIN", "0"), EVAL, TIR, ["FNOMIN: ", "must not be 0"]),
+    ("tir-unloaded-radius-zero", tir_key("UNLOADED_RADIUS", "0"), EVAL, TIR,
+     ["UNLOADED_RADIUS: ", "must not be 0"]),
+    ("tir-nompres-zero", tir_key("NOMPRES", "0"), EVAL, TIR, ["NOMPRES: ", "must not be 0"]),
+    ("tir-longvl-zero", tir_key("LONGVL", "0.0"), EVAL, TIR, ["LONGVL: ", "must not be 0"]),
+    ("tir-fnomin-negative", tir_key("FNOMIN", "-4000"), EVAL, TIR,
+     ["FNOMIN: ", "not physical"]),
+    ("tir-fnomin-1e300", tir_key("FNOMIN", "1e300"), EVAL, TIR, ["FNOMIN: ", "not physical"]),
+    ("tir-radius-100", tir_key("UNLOADED_RADIUS", "100"), EVAL, TIR,
+     ["UNLOADED_RADIUS: ", "not physical"]),
+    ("tir-fifo", fifo(TIR), EVAL, TIR, ["is a named pipe (FIFO)"]),
+    ("tir-dev-null", nothing, ["eval", "/dev/null", "-i", "{root}/" + PTS, "-o", "{out}/e.csv"],
+     "/dev/null", ["is a device"]),
+    # operating points
+    ("points-fifo", fifo(PTS), EVAL, PTS, ["is a named pipe (FIFO)"]),
+    ("points-dev-null", nothing, ["eval", "{root}/" + TIR, "-i", "/dev/null", "-o",
+                                  "{out}/e.csv"], "/dev/null", ["is a device"]),
+    ("points-duplicate-after-strip", edit(PTS, "Vx,p\n", "Vx,p, p\n"), EVAL, PTS,
+     [":1: p: duplicate column"]),
+    ("points-negative-pressure", edit(PTS, "16.7,250000\n", "16.7,-1\n"), EVAL, PTS,
+     [":2: p: ", "not physical"]),
+    ("points-pressure-1e300", edit(PTS, "16.7,250000\n", "16.7,1e300\n"), EVAL, PTS,
+     [":2: p: ", "not physical"]),
+    ("points-alpha-100rad", edit(PTS, "5000,0.0,0.05,", "5000,0.0,100,"), EVAL, PTS,
+     [":2: alpha: ", "not physical"]),
+    ("points-speed-1e4", edit(PTS, "0.0,16.7,250000\n", "0.0,1e4,250000\n"), EVAL, PTS,
+     [":2: Vx: ", "not physical"]),
+    ("points-not-utf8", raw_line(PTS, 3, b"4000,0.02,0.0,0.0,16.7,\xff"), EVAL, PTS,
+     [":3: ", "not UTF-8 text"]),
+    ("points-huge-number", edit(PTS, "16.7,250000\n", "16.7,1" + "0" * 400 + "\n"), EVAL, PTS,
+     [":2: p: "]),
+    # convert: the file alone (units from its header)
+    ("convert-fifo", fifo(TR), ["convert", "{root}/" + TR, "{out}/c.h5"], TR,
+     ["is a named pipe (FIFO)"]),
+    ("convert-overflow-after-kpa", both(
+        raw_line(TR, 1, b"RUNTIME,LONGVEL,WHROTSPD,SLIPANGL [deg],LONGSLIP,INCLANGL,"
+                        b"INFLPRES [kPa],FX,FYW,FZW,MXW,MYW,MZW"),
+        cell(TR, 5, "INFLPRES [kPa]", "1e308")), ["convert", "{root}/" + TR, "{out}/c.h5"],
+     TR, [":5: INFLPRES: ", "not finite in SI"]),
+    ("convert-cell-over-field-limit", cell(TR, 5, "FYW", BIG),
+     ["convert", "{root}/" + TR, "{out}/c.h5"], TR, [":5: ", "field larger than field limit"]),
+]
+
+
+@pytest.fixture(scope="module")
+def good(tmp_path_factory) -> Path:
+    return write_good_folder(tmp_path_factory.mktemp("good") / "folder")
+
+
+def test_corpus_is_large_enough():
+    assert len(CASES) >= 60 and len({c[0] for c in CASES}) == len(CASES)
+
+
+@pytest.mark.parametrize("name,mutate,args,file,fragments", CASES, ids=[c[0] for c in CASES])
+def test_hostile_input(good, tmp_path, name, mutate, args, file, fragments):
+    root = tmp_path / "folder"
+    shutil.copytree(good, root, symlinks=True)
+    out = tmp_path / "out"
+    out.mkdir()
+    mutate(root)
+    before = sorted(os.listdir(tmp_path))
+    argv = [a.format(root=root, out=out) for a in args]
+    result = runner.invoke(app, argv)
+    assert result.exit_code == 2, (result.exit_code, result.output)
+    assert "Traceback" not in result.output and result.exception is None or \
+        isinstance(result.exception, SystemExit), result.exception
+    lines = [x for x in result.stderr.splitlines()
+             if not x.startswith("warning: ") and " problem(s)" not in x]
+    assert len(lines) == 1, result.stderr  # one error, on one line
+    line = lines[0].removeprefix("error: ")
+    where = file if file.startswith("/") else f"{root}/{file}"
+    assert line.startswith(where), (where, line)
+    rest = line[len(where):]
+    position = 0
+    for fragment in fragments:
+        found = rest.find(fragment, position)
+        assert found >= 0, (fragment, line)
+        position = found + len(fragment)
+    assert len(line) < 600
+    assert sorted(os.listdir(tmp_path)) == before  # nothing written next to the folder
+    assert not any(out.iterdir())  # and no output
