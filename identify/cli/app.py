@@ -52,6 +52,7 @@ from identify.cli import check_cmd, convert_cmd  # noqa
 from identify.cli import fit_cmd, report_cmd  # noqa: E402,F401
 from identify.cli import extract_cmd  # noqa
 from identify.cli import discover_cmd  # noqa: E402,F401
+from identify.cli import batch_cmd  # noqa: E402,F401
 
 
 def main() -> None:
