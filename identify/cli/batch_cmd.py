@@ -48,8 +48,8 @@ class RichBatchEvents:
         self._counts = (0, 0, 0, 0, None)
 
     def start(self, engine, total, skipped) -> None:
-        fresh = sum(o.status == "up to date" for o in skipped)
-        bad = len(skipped) - fresh
+        fresh = sum(o.status in ("up to date", "failed") for o in skipped)
+        bad = sum(o.status == "bad input" for o in skipped)
         self.console.print(f"batch: {total} to fit on {engine or '-'}, {fresh} up to date, "
                            f"{bad} bad input", markup=False, highlight=False)
         if self.live and total:

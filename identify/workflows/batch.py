@@ -170,6 +170,10 @@ def _plan(folders: Sequence[str | Path], out_root: Path, reports: Path | None,
         report = None if reports is None else reports / f"{tyre_id}.pdf"
         if not force:
             fresh = freshness(folder, manifest, fit_dir, report, settings)
+            if fresh.up_to_date and fresh.failed:  # not refitted: it would fail the same way
+                planned.append(TaskOutcome(name, tyre_id, FAILED, "up to date, not refitted; "
+                                           "fit did not converge: " + "; ".join(fresh.failed)))
+                continue
             if fresh.up_to_date:
                 planned.append(TaskOutcome(name, tyre_id, UP_TO_DATE, fresh.reason))
                 continue
@@ -244,7 +248,11 @@ def _entries(outcomes: Sequence[TaskOutcome], out_root: Path) -> list[BatchEntry
                 fd = read_fit_dir(out_root / o.tyre_id)
             except InputError:
                 fd = None
-        entries.append(BatchEntry(o.tyre_id, o.folder, o.status, o.message, fd))
+        # the summary is the state of the tyres, the same whether they were refitted now
+        status, message = (OK, "") if o.status == UP_TO_DATE else (o.status, o.message)
+        if o.attempts == 0 and o.status == FAILED:
+            message = message.removeprefix("up to date, not refitted; ")
+        entries.append(BatchEntry(o.tyre_id, o.folder, status, message, fd))
     return entries
 
 

@@ -31,10 +31,12 @@ __all__ = ["Freshness", "folder_inputs", "freshness", "manifest_of", "recorded_i
 
 @dataclass(frozen=True)
 class Freshness:
-    """Whether a folder's outputs are up to date, and why not."""
+    """Whether a folder's outputs are up to date, and why not; ``failed``: the fits the
+    up-to-date fit.json lists as failed."""
 
     up_to_date: bool
     reason: str
+    failed: tuple[str, ...] = ()
 
 
 def manifest_of(folder: str | Path) -> tuple[Path, Manifest]:
@@ -126,4 +128,4 @@ def freshness(folder: Path, manifest: Manifest, fit_dir: Path, report: Path | No
             return Freshness(False, f"{name} missing")
         if changed > stamp and sha256_file(folder / name) != recorded[name]:
             return Freshness(False, f"{name} changed")
-    return Freshness(True, "outputs newer than inputs and settings")
+    return Freshness(True, "outputs newer than inputs and settings", tuple(run.failed))
