@@ -300,6 +300,10 @@ def run_batch(folders: Sequence[str | Path], *, out_root: str | Path = "fits",
         _dask_engine(scheduler)
     out_root = Path(out_root)
     reports = None if reports is None else Path(reports)
+    if scheduler not in (None, "local"):  # remote workers have their own working folder
+        folders = [Path(f).absolute() for f in folders]
+        out_root = out_root.absolute()
+        reports = None if reports is None else reports.absolute()
     command = command or (lambda folder: f"mfid fit {folder}")
     planned = _plan(folders, out_root, reports, settings, force, command)
     tasks = [p for p in planned if isinstance(p, FitTask)]
