@@ -105,6 +105,11 @@ class _TrackedProcess(ForkServerProcess):
         _TrackedProcess.started[self.pid] = self
 
 
+def _forget_ended() -> None:
+    for pid in [p for p, proc in _TrackedProcess.started.items() if proc.exitcode is not None]:
+        del _TrackedProcess.started[pid]
+
+
 class _TrackedContext(ForkServerContext):
     Process = _TrackedProcess
 
@@ -179,9 +184,7 @@ class PoolEngine:
             else:
                 died = WorkerDied(False, "not started when a worker died", started=False)
             out.append((task, died))
-        for pid in [p for p, proc in _TrackedProcess.started.items()
-                    if proc.exitcode is not None]:
-            del _TrackedProcess.started[pid]
+        _forget_ended()
         return out
 
     @staticmethod
@@ -199,3 +202,4 @@ class PoolEngine:
                     proc.terminate()
         self._pool.shutdown(wait=True, cancel_futures=cancel)
         self._futures.clear()
+        _forget_ended()

@@ -148,7 +148,10 @@ def fit_task(task: FitTask) -> TaskOutcome:
     """
     t0 = time.perf_counter()
     if task.marker:
-        Path(task.marker).write_text(f"{socket.gethostname()} {os.getpid()}\n")
+        try:
+            Path(task.marker).write_text(f"{socket.gethostname()} {os.getpid()}\n")
+        except OSError:  # the batch that submitted it is gone: the fit is still wanted
+            pass
     remove_partial(task.tyre_id, task.out_root, task.reports)
     threads = 0
 
