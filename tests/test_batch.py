@@ -229,10 +229,13 @@ def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folder
 
 def test_summary_pdf_compares_the_tyres(folders, tmp_path):
     """batch_summary.pdf: the overview, then sensitivities, stiffnesses and cornering pages
-    for the group of tyres; the CSV has one row per fit."""
+    for the group of tyres; the CSV has one row per fit. (On a Dask LocalCluster, whose
+    workers run one BLAS thread.)"""
     run = run_batch([folders / "t1", folders / "t2"], out_root=tmp_path / "fits",
                     reports=tmp_path / "reports", settings=FitSettings(only=("CFx", "CFz")),
-                    workers=2)
+                    workers=2, scheduler="local")
+    assert run.engine == "dask LocalCluster (2 workers)"
+    assert [(o.status, o.blas_threads) for o in run.outcomes] == [("ok", 1), ("ok", 1)]
     assert run.summary_pdf == tmp_path / "reports" / "batch_summary.pdf"
     reader = PdfReader(run.summary_pdf)
     text = [page.extract_text() for page in reader.pages]
@@ -284,3 +287,27 @@ def test_scheduler_without_dask_names_the_extra(folders, tmp_path):
                                   "'mfid[dask]' (or leave out --scheduler to use the process "
                                   "pool)")
     assert not (tmp_path / "fits").exists()
+
+
+def test_interrupt_stops_the_workers_and_leaves_no_partial_file(folders, tmp_path):
+    """SIGINT to `mfid batch` while fits run: exit 130, the workers are stopped, and there is
+    no temporary file or marker folder; a folder either has all its outputs or none."""
+    out = tmp_path / "fits"
+    proc = subprocess.Popen([str(MFID), "batch", *[str(folders / n) for n in IDS], "--out",
+                             str(out), "--no-report", "--workers", "2", *ONLY],
+                            cwd=tmp_path, env=ENV, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 600
+    while not list(out.glob(".mfid-batch-*/*.pid")) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    time.sleep(0.5)
+    proc.send_signal(signal.SIGINT)
+    _, stderr = proc.communicate(timeout=300)
+    assert proc.returncode == 130, stderr
+    assert stderr.strip().splitlines()[-1].startswith("interrupted: the running fits were "
+                                                      "stopped")
+    assert not leftovers(tmp_path)
+    for tyre in IDS:
+        made = [(out / tyre / n).is_file() for n in (f"{tyre}.tir", "fit.json",
+                                                     "measured_vs_model.csv")]
+        assert all(made) or not any(made), tyre
