@@ -1,4 +1,5 @@
-"""Discovery trials (issue 7 acceptance): hidden effects and null data, independent and AR(1) noise.
+"""Discovery trials (issues 7, 19): hidden effects and null data, independent and AR(1) noise, and
+a confounded design with two effects that only generalise together.
 
 Each trial generates one problem directly from the model on its test matrix
 (:mod:`identify.discover.scenarios`: random base coefficients, effect sign and size, seed), runs
@@ -8,9 +9,16 @@ the first one named (Wilson 95 % interval), the false-addition rate on null data
 training/held-out error drops and the excess error explained, a confusion matrix (hidden vs
 first named) and the scoring time against one base-fit time.
 
+The confounded set (issue 19; :func:`identify.discover.scenarios.make_confounded`): a
+rolling-resistance table of five load/pressure pairs at four speeds, QSY7 and QSY8 both hidden,
+independent 1 % noise; "named" means both are accepted (as one block or one after the other),
+its null trials have nothing hidden. ``--heldout pressure`` forces leave-one-pressure-out folds
+(the scheme of issue 19), to see the joint blocks at work.
+
 Usage::
 
     python bench/discovery_trials.py [--trials 50] [--null 200] [--jobs 2] [--json out.json]
+    python bench/discovery_trials.py --only-confounded [--heldout pressure]
     python bench/discovery_trials.py --power 20     # power against effect size instead
 """
 from __future__ import annotations
@@ -29,12 +37,15 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from identify.discover.scenarios import EFFECTS, SCENARIOS, make_problem  # noqa: E402
+from identify.discover.scenarios import (EFFECTS, SCENARIOS, make_confounded,  # noqa: E402
+                                         make_problem)
 
 NOISE = {"independent": 0.0, "ar1": 0.9}
+GROUPS = ("independent", "ar1", "confounded")
 REQUIRED = ("PPY5", "QSY8", "PPY1", "PPX1", "PPMX1", "PCFY2")
-TARGET_NAMED = {"independent": 0.95, "ar1": 0.80}
-TARGET_NULL = {"independent": 0.05, "ar1": 0.10}
+TARGET_NAMED = {"independent": 0.95, "ar1": 0.80, "confounded": 0.90}
+TARGET_NULL = {"independent": 0.05, "ar1": 0.10, "confounded": 0.05}
+CONFOUNDED = "QSY7+QSY8"
 
 
 def wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
@@ -53,16 +64,23 @@ def run_one(task: tuple) -> dict:
     from identify.discover.library import load_library
     from identify.discover.search import Settings, discover
 
-    scenario, hidden, noise, seed, *value = task
+    scenario, hidden, noise, seed, *rest = task
+    value = rest[0] if rest else None
+    heldout = rest[1] if len(rest) > 1 else "auto"
     rng = np.random.default_rng(seed)
-    problem, truth = make_problem(scenario, rng, hidden, value[0] if value else None,
-                                  rho=NOISE[noise])
+    if scenario == "RR/confounded":
+        problem, truth = make_confounded(rng, hidden is not None)
+    else:
+        problem, truth = make_problem(scenario, rng, hidden, value, rho=NOISE[noise])
     t0 = time.perf_counter()
-    d = discover([problem], load_library(), Settings(seed=seed))
+    d = discover([problem], load_library(), Settings(seed=seed, heldout=heldout))
     p = d.problems[0]
     first = d.accepted[0] if d.accepted else None
     named = None if first is None else (
         "ambiguous" if first.ambiguous_with else first.name)
+    if scenario == "RR/confounded" and first is not None:
+        keys = {k for a in d.accepted if not a.ambiguous_with for k in a.coefficients}
+        named = CONFOUNDED if keys >= {"QSY7", "QSY8"} else "+".join(sorted(keys)) or named
     return {"scenario": scenario, "hidden": hidden, "noise": noise, "seed": seed,
             "value": truth["value"], "named": named, "n_added": len(d.accepted),
             "added": [a.name for a in d.accepted],
@@ -70,20 +88,29 @@ def run_one(task: tuple) -> dict:
             "error_after": None if first is None else first.error_after_pct,
             "heldout_before": None if first is None else first.heldout_before_pct,
             "heldout_after": None if first is None else first.heldout_after_pct,
-            "excess_explained": None if first is None else first.excess_explained,
-            "floor": p.noise_floor_pct, "noise_model": p.noise.kind, "phi": p.noise.phi,
+            "excess_explained": None if first is None else (
+                p.excess_explained if scenario == "RR/confounded" else first.excess_explained),
+            "floor": p.noise_floor_pct, "final_error": p.final_error_pct,
+            "noise_model": p.noise.kind, "phi": p.noise.phi,
             "fit_seconds": p.fit_seconds, "score_seconds": p.score_seconds,
             "seconds": time.perf_counter() - t0}
 
 
-def tasks(n_trials: int, n_null: int, effects, seed0: int = 1000) -> list[tuple]:
-    """Every trial; each noise model and each effect gets its own seeds."""
+def tasks(n_trials: int, n_null: int, effects, seed0: int = 1000,
+          confounded: bool = True, heldout: str = "auto", standard: bool = True) -> list[tuple]:
+    """Every trial; each noise model, each effect and the confounded set get their own seeds."""
     out = []
-    for j, noise in enumerate(NOISE):
+    for j, noise in enumerate(NOISE if standard else ()):
         base = seed0 + 100_000 * j
         for k, e in enumerate(effects):
             out += [(EFFECTS[e][0], e, noise, base + 1000 * k + i) for i in range(n_trials)]
         out += [(SCENARIOS[i % len(SCENARIOS)], None, noise, base + 50_000 + i)
+                for i in range(n_null)]
+    if confounded:
+        base = seed0 + 300_000
+        out += [("RR/confounded", CONFOUNDED, "confounded", base + i, None, heldout)
+                for i in range(n_trials)]
+        out += [("RR/confounded", None, "confounded", base + 50_000 + i, None, heldout)
                 for i in range(n_null)]
     return out
 
@@ -119,8 +146,10 @@ def power(n: int, jobs: int = 2) -> str:
     return "\n".join(lines)
 
 
-def run(n_trials: int = 50, n_null: int = 200, jobs: int = 2, effects=None) -> list[dict]:
-    todo = tasks(n_trials, n_null, effects or list(EFFECTS))
+def run(n_trials: int = 50, n_null: int = 200, jobs: int = 2, effects=None,
+        confounded: bool = True, heldout: str = "auto", standard: bool = True) -> list[dict]:
+    todo = tasks(n_trials, n_null, effects or list(EFFECTS), confounded=confounded,
+                 heldout=heldout, standard=standard)
     if jobs <= 1:
         return [run_one(t) for t in todo]
     with ProcessPoolExecutor(max_workers=jobs) as ex:
@@ -130,7 +159,7 @@ def run(n_trials: int = 50, n_null: int = 200, jobs: int = 2, effects=None) -> l
 def summarise(records: list[dict]) -> dict:
     """Rates with Wilson intervals, confusion matrix, error drops, timing."""
     out = {"named": {}, "null": {}, "confusion": {}, "drops": {}, "timing": {}}
-    for noise in NOISE:
+    for noise in (g for g in GROUPS if any(r["noise"] == g for r in records)):
         rec = [r for r in records if r["noise"] == noise]
         for e in sorted({r["hidden"] for r in rec if r["hidden"]}):
             rs = [r for r in rec if r["hidden"] == e]
@@ -210,13 +239,17 @@ def main(argv=None) -> int:
     ap.add_argument("--effects", nargs="*", default=None)
     ap.add_argument("--json", default=None)
     ap.add_argument("--power", type=int, default=0, help="trials per size: power table only")
+    ap.add_argument("--only-confounded", action="store_true",
+                    help="only the confounded rolling-resistance set")
+    ap.add_argument("--heldout", default="auto", help="held-out scheme of the confounded set")
     args = ap.parse_args(argv)
     t0 = time.perf_counter()
     if args.power:
         print(power(args.power, args.jobs))
         print(f"total {time.perf_counter() - t0:.0f} s")
         return 0
-    records = run(args.trials, args.null, args.jobs, args.effects)
+    records = run(args.trials, args.null, args.jobs, args.effects, heldout=args.heldout,
+                  standard=not args.only_confounded)
     s = summarise(records)
     print(table(s))
     print(f"total {time.perf_counter() - t0:.0f} s for {len(records)} trials")

@@ -1,15 +1,30 @@
 """mfid: tyre-model parameter identification (Magic Formula 6.1/6.2 with inflation pressure).
 
-Sub-packages follow the flow of the work, one stage each:
-``load`` (files -> tidy tables), ``extract`` (raw runs -> characteristics), ``model`` (pure
-forward-model equations), ``fit`` (optimisation and MCMC), ``discover`` (missing effects),
-``report`` (.tir, JSON, PDF writers) and ``cli`` (the ``mfid`` command).
+The public API is :mod:`identify.api`; its names are available here (``identify.fit_folder``,
+``identify.read_tir`` ...) and under ``import mfid``. Sub-packages follow the flow of the work,
+one stage each, in layers (import-linter contract in pyproject.toml): ``core`` < ``model`` <
+``fit`` | ``extract`` | ``segment`` < ``io`` < ``simulate`` < ``discover`` < ``report`` <
+``workflows`` < ``cli`` | ``api``.
 """
-from importlib.metadata import PackageNotFoundError, version as _version
+from identify.core.version import __version__
 
-try:
-    __version__ = _version("mfid")
-except PackageNotFoundError:  # running from a source tree that was not installed
-    __version__ = "0.0.0+unknown"
+_API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report", "discover_folder",
+        "read_tir", "write_tir", "evaluate", "simulate_folder", "MeasurementSet", "FitRun",
+        "FitResult", "FitSettings", "MCMCSummary", "TirFile", "DiscoveryRun", "Report",
+        "MfidError", "InputError", "FitError")
 
-__all__ = ["__version__"]
+__all__ = ["__version__", *_API]
+
+
+def __getattr__(name: str):
+    # the API pulls in numpy, scipy, pandas and matplotlib (~1.5 s): imported on first use so
+    # that `mfid --version`, and the CLI's signal handlers, come before that cost
+    if name in _API:
+        from identify import api
+
+        return getattr(api, name)
+    raise AttributeError(f"module 'identify' has no attribute {name!r}")
+
+
+def __dir__() -> list[str]:
+    return sorted(__all__)

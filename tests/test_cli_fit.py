@@ -53,9 +53,13 @@ def test_fit_thesis_writes_outputs_and_summary(tmp_path):
     # progress per stage, then the summary table: relation, form, total error, coefficients
     assert "load: " in out and "fit: CFx [linear_load]" in out and "report: PDF" in out
     assert "fit summary" in out
-    assert re.search(r"CFx\s+linear_load\s+\d+\.\d{3}\s+15\s+ok\s+x\s+LONGITUDINAL_STIFFNESS=",
+    # the thesis CFx curves in load: the data choose the quadratic form (x* in the .tir column)
+    # and the line after the table says why
+    assert re.search(r"CFx\s+linear_load\s+\d+\.\d{3}\s+15\s+ok\s+LONGITUDINAL_STIFFNESS=",
                      out), out
-    assert re.search(r"CFx\s+quadratic_load\s+\d+\.\d{3}\s+15\s+ok\s+LONGITUDINAL_STIFF", out)
+    assert re.search(r"CFx\s+quadratic_load\s+\d+\.\d{3}\s+15\s+ok\s+x\*\s+LONGITUDINAL_STIFF",
+                     out)
+    assert re.search(r"form CFx: quadratic_load \(chosen by the data\): F = [\d.]+, p = ", out)
     assert "(4 pages)" in out
     doc = json.loads((fit_dir / "fit.json").read_text())
     assert doc["provenance"]["command"].startswith(f"mfid fit {THESIS} --out ")

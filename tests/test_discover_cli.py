@@ -64,6 +64,13 @@ def test_discover_names_the_missing_pressure_term(tmp_path):
     assert (out / "discovery.pdf").read_bytes()[:4] == b"%PDF"
     tir = (out / "cli-tyre.tir").read_text()
     assert "PCFX3" in tir
+    # one line per problem with the noise floor's source (two measurements per condition:
+    # the pure error), the held-out scheme, and the same scheme in the conclusion
+    assert "CFx: error " in res.stderr and "(replicated conditions, 15 dof)" in res.stderr
+    assert "held out: leave one pressure level out" in res.stderr
+    assert "held out (leave one pressure level out)" in res.stdout
+    assert a["heldout_scheme"] == "leave one pressure level out"
+    assert doc["model"]["sources"]["PCFX3"] == "CFx"
     fits = json.loads((out / "fit.json").read_text())
     assert fits["schema"] == "mfid.fit/1" and fits["fits"][0]["relation"] == "CFx"
 
@@ -95,6 +102,7 @@ def test_base_form_and_default_output_folder(tmp_path, monkeypatch):
     (["--alpha", "1.5"], "alpha must lie in (0, 1)"),
     (["--base", "missing.tir", "--base-form", "RR/old"], "not both"),
     (["--only", "sidewall/*"], "nothing to discover"),
+    (["--heldout", "sometimes"], "unknown held-out scheme"),
 ])
 def test_discover_user_errors(tmp_path, args, message):
     folder = _folder(tmp_path, "f", pcfx3=0.2)

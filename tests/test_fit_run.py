@@ -86,7 +86,8 @@ def test_sample_relation_fit_round_trips_and_reads_back(tmp_path):
     assert typed.names == ("CFx/linear_load", "CFx/quadratic_load")
     _same_results(typed, run)
     assert typed.flags == run.flags and typed.key_sources == run.key_sources
-    assert typed.tyre == TyreInfo("sample-225-50R17", 250000.0, 5000.0, 0.3205, "simulated")
+    assert typed.tyre == TyreInfo("sample-225-50R17", 250000.0, 5000.0, 0.3205, "simulated",
+                                  "225/50 R17")
     assert typed.settings == FitSettings(only=("CFx",))
     assert typed.provenance.inputs == run.provenance.inputs
     assert len(typed.provenance.inputs) > 700  # every raw run file with its checksum
@@ -116,8 +117,8 @@ def test_sample_mf_stages_round_trip(tmp_path):
     typed = _round_trips(_doc(run))
     assert typed.names == ("MF/Fx0", "MF/Mx", "MF/My") and typed.ok
     _same_results(typed, run)
-    assert typed.key_sources and all(src.startswith("MF/") for src in
-                                     typed.key_sources.values())
+    fitted = [s for s in typed.key_sources.values() if s.kind == "fitted"]
+    assert fitted and all(s.detail.startswith("MF/") for s in fitted)
     with pytest.raises(KeyError, match=r"'MF' is ambiguous: give relation/form, one of "
                                        r"MF/Fx0, MF/Mx, MF/My"):
         run.result("MF")
@@ -181,17 +182,23 @@ def test_malformed_fit_json_names_the_entry(thesis_tables, tmp_path, mutate, key
 def test_result_by_name_and_report(thesis_tables):
     run = thesis_tables
     assert run.result("CFx/quadratic_load").form == "quadratic_load"
-    # a relation alone: the form whose coefficients went into the .tir
-    assert run.result("CFx").name == run.key_sources["PCFX1"] == "CFx/linear_load"
+    # a relation alone: the form whose coefficients went into the .tir (the thesis CFx curves
+    # in load: the data choose the quadratic form)
+    assert run.result("CFx").name == run.key_sources["PCFX1"].supplied_by == \
+        "CFx/quadratic_load"
+    assert run.form_choice("CFx").form == "quadratic_load"
     with pytest.raises(KeyError, match=r"no fit named 'MF/Fy0'; the fits are: CFx/linear_load"):
         run.result("MF/Fy0")
     text = run.report()
     lines = text.splitlines()
     assert lines[0].startswith("fit summary")
-    assert len(lines) == 3 + len(run.results)
+    assert len(lines) == 3 + len(run.results) + len(run.form_choices)
     row = lines[3].split()
     assert row[:5] == ["CFx", "linear_load", f"{run.results[0].error_total_pct:.3f}", "15", "ok"]
-    assert row[5] == "x" and row[6].startswith("LONGITUDINAL_STIFFNESS=")
+    assert row[5].startswith("LONGITUDINAL_STIFFNESS=")  # not in the .tir
+    row = lines[4].split()
+    assert row[:2] == ["CFx", "quadratic_load"] and row[5] == "x*"
+    assert lines[3 + len(run.results)].startswith("form CFx: quadratic_load (chosen by the data)")
     failed = dataclasses.replace(run, failed=("CFx[linear_load]: no",))
     assert failed.report().endswith("FAILED CFx[linear_load]: no") and not failed.ok
 

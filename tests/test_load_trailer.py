@@ -145,8 +145,7 @@ def test_hdf5_bad_values_and_lengths(tmp_path):
     path = write_hdf5(tmp_path / "bad.h5", [RawRun("r", ch)])
     problems = Problems()
     assert read_channels(path, problems=problems) is None
-    assert [str(p) for p in problems.finish()] == [
-        f"{path}: r/FYW: 1 NaN/inf value(s), first at sample 3",
+    assert [str(p) for p in problems.finish()] == [  # a NaN is a quirk (warning), not here
         f"{path}: r/MZW: 4 samples, but RUNTIME has 5"]
 
 

@@ -257,7 +257,8 @@ def test_report_command_is_reproducible_and_sets_metadata(full_fit, full_report,
 def test_tables_total_first_and_intervals(full_fit):
     fd = read_fit_dir(full_fit)
     cfx = fd.run.result("CFx/linear_load")
-    assert fd.run.result("CFx") is cfx  # the form that supplied the .tir
+    # the form that supplied the .tir: the thesis CFx curves in load, the data choose quadratic
+    assert fd.run.result("CFx") is fd.run.result("CFx/quadratic_load")
     rows = T.error_rows(cfx)
     assert rows[0][0] == "total (mean)"
     assert [r[0] for r in rows[1:]] == ["1.9 bar", "2.2 bar", "2.5 bar", "2.7 bar", "3 bar"]
@@ -269,7 +270,7 @@ def test_tables_total_first_and_intervals(full_fit):
     for p in plain:
         assert p.interval == "LS +/-1.96 s.e."
         assert p.lo95 == pytest.approx(p.value - T.Z95 * p.stderr)
-    assert any(p.in_tir for p in params)
+    assert any(p.in_tir for p in plain) and not any(p.in_tir for p in params)
     flags = T.data_flags(fd.run, fd.extraction)
     # the run's list of flag names repeats the detailed flag: listed once, with its detail
     assert [(f["flag"], f["detail"]) for f in flags] == [
@@ -332,3 +333,18 @@ def test_missing_tir_leaves_out_mf_pages_with_a_note(full_fit, tmp_path):
     fy = pages[0]
     assert [p.pi_bar for p in fy.panels] == [2.0, 2.5]
     assert len(fy.panels[0].loads) == 2 and all(pt[0].size == 21 for pt in fy.panels[0].points)
+
+
+def test_outline_has_one_bookmark_per_page(full_report):
+    from pypdf import PdfReader
+
+    reader = PdfReader(full_report.path)
+    outline = reader.outline
+    assert len(outline) == len(reader.pages) == full_report.n_pages
+    assert [reader.get_destination_page_number(o) for o in outline] == \
+        list(range(len(reader.pages)))
+    titles = [o.title for o in outline]
+    assert titles[0] == "cover" and "MF Friction ellipse" in titles
+    assert "data quality" in titles
+    assert reader.page_mode == "/UseOutlines"
+    assert reader.metadata["/Title"].startswith("mfid fit report: ")

@@ -53,6 +53,7 @@ from identify.cli import fit_cmd, report_cmd  # noqa: E402,F401
 from identify.cli import extract_cmd  # noqa
 from identify.cli import discover_cmd  # noqa: E402,F401
 from identify.cli import batch_cmd  # noqa: E402,F401
+from identify.cli import import_cmd  # noqa: E402,F401
 
 
 def main() -> None:

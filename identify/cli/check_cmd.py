@@ -1,4 +1,4 @@
-"""``mfid check``: validate a measurement folder and list every problem found."""
+"""``mfid check``: validate a measurement folder; list every error, then every warning."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -18,17 +18,24 @@ def check_command(
     nominal_load: Optional[float] = typer.Option(
         None, "--nominal-load", help="Nominal load [N] of a single characteristics CSV."),
 ) -> None:
-    """Check a measurement folder: print each problem on its own line (stderr), exit 2 if any.
+    """Check a measurement folder: errors and warnings, each on its own line (stderr).
 
-    The folder is only read, never modified.
+    Errors (the data cannot be used) are listed first, then warnings (``warning: ...``: quirks
+    of usable trailer data, cleaned while loading, each with its count); exit 2 if there is
+    any error, else 0. The folder is only read, never modified.
     """
-    from identify.io.folder import scan_folder
+    from identify.io.folder import inspect_folder
 
-    found, problems = scan_folder(folder, nominal_pressure_Pa=nominal_pressure,
-                                  nominal_load_N=nominal_load)
-    if problems:
-        for problem in problems:
-            err_console.print(str(problem), markup=False)
-        err_console.print(f"{len(problems)} problem(s) in {folder}", markup=False)
+    scan = inspect_folder(folder, nominal_pressure_Pa=nominal_pressure,
+                          nominal_load_N=nominal_load)
+    for problem in scan.problems:
+        err_console.print(str(problem), markup=False)
+    for warning in scan.warnings:
+        err_console.print(f"warning: {warning}", markup=False)
+    counted = f", {len(scan.warnings)} warning(s)" if scan.warnings else ""
+    if scan.problems:
+        err_console.print(f"{len(scan.problems)} problem(s){counted} in {folder}", markup=False)
         raise typer.Exit(2)
-    out_console.print(f"{folder}: ok; {found.summary()}", markup=False)
+    note = (f" with {len(scan.warnings)} warning(s) (usable data, cleaned while loading)"
+            if scan.warnings else "")
+    out_console.print(f"{folder}: ok{note}; {scan.found.summary()}", markup=False)

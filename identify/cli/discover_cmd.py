@@ -3,12 +3,14 @@ from __future__ import annotations
 
 import shlex
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 from typing import Optional
 
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
+from identify.cli.fit_cmd import StageProgress
 from identify.core.errors import InputError, MfidError
 
 
@@ -37,6 +39,9 @@ def discover_command(
     max_steps: int = typer.Option(4, "--max-steps", help="Most effects added per problem."),
     only: list[str] = typer.Option([], "--only", help="Problems to analyse (names or "
                                    "patterns: MF, MF/Fy, CFy, RR, camber/*); repeatable."),
+    heldout: str = typer.Option("auto", "--heldout", help="Held-out scheme: auto (leave "
+                                "one pressure out when pressure is crossed with load, else "
+                                "k-fold within condition cells), pressure, cells or rows."),
     quiet: bool = typer.Option(False, "--quiet", "-q", help="Only the conclusion."),
 ) -> None:
     """Score every candidate effect of the library on the base fit (projected LM test),
@@ -45,6 +50,7 @@ def discover_command(
     discovery.pdf, the enriched .tir and fit.json.
     """
     from identify.workflows.discover import discover_folder
+    from identify.discover.design import SCHEMES
     from identify.discover.search import Settings
 
     try:
@@ -52,12 +58,16 @@ def discover_command(
             raise InputError(None, f"alpha must lie in (0, 1), not {alpha:g}", key="--alpha")
         if starts < 1 or max_steps < 1:
             raise InputError(None, "--starts and --max-steps must be >= 1")
-        settings = Settings(alpha=alpha, seed=seed, n_starts=starts, max_steps=max_steps)
-        say = None if quiet else (lambda s: err_console.print(s, markup=False))
+        if heldout not in SCHEMES:
+            raise InputError(None, f"unknown held-out scheme {heldout!r}; choose from "
+                                   f"{', '.join(SCHEMES)}", key="--heldout")
+        settings = Settings(alpha=alpha, seed=seed, n_starts=starts, max_steps=max_steps,
+                            heldout=heldout)
         patterns = tuple(p.strip() for item in only for p in item.split(",") if p.strip())
-        run = discover_folder(folder, base_tir=base, base_form=base_form,
-                              candidates=candidates, settings=settings, out_dir=out,
-                              only=patterns, command=shlex.join(sys.argv), progress=say)
+        with StageProgress(err_console) if not quiet else nullcontext() as say:
+            run = discover_folder(folder, base_tir=base, base_form=base_form,
+                                  candidates=candidates, settings=settings, out_dir=out,
+                                  only=patterns, command=shlex.join(sys.argv), progress=say)
     except MfidError as exc:
         fail(exc)
     d = run.discovery
@@ -65,9 +75,15 @@ def discover_command(
         for note in run.notes:
             err_console.print(f"note: {note}", markup=False)
         for p in d.problems:
-            err_console.print(f"{p.name}: base error {p.base_error_pct:.3g} %, noise floor "
-                              f"{p.noise_floor_pct:.3g} %, {p.noise.kind} noise, "
-                              f"{len(p.candidates)} candidate(s)", markup=False)
+            reads = list(p.upstream)
+            err_console.print(f"{p.name}: error {p.base_error_pct:.3g} % -> "
+                              f"{p.final_error_pct:.3g} %, noise floor "
+                              f"{p.noise_floor_pct:.3g} % ({p.floor_source}); "
+                              f"{p.noise.kind} noise; held out: {p.heldout_scheme}; "
+                              f"{len(p.candidates)} candidate(s)"
+                              + (f", uses the coefficients of {', '.join(reads)}" if reads
+                                 else ""),
+                              markup=False)
     out_console.print(d.conclusion, markup=False)
     if not quiet:
         out_console.print(f"wrote {run.json_path}, {run.pdf_path.name}, {run.tir_path.name}, "

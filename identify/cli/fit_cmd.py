@@ -81,15 +81,17 @@ def summary_table(run: FitRun) -> Table:
                        ("points", "right"), ("status", "left"), (".tir", "center")):
         table.add_column(name, justify=just, no_wrap=True)
     table.add_column("key coefficients", overflow="fold")
+    colour = {"FAILED": "[red]FAILED[/red]",
+              "poorly identified": "[yellow]poorly identified[/yellow]"}
     for r in run.summary_rows():
         table.add_row(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
-                      "ok" if r.converged else "[red]FAILED[/red]", "x" if r.in_tir else "",
-                      r.key_coefficients)
+                      colour.get(r.status_cell, r.status_cell), r.tir_cell, r.key_coefficients)
     return table
 
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
-                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None) -> str:
+                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None, forms=(),
+                  hold=()) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -111,6 +113,10 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args += ["--nominal-load", f"{nominal_load:g}"]
     if fittyp != 61:
         args += ["--fittyp", str(fittyp)]
+    for f in forms:
+        args += ["--form", f]
+    for h in hold:
+        args += ["--hold", h]
     if no_report:
         args.append("--no-report")
     return shlex.join(args)
@@ -146,6 +152,14 @@ def fit_command(
         None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
                                                   "characteristics CSV."),
     fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
+    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
+                                   help="Write this form of a relation whatever the data "
+                                        "choose (repeatable): CFx|CFy=linear_load|"
+                                        "quadratic_load, CMz=T1|T2, RR=old|new."),
+    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
+                                   help="Hold this coefficient at its default in every "
+                                        "relation fit (repeatable), e.g. one the summary "
+                                        "reports poorly identified."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -162,7 +176,8 @@ def fit_command(
     from identify.workflows.fit import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
-                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps)
+                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
+                            hold)
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -175,7 +190,8 @@ def fit_command(
                                    f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
-                               mcmc_max_steps=mcmc_max_steps or MAX_STEPS)
+                               mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
+                               forms=only_names(form), hold=only_names(hold))
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -206,13 +222,16 @@ def fit_command(
 
 
 def _print_outputs(run: FitRun, report: Report | None) -> None:
-    from identify.io.fitdir import EXTRACTION_NAME  # lazy: see fit_command
+    from identify.fit.summary import notes_lines  # lazy: see fit_command
+    from identify.io.fitdir import EXTRACTION_NAME
     from identify.report.tables import mcmc_warnings
 
     if out_console.is_terminal:
         out_console.print(summary_table(run))
     else:  # a log or pipe gets the whole table rather than rich's default 80 columns
         Console(highlight=False, width=160).print(summary_table(run))
+    for line in notes_lines(run.form_choices, run.results):
+        out_console.print(line, markup=False, highlight=False)
     for line in mcmc_warnings(run):
         err_console.print(f"warning: {line}", markup=False, highlight=False)
     fit_dir = run.fit_dir

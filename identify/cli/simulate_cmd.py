@@ -1,8 +1,10 @@
-"""``mfid simulate``: write a simulated measurement folder (Flatplank, trailer, truth)."""
+"""``mfid simulate``: write a simulated measurement folder (Flatplank, trailer, truth), or with
+``--format ttc`` a simulated Tire Test Consortium session (.mat and .dat files, truth)."""
 from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
+from typing import Optional
 
 import typer
 
@@ -13,6 +15,21 @@ from identify.core.errors import InputError, MfidError
 class GridChoice(str, Enum):
     full = "full"
     small = "small"
+
+
+class FormatChoice(str, Enum):
+    folder = "folder"
+    ttc = "ttc"
+
+
+class UnitsChoice(str, Enum):
+    SI = "SI"
+    USCS = "USCS"
+
+
+def parse_names(items: list[str]) -> list[str]:
+    """``["N,RE", "SR"]`` -> ``["N", "RE", "SR"]`` (repeat or separate with commas)."""
+    return [p.strip() for item in items for p in item.split(",") if p.strip()]
 
 
 def parse_hide(items: list[str]) -> dict[str, float]:
@@ -47,7 +64,22 @@ def simulate_command(
     seed: int = typer.Option(0, "--seed", help="Noise seed; equal seeds give equal folders."),
     noise: float = typer.Option(0.01, "--noise", help="Noise std as a fraction of each "
                                                       "channel's RMS."),
-    ar1: float = typer.Option(0.0, "--ar1", help="Lag-one correlation of the noise (AR(1))."),
+    ar1: Optional[float] = typer.Option(None, "--ar1", help="Lag-one correlation of the noise "
+                                                            "(AR(1)); default 0 (folder), "
+                                                            "0.7 (ttc)."),
+    fmt: FormatChoice = typer.Option(FormatChoice.folder, "--format",
+                                     help="folder: a measurement folder; ttc: a Tire Test "
+                                          "Consortium session (.mat + .dat per run, "
+                                          "truth.json) to try `mfid import` on."),
+    units: UnitsChoice = typer.Option(UnitsChoice.SI, "--units",
+                                      help="--format ttc: the files' unit system."),
+    implausible: list[str] = typer.Option([], "--implausible", metavar="CHANNEL",
+                                          help="--format ttc: make channels implausible: N "
+                                               "(near zero at 40 kph), RE (hundreds of "
+                                               "metres), SR (pinned at -1); repeat or "
+                                               "separate with commas."),
+    cornering_only: bool = typer.Option(False, "--cornering-only",
+                                        help="--format ttc: the cornering run only."),
     transients: bool = typer.Option(True, "--transients/--no-transients",
                                     help="Start-up transients in stiffness runs."),
     stick_slip: bool = typer.Option(True, "--stick-slip/--no-stick-slip",
@@ -68,17 +100,33 @@ def simulate_command(
                                                           "gzip-compressed (.csv.gz)."),
     overwrite: bool = typer.Option(False, "--overwrite", help="Replace a non-empty OUTDIR."),
 ) -> None:
-    """Simulate every Flatplank and trailer test of a tyre into a measurement folder."""
+    """Simulate every Flatplank and trailer test of a tyre into a measurement folder; or,
+    with --format ttc, a TTC trailer session (a cornering and a drive/brake run in the TTC
+    .mat and .dat formats, with warm-ups, drift and logging quirks; truth.json)."""
     from identify.io.tir import read_tir
     from identify.simulate import default_tir_path, simulate_folder
+    from identify.simulate.ttc import simulate_ttc
 
     try:
         hidden = parse_hide(hide)
         path = default_tir_path() if tir == "default" else Path(tir)
         if not path.is_file():
             raise InputError(path, "no such .tir file")
+        if fmt is FormatChoice.ttc:
+            tireid = "mfid-sim 225/50 R17" if tir == "default" else f"mfid-sim {path.stem}"
+            session = simulate_ttc(read_tir(path).params(), outdir, seed=seed, noise=noise,
+                                   ar1=0.7 if ar1 is None else ar1, units=units.value,
+                                   implausible=parse_names(implausible),
+                                   cornering_only=cornering_only, tireid=tireid,
+                                   overwrite=overwrite)
+            runs = ", ".join(f"{r['stem']} ({r['test']}, {r['samples']} samples)"
+                             for r in session.truth["runs"])
+            out_console.print(f"wrote {session.path}: {runs}; .mat and .dat each, "
+                              f"truth.json (seed {seed})")
+            return
         result = simulate_folder(read_tir(path).params(), outdir, seed=seed, noise=noise,
-                                 ar1_rho=ar1, transients=transients, stick_slip=stick_slip,
+                                 ar1_rho=ar1 or 0.0, transients=transients,
+                                 stick_slip=stick_slip,
                                  asymmetry=asymmetry, short_relaxation=short_relaxation,
                                  hide=hidden, grid=grid.value, overwrite=overwrite,
                                  digits=digits or None, compress=gzip_files)

@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["TyreSize", "parse_tyre_size"]
+__all__ = ["TyreSize", "parse_tyre_size", "size_designation"]
 
 _INCH = 0.0254
 _METRIC = re.compile(
@@ -73,3 +73,18 @@ def parse_tyre_size(text: str) -> TyreSize | None:
             return None
         size = TyreSize(s, width * _INCH, (diameter - rim) / 2.0 / width, rim * _INCH / 2.0)
     return size if 0.1 <= size.aspect_ratio <= 1.5 else None
+
+
+def size_designation(width_m: float, aspect_ratio: float, rim_radius_m: float) -> str | None:
+    """The metric designation (``225/50 R17``) of .tir dimensions [m, -, m], or None when
+    they are not a metric size (width not a whole number of mm, aspect ratio not a whole
+    percentage, rim diameter not a whole or half inch). Inverse of :func:`parse_tyre_size`."""
+    width_mm = width_m * 1000.0
+    ratio_pct = aspect_ratio * 100.0
+    rim_in = 2.0 * rim_radius_m / _INCH
+    if not (abs(width_mm - round(width_mm)) < 1e-6 and abs(ratio_pct - round(ratio_pct)) < 1e-6
+            and abs(2 * rim_in - round(2 * rim_in)) < 1e-6 and 100 <= round(width_mm) <= 999):
+        return None
+    rim = f"{round(2 * rim_in) / 2:g}"
+    text = f"{round(width_mm)}/{round(ratio_pct)} R{rim}"
+    return text if parse_tyre_size(text) is not None else None

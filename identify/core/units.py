@@ -48,12 +48,12 @@ UNITS: dict[str, tuple[float, float, str]] = {
     **_names("mph", 1609.344 / 3600.0, "speed"),
     **_names("n newton newtons", 1.0, "force"),
     **_names("kn kilonewton kilonewtons", 1e3, "force"),
-    **_names("lbf pound_force", _LBF, "force"),
+    **_names("lbf pound_force lb lbs", _LBF, "force"),
     **_names("kgf", 9.80665, "force"),
-    **_names("n*m nm m*n", 1.0, "moment"),
+    **_names("n*m nm m*n n-m", 1.0, "moment"),
     **_names("kn*m knm", 1e3, "moment"),
-    **_names("lbf*ft ft*lbf lb*ft ft*lb", _LBF * 12 * _IN, "moment"),
-    **_names("lbf*in in*lbf", _LBF * _IN, "moment"),
+    **_names("lbf*ft ft*lbf lb*ft ft*lb ft-lb ft-lbf lb-ft lbf-ft", _LBF * 12 * _IN, "moment"),
+    **_names("lbf*in in*lbf in-lb in-lbf lb-in lbf-in", _LBF * _IN, "moment"),
     **_names("m meter meters metre metres", 1.0, "length"),
     **_names("mm millimeter millimeters millimetre millimetres", 1e-3, "length"),
     **_names("cm centimeter centimeters centimetre centimetres", 1e-2, "length"),
@@ -79,7 +79,8 @@ UNITS: dict[str, tuple[float, float, str]] = {
     **_names("kn*m/rad knm/rad", 1e3, "torsional_stiffness"),
     **_names("hz 1/s", 1.0, "frequency"),
     **_names("k kelvin", 1.0, "temperature"),
-    **_names("degc °c", 1.0, "temperature", 273.15),
+    **_names("degc °c deg*c celsius", 1.0, "temperature", 273.15),
+    **_names("degf °f deg*f fahrenheit", 5.0 / 9.0, "temperature", 273.15 - 32.0 * 5.0 / 9.0),
 }
 
 #: The SI unit written for each dimension.

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from identify.discover.drift import DRIFT_KEY
 from identify.discover.result import Accepted, ProblemSummary
 from identify.fit.engine import covariance
 from identify.fit.metric import thesis_error_by_group
@@ -23,8 +24,11 @@ def _stderr(w: Working) -> dict[str, float]:
     return {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(w.problem.free)}
 
 
-def summaries(works: list[Working]) -> tuple[ProblemSummary, ...]:
-    """One :class:`ProblemSummary` per working problem (final state)."""
+def summaries(works: list[Working], reads: dict | None = None,
+              upstream: dict | None = None) -> tuple[ProblemSummary, ...]:
+    """One :class:`ProblemSummary` per working problem (final state); ``reads`` maps a
+    problem's name to the keys it takes from other problems (key -> source problem),
+    ``upstream`` to the problems whose coefficients it uses."""
     out = []
     for w in works:
         p = w.problem
@@ -47,7 +51,9 @@ def summaries(works: list[Working]) -> tuple[ProblemSummary, ...]:
             noise_floor_pct=float(floor), floor_source=source,
             cells=cells(p, w.base_predicted), final_cells=cells(p, pred), fit_seconds=w.fit_seconds,
             score_seconds=w.score_seconds, parameters=p.values(w.x), stderr=_stderr(w),
-            final_free=p.free, arrays=arrays, fit=_fit_result(w, pred)))
+            final_free=p.free, arrays=arrays, fit=_fit_result(w, pred),
+            heldout_scheme=w.fold_scheme, reads=dict((reads or {}).get(w.name, {})),
+            upstream=tuple((upstream or {}).get(w.name, ()))))
     return tuple(out)
 
 
@@ -88,15 +94,21 @@ def _worst_cell(s: ProblemSummary) -> str:
     return f"; largest in the cell {', '.join(where)} ({c['error_pct']:.2f} %)"
 
 
-def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], steps) -> str:
-    """Plain words: what is missing (or that nothing is), errors against the noise floor."""
+def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], steps,
+               notes=()) -> str:
+    """Plain words: what is missing (or that nothing is), errors against the noise floor, the
+    held-out scheme, problems not analysed."""
     lines = []
     for a in accepted:
         floor = f" (noise floor {a.noise_floor_pct:.2g} %)" if np.isfinite(a.noise_floor_pct) \
             else ""
+        scheme = f" ({a.heldout_scheme})" if a.heldout_scheme else ""
         err = (f"Error {a.error_before_pct:.2g} % -> {a.error_after_pct:.2g} %{floor}; "
-               f"held out {a.heldout_before_pct:.2g} % -> {a.heldout_after_pct:.2g} %.")
-        if a.ambiguous_with:
+               f"held out{scheme} {a.heldout_before_pct:.2g} % -> {a.heldout_after_pct:.2g} %.")
+        if any(k == DRIFT_KEY for k in a.coefficients) and not a.ambiguous_with:
+            lines.append(f"Drift absorbed, not a tyre property and not written to the .tir: "
+                         f"{a.description} ({_value(a)}; {a.problem}). {err}")
+        elif a.ambiguous_with:
             names = " / ".join((a.name,) + tuple(a.ambiguous_with))
             lines.append(f"Missing effect in {a.problem}, ambiguous: one of {names} (they "
                          f"cannot be told apart with this test matrix; {a.name} was added: "
@@ -109,7 +121,8 @@ def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], step
     if not accepted:
         worst = max(probs, key=lambda p: p.final_error_pct - p.noise_floor_pct, default=None)
         tail = (f"; {worst.name}: error {worst.final_error_pct:.2g} %, noise floor "
-                f"{worst.noise_floor_pct:.2g} %" if worst is not None else "")
+                f"{worst.noise_floor_pct:.2g} % ({worst.floor_source})"
+                if worst is not None else "")
         lines.append(f"No missing effect found ({n_tested} candidates tested on {len(probs)} "
                      f"problem(s){tail}).")
     for s in probs:
@@ -124,4 +137,5 @@ def conclusion(accepted: list[Accepted], probs: tuple[ProblemSummary, ...], step
                                                                else ()) if not r.testable})
     if untestable:
         lines.append("Not testable with this test matrix: " + ", ".join(untestable) + ".")
+    lines += [f"Note: {n}." for n in notes]
     return "\n".join(lines)

@@ -44,6 +44,9 @@ class Candidate:
         ``"+"``, ``"-"`` or ``""``: the physically expected sign of the first coefficient.
     source : str
         ``"library"`` or the user file it came from.
+    nuisance : bool
+        A property of the measurement, not of the tyre (a drift along the session): its
+        coefficients are local to each problem and never written to the .tir.
     """
 
     name: str
@@ -54,6 +57,7 @@ class Candidate:
     description: str
     expected_sign: str = ""
     source: str = "library"
+    nuisance: bool = False
 
     @property
     def dof(self) -> int:
@@ -69,7 +73,7 @@ class Candidate:
                 "bounds": {k: list(v) for k, v in self.bounds.items()},
                 "relations": list(self.relations), "equation": self.equation,
                 "description": self.description, "expected_sign": self.expected_sign,
-                "source": self.source}
+                "source": self.source, "nuisance": self.nuisance}
 
 
 @dataclass(frozen=True)
@@ -117,10 +121,12 @@ class Library:
         return tuple(c.name for c in self.candidates)
 
     def neutral_values(self) -> dict[str, float]:
-        """Every library coefficient -> its neutral value."""
+        """Every library coefficient of a tyre property (not the nuisance ones) -> its
+        neutral value."""
         out: dict[str, float] = {}
         for c in self.candidates:
-            out.update(c.coefficients)
+            if not c.nuisance:
+                out.update(c.coefficients)
         return out
 
     def for_problem(self, problem_name: str) -> tuple[Candidate, ...]:
@@ -180,9 +186,13 @@ def _candidate(entry: Mapping, where: str) -> Candidate:
     sign = str(entry.get("expected_sign", ""))
     if sign not in ("", "+", "-"):
         raise InputError(where, "expected_sign must be '+', '-' or ''", key=name)
+    nuisance = entry.get("nuisance", False)
+    if not isinstance(nuisance, bool):
+        raise InputError(where, "nuisance must be true or false", key=name)
     return Candidate(name=name.strip(), coefficients=coefs, bounds=bounds,
                      relations=tuple(relations), equation=str(entry["equation"]),
-                     description=str(entry["description"]), expected_sign=sign, source=where)
+                     description=str(entry["description"]), expected_sign=sign, source=where,
+                     nuisance=nuisance)
 
 
 def parse_library(text: str, where: str) -> Library:

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identify.discover.noise import whiten
+from identify.discover.noise import Sweeps, whiten
 from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
 from identify.fit.problem import FitProblem
 
@@ -79,29 +79,30 @@ class Objective:
     Attributes
     ----------
     problem : FitProblem     weighted-least-squares problem (sigma set, or group weights)
-    index : list of ndarray  sweeps (index arrays into all points)
+    index : Sweeps           sweeps of all points (a list of index arrays is converted)
     phi : float              AR(1) prewhitening coefficient (0: none)
     mask : ndarray or None   training points (bool, all points when None)
     """
 
     problem: FitProblem
-    index: list
+    index: Sweeps
     phi: float = 0.0
     mask: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        # the sweeps as arrays, and those of the masked points, once (not per evaluation)
+        sweeps = Sweeps.of(self.index, self.problem.measured.size)
+        object.__setattr__(self, "index", sweeps)
+        object.__setattr__(self, "_local", sweeps if self.mask is None
+                           else sweeps.subset(self.mask))
 
     def subset(self, mask: np.ndarray | None) -> "Objective":
         return dataclasses.replace(self, mask=mask)
 
-    def _local_index(self) -> list[np.ndarray]:
-        if self.mask is None:
-            return self.index
-        pos = np.cumsum(self.mask) - 1
-        return [pos[idx[self.mask[idx]]] for idx in self.index if self.mask[idx].any()]
-
     def transform(self, a: np.ndarray) -> np.ndarray:
         """Restrict (n,) or (n, k) arrays to the mask, then prewhiten."""
         a = a if self.mask is None else a[self.mask]
-        return whiten(a, self._local_index(), self.phi) if self.phi else a
+        return whiten(a, self._local, self.phi) if self.phi else a
 
     def residuals(self, x: np.ndarray) -> np.ndarray:
         return self.transform(self.problem.residuals(x))
@@ -151,7 +152,7 @@ class Objective:
             return keep
         _, R, piv = qr(J[:, ok] / norms[ok], mode="economic", pivoting=True)
         d = np.abs(np.diag(R))
-        good = piv[d > rtol * d[0]]
+        good = piv[:d.size][d > rtol * d[0]]  # fewer points than columns: min(n, k) pivots
         keep[np.flatnonzero(ok)[good]] = True
         return keep
 

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from identify.discover.library import BaseForm, Library
-from identify.discover.objective import Objective, problem_name
+from identify.discover.objective import problem_name
 from identify.discover.stages import label_sweeps, stage_problem
 from identify.fit import relations as R
 from identify.fit.problem import FitProblem
@@ -129,27 +129,37 @@ def _with_companions(problem: FitProblem | None, name: str, tir) -> FitProblem |
     return dataclasses.replace(problem, parameters=P)
 
 
+def _on(ctx: R.Context, values: Mapping[str, float]) -> R.Context:
+    """``ctx`` with its .tir updated by ``values`` (a rebuild from the model state)."""
+    return dataclasses.replace(ctx, tir={**ctx.tir, **values})
+
+
 def relation_problems(chars: pd.DataFrame, ctx: R.Context) -> list[FitProblem]:
-    """Every relation problem whose characteristics are present."""
+    """Every relation problem whose characteristics are present, in model-state order (the
+    relaxation lengths after the locked-hub CFy whose coefficients they read). Problems whose
+    model reads the whole .tir (rolling resistance, camber) carry ``extra["rebuild"]``."""
     t = ctx.tir
-    builders: list[tuple[str, Callable]] = [
-        ("CFz", lambda: R.cfz(chars, ctx, "mf")),
-        ("CFx", lambda: R.cfx(chars, ctx, "linear_load")),
-        ("CFy", lambda: R.cfy(chars, ctx, "linear_load")),
-        ("CFy/relaxation", lambda: R.cfy(chars, ctx, "relaxation")),
-        ("CMz", lambda: cmz_problem(chars, ctx)),
-        ("RR", lambda: R.rolling_resistance(chars, ctx, "old")),
+    builders: list[tuple[str, Callable, Callable | None]] = [
+        ("CFz", lambda: R.cfz(chars, ctx, "mf"), None),
+        ("CFx", lambda: R.cfx(chars, ctx, "linear_load"), None),
+        ("CFy", lambda: R.cfy(chars, ctx, "linear_load"), None),
+        ("CFy/relaxation", lambda: R.cfy(chars, ctx, "relaxation"), None),
+        ("CMz", lambda: cmz_problem(chars, ctx), None),
+        ("RR", lambda: R.rolling_resistance(chars, ctx, "old"),
+         lambda v: R.rolling_resistance(chars, _on(ctx, v), "old")),  # Fx at free rolling
     ]
     for q in ("Fy_gamma", "Mz_gamma", "Mx_gamma"):
         builders.append((f"camber/{q}", lambda q=q: _with_companions(
-            R.camber(chars, ctx, q), f"camber/{q}", t)))
+            R.camber(chars, ctx, q), f"camber/{q}", t),
+            lambda v, q=q: R.camber(chars, _on(ctx, v), q)))
     for mode in ("x", "y", "z", "theta", "gamma", "psi"):
-        builders.append((f"sidewall/{mode}", lambda m=mode: R.sidewall(chars, ctx, m)))
+        builders.append((f"sidewall/{mode}", lambda m=mode: R.sidewall(chars, ctx, m), None))
     out = []
-    for name, build in builders:
+    for name, build, rebuild in builders:
         if "quantity" not in chars or chars.empty:
             break
-        problem = _named(build(), name)
+        deps = {"depends_on": ("MF/Fx",)} if name == "RR" else {}
+        problem = _named(build(), name, **({"rebuild": rebuild, **deps} if rebuild else {}))
         if problem is not None:
             out.append(problem)
     return out
@@ -163,27 +173,32 @@ def _rr_from_sweeps(frame: pd.DataFrame, ctx: R.Context) -> FitProblem | None:
                           "Fz_N": d["Fz"], "Vx_mps": d["Vx"], "value": d["My"] / ctx.r0})
     problem = R.rolling_resistance(chars, ctx, "old")
     return _named(dataclasses.replace(problem, sweeps=d["sweep"].to_numpy()), "RR",
-                  noise_group=d["run"].astype(str).to_numpy())
+                  noise_group=d["run"].astype(str).to_numpy(),
+                  rebuild=lambda v: R.rolling_resistance(chars, _on(ctx, v), "old"),
+                  depends_on=("MF/Fx",))
+
+
+#: The MF stages whose coefficients each stage's model reads (Mx and Mz: the lateral force).
+STAGE_INPUTS = {"Fx": (), "Fy": (), "Mx": ("MF/Fy",), "Mz": ("MF/Fx", "MF/Fy")}
 
 
 def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
                      tests: Mapping[str, str] | None = None, *, with_rr: bool = True
                      ) -> list[FitProblem]:
-    """MF stage problems (and rolling resistance) of the trailer sweeps. Mx and Mz use Fy from
-    a quick pre-fit of the lateral stage, so ``tir`` is updated with it."""
+    """MF stage problems (and rolling resistance) of the trailer sweeps, in model-state order
+    (Fx, Fy, then Mx and Mz, which use the lateral force of the Fy stage). Each carries
+    ``extra["rebuild"]``: discovery rebuilds Mx and Mz from the fitted Fy coefficients
+    (:mod:`identify.discover.state`) instead of a separate pre-fit here."""
     if trailer is None or trailer.empty:
         return []
     frame = label_sweeps(trailer, tests)
-    out = [p for p in (stage_problem("Fx", frame, tir), stage_problem("Fy", frame, tir))
-           if p is not None]
-    for p in out:
-        if p.form == "Fy":
-            p = dataclasses.replace(p, sigma=None)
-            sol = Objective(p, []).solve(p.x0())
-            tir.update({k: float(v) for k, v in zip(p.free, sol.x)})
-    out += [p for p in (stage_problem("Mx", frame, tir), stage_problem("Mz", frame, tir))
-            if p is not None]
-    out = [_named(p, f"MF/{p.form}") for p in out]
+    base = dict(tir)
+    out = []
+    for name in ("Fx", "Fy", "Mx", "Mz"):
+        p = stage_problem(name, frame, base)
+        if p is not None:
+            out.append(_named(p, f"MF/{name}", rebuild=lambda v, name=name: stage_problem(
+                name, frame, {**base, **v}), depends_on=STAGE_INPUTS[name]))
     if with_rr:
         rr = _rr_from_sweeps(frame, ctx)
         if rr is not None:

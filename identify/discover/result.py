@@ -142,7 +142,9 @@ class Accepted:
 
     ``p_value`` is the F test's (or cluster-robust Wald test's) p-value after the refit, Holm
     adjusted; errors are thesis totals [%] before/after; ``ambiguous_with`` names the
-    candidates it cannot be told apart from (then it is not a confident name)."""
+    candidates it cannot be told apart from (then it is not a confident name); the
+    coefficients and standard errors are the final ones (what the .tir holds), the errors those
+    of the step that accepted it; ``heldout_scheme`` names the folds of the held-out check."""
 
     name: str
     problem: str
@@ -158,11 +160,13 @@ class Accepted:
     noise_floor_pct: float = float("nan")
     excess_explained: float = float("nan")
     note: str = ""
+    heldout_scheme: str = ""
 
     def to_dict(self) -> dict[str, Any]:
         d = {"name": self.name, "problem": self.problem, "description": self.description,
              "coefficients": _nums(self.coefficients), "stderr": _nums(self.stderr),
-             "ambiguous_with": list(self.ambiguous_with), "note": self.note}
+             "ambiguous_with": list(self.ambiguous_with), "note": self.note,
+             "heldout_scheme": self.heldout_scheme}
         d.update({k: _num(getattr(self, k)) for k in (
             "error_before_pct", "error_after_pct", "heldout_before_pct", "heldout_after_pct",
             "p_value", "noise_floor_pct", "excess_explained")})
@@ -193,6 +197,10 @@ class ProblemSummary:
     final_free : tuple of str
     arrays : Mapping[str, ndarray]  per-point data for the report (not in to_dict)
     fit : FitResult                 the final fit (fit.json; not in to_dict)
+    heldout_scheme : str            folds of the held-out check, chosen from the design
+    reads : Mapping[str, str]       parameters taken from another problem -> that problem
+    upstream : tuple of str         problems whose coefficients it uses (its read parameters,
+                                    and the models it is rebuilt from: Fy for Mx and Mz)
     """
 
     name: str
@@ -221,6 +229,9 @@ class ProblemSummary:
     final_free: tuple[str, ...]
     arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
     fit: Any = field(default=None, repr=False, compare=False)
+    heldout_scheme: str = ""
+    reads: Mapping[str, str] = field(default_factory=dict)
+    upstream: tuple[str, ...] = ()
 
     @property
     def excess_explained(self) -> float:
@@ -243,7 +254,9 @@ class ProblemSummary:
                 "final_cells": [dict(c) for c in self.final_cells],
                 "fit_seconds": self.fit_seconds,
                 "score_seconds": self.score_seconds, "parameters": _nums(self.parameters),
-                "stderr": _nums(self.stderr), "final_free": list(self.final_free)}
+                "stderr": _nums(self.stderr), "final_free": list(self.final_free),
+                "heldout_scheme": self.heldout_scheme, "reads": dict(self.reads),
+                "upstream": list(self.upstream)}
 
 
 def excess_explained(before: float, after: float, floor: float) -> float:
@@ -267,6 +280,10 @@ class Discovery:
     conclusion : str
     settings : Mapping
     seconds : float
+    state : Mapping[str, float]   the one model state: every key some problem fits or tests,
+                                  at its final value (what the .tir gets)
+    sources : Mapping[str, str]   key -> the problem it comes from
+    notes : tuple of str          problems not analysed, and why
     """
 
     base: Mapping[str, Any]
@@ -278,6 +295,9 @@ class Discovery:
     conclusion: str
     settings: Mapping[str, Any]
     seconds: float
+    state: Mapping[str, float] = field(default_factory=dict)
+    sources: Mapping[str, str] = field(default_factory=dict)
+    notes: tuple[str, ...] = ()
 
     @property
     def named(self) -> str | None:
@@ -294,4 +314,6 @@ class Discovery:
                 "noise_floor_pct": _num(self.noise_floor_pct),
                 "excess_explained": _num(self.excess_explained),
                 "conclusion": self.conclusion, "settings": dict(self.settings),
-                "seconds": self.seconds}
+                "seconds": self.seconds,
+                "model": {"parameters": _nums(self.state), "sources": dict(self.sources)},
+                "notes": list(self.notes)}

@@ -16,6 +16,13 @@ Scenarios (problem name: test matrix):
 - ``RR``: trailer rolling-resistance sweeps (6 speeds, 20 samples), 3 pressures x 4 loads;
 - ``CFy``: Flatplank locked-hub lateral runs, force vs plank displacement (+-5 mm),
   5 pressures x 3 loads.
+
+A confounded design (:func:`make_confounded`): a rolling-resistance table of 20 points, five
+load/pressure pairs (each load at one pressure only; the pressure falls with load overall,
+correlation of log load and log pressure -0.74) at four speeds each, no sweeps, with both the
+load exponent QSY7 and the pressure exponent QSY8 hidden. Each alone absorbs part of the
+other's effect, so a single addition can fit better yet predict a left-out pair worse (the
+failure of issue 19 with leave-one-pressure-out folds); only the pair generalises.
 """
 from __future__ import annotations
 
@@ -32,7 +39,8 @@ from identify.fit.problem import FitProblem
 from identify.fit.relations import Context, rolling_resistance
 from identify.model.relations import load_pressure_stiffness
 
-__all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir"]
+__all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir", "make_confounded",
+           "make_session", "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]
 
 #: hidden effect -> (scenario, smallest and largest |deviation from neutral|)
 EFFECTS: dict[str, tuple[str, float, float]] = {
@@ -218,3 +226,114 @@ def _locked_hub(rng, start, hidden, value, noise, rho, m: Matrix) -> tuple[FitPr
                          extra={"name": "CFy", "quantity": "Fy", "Fz_N": fz,
                                 "noise_group": sweep})
     return problem, {"hidden": hidden, "value": value, "params": truth}
+
+
+#: (Fz / FNOMIN, pressure [bar]) of the confounded rolling-resistance table
+CONFOUNDED_PAIRS = ((0.5, 2.6), (0.7, 2.9), (0.9, 2.2), (1.1, 2.4), (1.3, 2.0))
+#: its four speeds [m/s]
+CONFOUNDED_SPEEDS = (8.33, 13.89, 22.22, 30.56)
+
+
+def make_confounded(rng: np.random.Generator, hidden: bool = True, *, noise: float = 0.01,
+                    values: tuple[float, float] | None = None) -> tuple[FitProblem, dict]:
+    """The confounded rolling-resistance table (module doc) as the base problem ``RR`` (old
+    form: QSY7 = 1, QSY8 = 0), with QSY7 and QSY8 in the data when ``hidden``.
+
+    QSY7 = 1 - U(0.08, 0.20) and QSY8 = -U(0.2, 0.6) (the physical signs: resistance grows
+    less than in proportion to load and falls with pressure), unless ``values`` gives them;
+    QSY1, QSY3, QSY4 randomised by +-10 %; independent noise of ``noise`` x the RMS of each
+    load/pressure pair's four values (as the other scenarios' noise is a fraction of each
+    sweep's or file's RMS).
+
+    Returns
+    -------
+    problem : FitProblem
+    truth : dict   {"hidden": ("QSY7", "QSY8") or None, "value": (QSY7, QSY8), "params"}
+    """
+    start = base_tir()
+    truth = _randomised(rng, start, ("QSY1", "QSY3", "QSY4"))
+    if values is None:
+        values = (1.0 - rng.uniform(0.08, 0.20), -rng.uniform(0.2, 0.6))
+    if hidden:
+        truth["QSY7"], truth["QSY8"] = values
+    fz0, p0 = start["FNOMIN"], start["NOMPRES"]
+    fz = np.repeat([f * fz0 for f, _ in CONFOUNDED_PAIRS], len(CONFOUNDED_SPEEDS))
+    pb = np.repeat([p for _, p in CONFOUNDED_PAIRS], len(CONFOUNDED_SPEEDS))
+    vx = np.tile(CONFOUNDED_SPEEDS, len(CONFOUNDED_PAIRS))
+    zeros = np.zeros_like(fz)
+    from identify.model.evaluate import evaluate
+    clean = evaluate(truth, fz, zeros, zeros, zeros, vx, p=pb * 1e5, mode=111)["My"]
+    value = clean / start["UNLOADED_RADIUS"]
+    pair = np.repeat(np.arange(len(CONFOUNDED_PAIRS)), len(CONFOUNDED_SPEEDS))
+    rms = np.sqrt(np.bincount(pair, value ** 2) / np.bincount(pair))[pair]
+    value = value + noise * rms * rng.standard_normal(value.size)
+    chars = pd.DataFrame({"quantity": "FxRR", "pi_bar": pb, "p_Pa": pb * 1e5, "Fz_N": fz,
+                          "Vx_mps": vx, "value": value})
+    ctx = Context(fz0=fz0, p0_bar=p0 / 1e5, tir=start)
+    problem = _named(rolling_resistance(chars, ctx, form="old"), "RR")
+    return problem, {"hidden": ("QSY7", "QSY8") if hidden else None,
+                     "value": tuple(values) if hidden else None, "params": truth}
+
+
+def make_session(rng: np.random.Generator, samples: int = 136_000, *, hidden: dict | None = None,
+                 noise: float = 0.01, rho: float = 0.9, drift: float = 0.0) -> tuple[pd.DataFrame,
+                                                                                    dict]:
+    """A synthetic two-run trailer session of about ``samples`` samples at 100 Hz (TTC-like:
+    pressure blocks 1.0, 0.85, 1.15 x NOMPRES; a cornering run with camber 0, 2, 4 deg and a
+    drive/brake run at slip angles 0, 3, 6 deg and camber 0, 2 deg; loads 1.0, 0.5, 1.5, 1.25,
+    0.75 x FNOMIN; one continuous sweep per set point).
+
+    The forces come from the model at the actual load (set point with a slow 1 % wander), the
+    load channel carries 0.3 % white measurement noise, the forces and moments AR(1) noise
+    (lag-one ``rho``) of ``noise`` x each sweep's RMS; ``drift`` scales every force by
+    (1 + drift tau) along the session (tau = -1 .. +1). ``hidden``: .tir values that the data
+    have and the base (:func:`base_tir`) lacks.
+
+    Returns
+    -------
+    frame : DataFrame  trailer columns (run, t, Fz, kappa, alpha, gamma, Vx, p, Fx, Fy, Mx, Mz)
+    truth : dict       the .tir values that generated it
+    """
+    from identify.model.evaluate import evaluate
+
+    t = base_tir()
+    truth = {**t, **(hidden or {})}
+    fz0, p0 = t["FNOMIN"], t["NOMPRES"]
+    plan = []  # (run, p, fz, gamma, alpha_set, kind)
+    for run, cambers, alphas in (("cornering", (0.0, 2.0, 4.0), (None,)),
+                                 ("drive_brake", (0.0, 2.0), (0.0, 3.0, 6.0))):
+        for pf in (1.0, 0.85, 1.15):
+            for g in cambers:
+                for a in alphas:
+                    for lf in (1.0, 0.5, 1.5, 1.25, 0.75):
+                        plan.append((run, pf * p0, lf * fz0, g, a))
+    m = max(9, samples // len(plan))
+    s = np.linspace(0.0, 4.0, m)
+    tri = np.where(s <= 1, s, np.where(s <= 3, 2 - s, s - 4))
+    cols = {k: [] for k in ("run", "Fz", "kappa", "alpha", "gamma", "p")}
+    for run, p, fz, g, a in plan:
+        cols["run"].append(np.full(m, run))
+        cols["Fz"].append(np.full(m, fz))
+        cols["p"].append(np.full(m, p))
+        cols["gamma"].append(np.full(m, np.deg2rad(g)))
+        if a is None:
+            cols["alpha"].append(np.deg2rad(12.0) * tri)
+            cols["kappa"].append(np.zeros(m))
+        else:
+            cols["alpha"].append(np.full(m, np.deg2rad(a)))
+            cols["kappa"].append(0.15 * tri)
+    df = pd.DataFrame({k: np.concatenate(v) for k, v in cols.items()})
+    n = len(df)
+    df["t"] = np.concatenate([np.arange(m) / 100.0 + 10.0 * m / 100.0 * i
+                              for i in range(len(plan))])
+    df["Vx"] = 40.0 / 3.6
+    wander = np.cumsum(rng.standard_normal(n)) / np.sqrt(n)
+    actual = df["Fz"].to_numpy() * (1.0 + 0.01 * wander / max(np.abs(wander).max(), 1e-12))
+    out = evaluate(truth, actual, df["kappa"].to_numpy(), df["alpha"].to_numpy(),
+                   df["gamma"].to_numpy(), df["Vx"].to_numpy(), p=df["p"].to_numpy(), mode=111)
+    tau = np.linspace(-1.0, 1.0, n)
+    sweep = np.repeat(np.arange(len(plan)), m)
+    for ch in ("Fx", "Fy", "Mx", "Mz"):
+        df[ch] = _noise(rng, out[ch] * (1.0 + drift * tau), sweep, sweep, noise, rho)
+    df["Fz"] = actual * (1.0 + 0.003 * rng.standard_normal(n))
+    return df, truth

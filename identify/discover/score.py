@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import special, stats
 
+from identify.discover.noise import Sweeps
 from identify.fit.engine import pseudo_solve
 
 __all__ = ["Score", "project_basis", "score_candidates", "canonical_cosines",
@@ -78,7 +79,7 @@ def _project(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
 
 
 def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray], *,
-                     kind: str = "independent", clusters: list[np.ndarray] | None = None,
+                     kind: str = "independent", clusters=None,
                      ) -> tuple[dict[str, Score], dict[str, np.ndarray]]:
     """Score every candidate.
 
@@ -88,7 +89,7 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
     J : (n, p) Jacobian of the free parameters
     columns : name -> (n, q) candidate columns
     kind : ``"independent"``, ``"ar1"`` (already prewhitened) or ``"cluster"``
-    clusters : index arrays of the sweeps (``"cluster"`` only)
+    clusters : Sweeps (or index arrays) of the sweeps (``"cluster"`` only)
 
     Returns
     -------
@@ -97,6 +98,8 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
     """
     n, p = J.shape
     Q = project_basis(J)
+    if clusters is not None:
+        clusters = Sweeps.of(clusters, n)
     scores, projected = {}, {}
     for name, G in columns.items():
         G = G.reshape(n, -1)
@@ -119,9 +122,9 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
         z = pseudo_solve(A, s)
         drop = float(s @ z)
         step = tuple(float(v) for v in -z)
-        if kind == "cluster" and clusters:
+        if kind == "cluster" and clusters is not None and len(clusters):
             C = len(clusters)
-            contrib = np.array([Gt[idx].T @ r[idx] for idx in clusters])
+            contrib = clusters.sums(Gt * r[:, None])  # (C, q): per-sweep scores
             V = C / max(C - 1, 1) * (contrib.T @ contrib)
             stat = float(s @ pseudo_solve(V, s)) / q
             log_p = _log_sf("f", stat, q, max(C - 1, 1))

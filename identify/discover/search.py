@@ -6,31 +6,38 @@ candidate passes when its adjusted p-value is below ``alpha`` and it is predicte
 least ``min_explained`` of the excess error above the noise floor (when the base error is above
 the floor estimate at all). The best passing candidate
 (smallest p) is refitted and kept only when the likelihood-ratio/F test (cluster-robust Wald
-under cluster-robust noise), at the same Holm level, AND the held-out error (leave one pressure
-level out; whole-sweep folds with fewer than three pressures) agree. Candidates that cannot be
-told apart (|cos| > 0.95) are reported as an ambiguity group, never as one confident name.
+under cluster-robust noise), at the same Holm level, AND the held-out error (folds from the
+design, :mod:`identify.discover.design`) agree. When no single candidate is accepted, the blocks
+they form are tried (:mod:`identify.discover.joint`). An accepted effect updates the one model
+state and every problem downstream of it is refitted (:mod:`identify.discover.state`).
+Candidates that cannot be told apart (|cos| > 0.95) are reported as an ambiguity group, never
+as one confident name.
 """
 from __future__ import annotations
 
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Sequence
+from typing import Callable, Sequence
 
 import numpy as np
-from scipy import stats
 
 from identify.discover.conclude import conclusion, summaries
+from identify.discover.confirm import confirm
+from identify.discover.finish import final_accepted, headline, sign_note
+from identify.discover.joint import try_blocks
 from identify.discover.library import Candidate, Library
-from identify.discover.objective import Objective, with_fixed, with_free
-from identify.discover.result import Accepted, CandidateRow, Discovery, Step, Trial
+from identify.discover.objective import problem_name
+from identify.discover.result import Accepted, CandidateRow, Discovery, Step
 from identify.discover.result import excess_explained
 from identify.discover.score import ambiguity_groups, canonical_cosines, holm, score_candidates
-from identify.discover.working import Working, prepare, renoise, total_error_pct
-from identify.fit.engine import covariance, pseudo_solve
+from identify.discover.state import ModelState
+from identify.discover.working import Working, prepare, refresh, renoise
 from identify.fit.problem import FitProblem
 
-__all__ = ["Settings", "discover"]
+__all__ = ["Settings", "discover", "Progress"]
+
+Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
@@ -46,6 +53,10 @@ class Settings:
     n_starts : int           base-fit starts (> 1: multi-start global search)
     seed : int
     max_tries : int          candidates refitted per step before stopping
+    heldout : str            held-out scheme: ``"auto"`` (from the design), ``"pressure"``
+                             (leave one pressure out), ``"cells"`` (k-fold within condition
+                             cells) or ``"rows"`` (interleaved points)
+    joint : bool             test blocks of candidates that only generalise together
     """
 
     alpha: float = 0.05
@@ -55,6 +66,8 @@ class Settings:
     n_starts: int = 1
     seed: int = 0
     max_tries: int = 3
+    heldout: str = "auto"
+    joint: bool = True
 
     def to_dict(self) -> dict:
         return dataclasses.asdict(self)
@@ -69,91 +82,12 @@ def _score(w: Working) -> tuple[dict, dict, list]:
     kind = w.noise.kind if w.noise.kind == "cluster" else "independent"
     scores, projected = score_candidates(w.sol.r, w.sol.jac, cols, kind=kind,
                                          clusters=w.objective.index)
+    w.columns = cols  # for the joint blocks of this step
     testable = [n for n in scores if scores[n].testable]
     cos = canonical_cosines({n: projected[n] for n in testable})
     groups = ambiguity_groups(testable, cos)
     w.score_seconds = w.score_seconds or time.process_time() - t0
     return scores, cos, groups
-
-
-def _fold_errors(w: Working, problem: FitProblem, x: np.ndarray) -> list[float]:
-    """Held-out thesis error of each fold, fitting on the other folds from ``x``.
-
-    Parameters the training points cannot determine (a quadratic pressure term with two
-    pressure levels left) are held at their values in ``x``, the fit on all points.
-    """
-    obj = Objective(problem, w.objective.index, w.objective.phi)
-    out = []
-    for held in w.folds:
-        train = obj.subset(~held)
-        keep = train.identifiable(x)
-        if keep.all():
-            xf = train.solve(x).x
-        else:
-            fixed = with_fixed(problem, [n for n, k in zip(problem.free, keep) if not k], x)
-            sub = Objective(fixed, w.objective.index, w.objective.phi, ~held)
-            xf = x.copy()
-            xf[keep] = sub.solve(x[keep]).x
-        out.append(total_error_pct(problem, problem.predict(xf), held))
-    return out
-
-
-def _test(w: Working, ext: FitProblem, sol, cand: Candidate) -> tuple[str, float, float, dict]:
-    """(test name, statistic, p-value, stderr) of the candidate's coefficients after the refit."""
-    q = cand.dof
-    J, r = sol.jac, sol.r
-    n, k = J.shape
-    pos = [ext.free.index(c) for c in cand.coefficients]
-    if w.noise.kind == "cluster":
-        idx = w.objective.index
-        C = len(idx)
-        cov = covariance(J, r, clusters=idx)
-        dev = np.array([sol.x[i] - cand.coefficients[c] for i, c in zip(pos, cand.coefficients)])
-        block = cov[np.ix_(pos, pos)]
-        stat = float(dev @ pseudo_solve(block, dev)) / q
-        p = float(stats.f.sf(stat, q, C - 1))
-        return "cluster-robust Wald", stat, p, {c: float(np.sqrt(cov[i, i]))
-                                                for i, c in zip(pos, cand.coefficients)}
-    dof = max(n - k, 1)
-    stat = max(w.sol.rss - sol.rss, 0.0) / q / (sol.rss / dof)
-    p = float(stats.f.sf(stat, q, dof))
-    cov = covariance(J, r)  # s^2 = rss / (n - k)
-    return "F", stat, p, {c: float(np.sqrt(cov[i, i])) for i, c in zip(pos, cand.coefficients)}
-
-
-def _confirm(w: Working, cand: Candidate, step: tuple[float, ...], factor: int, alpha: float
-             ) -> tuple[Trial, tuple | None]:
-    """Refit with ``cand`` freed (from its one-step estimate ``step``), then the F test at the
-    Holm level ``factor`` and the held-out errors. Returns the trial and, when accepted, what
-    replaces the working problem (problem, objective, solution, fold errors)."""
-    vals = w.problem.values(w.x)
-    start = {k: vals[k] + dv for k, dv in zip(cand.coefficients, step)}
-    ext = with_free(w.problem, start, dict(cand.bounds))
-    obj = Objective(ext, w.objective.index, w.objective.phi)
-    x_cur = dict(zip(w.problem.free, w.x))
-    x0 = np.array([x_cur.get(k, ext.parameters[k].value) for k in ext.free])
-    sol = obj.solve(x0)
-    if sol.rss > w.sol.rss:  # the one-step start was poor: start at the neutral values
-        x1 = np.array([x_cur.get(k, cand.coefficients.get(k, 0.0)) for k in ext.free])
-        alt = obj.solve(x1)
-        sol = alt if alt.rss < sol.rss else sol
-    test, stat, p, se = _test(w, ext, sol, cand)
-    p_adj = min(1.0, factor * p)
-    if w.fold_errors is None:
-        w.fold_errors = _fold_errors(w, w.problem, w.x)
-    ext_folds = _fold_errors(w, ext, sol.x)
-    before, after = float(np.mean(w.fold_errors)), float(np.mean(ext_folds))
-    err0, err1 = w.error_pct(), total_error_pct(ext, ext.predict(sol.x))
-    passes_f, passes_h = p_adj <= alpha, after < before
-    reason = ("accepted: F test and held-out error agree" if passes_f and passes_h else
-              "rejected: " + "; ".join(
-                  ([f"{test} p = {p_adj:.3g} (Holm) > {alpha}"] if not passes_f else [])
-                  + ([f"held-out error {before:.3g} % -> {after:.3g} % does not drop"]
-                     if not passes_h else [])))
-    values = {k: float(sol.x[ext.free.index(k)]) for k in cand.coefficients}
-    trial = Trial(cand.name, w.name, values, se, test, stat, p, p_adj, err0, err1, before,
-                  after, w.fold_scheme, passes_f and passes_h, reason)
-    return trial, ((ext, obj, sol, ext_folds) if trial.accepted else None)
 
 
 def _rows(works: list[Working], settings: Settings) -> tuple[list, dict]:
@@ -190,99 +124,143 @@ def _rows(works: list[Working], settings: Settings) -> tuple[list, dict]:
 
 
 def discover(problems: Sequence[FitProblem], library: Library,
-             settings: Settings = Settings(), *, base: dict | None = None) -> Discovery:
+             settings: Settings = Settings(), *, base: dict | None = None,
+             progress: Progress | None = None) -> Discovery:
     """Find missing effects in ``problems`` (library coefficients held at neutral values).
 
     Parameters
     ----------
     problems : sequence of FitProblem
-        The base models with their data; ``extra["name"]`` names a problem for the library's
-        ``relations`` patterns (default ``relation/form``).
+        The base models with their data, upstream first (:mod:`identify.discover.state`: a
+        key shared by several problems belongs to the first that fits or tests it, the later
+        ones read it); ``extra["name"]`` names a problem for the library's ``relations``
+        patterns (default ``relation/form``).
     library : Library
     settings : Settings
     base : dict, optional
         Description of the base model for the output ({kind, name, tir}).
+    progress : callable, optional
+        Called with one line per phase (base fits, scoring, refits, updates), with times.
     """
     from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1):  # small dense problems: threads only add overhead
-        return _discover(problems, library, settings, base)
+        return _discover(list(problems), library, settings, base, progress or _quiet)
 
 
-def _discover(problems, library, settings, base) -> Discovery:
+def _quiet(_: str) -> None:
+    return None
+
+
+def _prepare_all(problems, library, settings, state: ModelState, say) -> tuple[list, list]:
+    """Bind each problem to the state and fit its base model, upstream first."""
+    works, notes = [], []
+    for p in problems:
+        name = problem_name(p)
+        p = state.bind(p)
+        cands = [c for c in library.for_problem(name)
+                 if c.nuisance or all(state.owner.get(k) == name for k in c.coefficients)]
+        if not p.free and not [c for c in cands if not c.nuisance]:
+            src = sorted({state.owner[k] for k in state.reads(p)})
+            notes.append(f"{name} not analysed: every coefficient it fits comes from "
+                         f"{', '.join(src) or 'elsewhere'}")
+            continue
+        say(f"{name}: base fit and diagnosis ({p.measured.size} points, {len(p.free)} "
+            "parameters)")
+        w = prepare(p, library, n_starts=settings.n_starts, seed=settings.seed,
+                    heldout=settings.heldout)
+        w.candidates = [c for c in w.candidates if c.name in {k.name for k in cands}]
+        state.update(name, w.problem.values(w.x))
+        works.append(w)
+    return works, notes
+
+
+def _propagate(source: Working, works: list[Working], state: ModelState, say) -> None:
+    """Re-bind and refit, in order, every problem downstream of ``source`` (its owned keys
+    changed), and those downstream of them."""
+    state.update(source.name, source.problem.values(source.x))
+    changed = {source.name}
+    for w in works:
+        if w is source or not state.depends(w.name, w.problem, changed):
+            continue
+        say(f"{w.name}: refit with the new coefficients of {source.name}")
+        refresh(w, state.bind(w.problem))
+        state.update(w.name, w.problem.values(w.x))
+        changed.add(w.name)
+
+
+def _accept(w: Working, cand: Candidate, trial, ext, group, works, state, say) -> Accepted:
+    problem, obj, sol, ext_folds = ext
+    w.problem, w.objective, w.sol, w.fold_errors = problem, obj, sol, ext_folds
+    w.candidates = [c for c in w.candidates if not set(c.coefficients) & set(cand.coefficients)]
+    w.history.append(cand.name)
+    w.rejected.clear()
+    renoise(w)
+    _propagate(w, works, state, say)
+    return Accepted(cand.name, w.name, cand.description, trial.coefficients, trial.stderr,
+                    trial.error_before_pct, trial.error_after_pct, trial.heldout_before_pct,
+                    trial.heldout_after_pct, trial.p_adjusted, group, w.floor_pct,
+                    excess_explained(trial.error_before_pct, trial.error_after_pct,
+                                     w.floor_pct), sign_note(cand, trial.coefficients),
+                    trial.heldout_scheme)
+
+
+def _upstream_first(rows: list, works: dict, state: ModelState) -> list:
+    """The passing rows of problems none of whose upstream problems has a passing row: an
+    effect missing upstream (PPY1 on MF/Fy) also misfits the problems built on it (MF/Mz),
+    where some other candidate could absorb part of it; the upstream one goes first."""
+    hot = {r.problem for r in rows}
+    return [r for r in rows
+            if not set(state.upstream(r.problem, works[r.problem].problem)) & hot]
+
+
+def _discover(problems, library, settings, base, say) -> Discovery:
     t0 = time.perf_counter()
-    works = [prepare(p, library, n_starts=settings.n_starts, seed=settings.seed)
-             for p in problems]
-    steps, accepted = [], []
+    state = ModelState.of(problems, library)
+    works, notes = _prepare_all(problems, library, settings, state, say)
+    steps, accepted, names = [], [], {c.name: c for c in library.candidates}
     for k in range(1, settings.max_total + 1):
         live = [w for w in works if len(w.history) < settings.max_steps]
+        say(f"step {k}: score {sum(len(w.candidates) for w in live)} candidate(s) on "
+            f"{len(live)} problem(s)")
         rows, info = _rows(live, settings)
-        passing = sorted((r for r in rows if r.passes and r.name not in
-                          info[(r.problem, r.name)][0].rejected),
-                         key=lambda r: (info[(r.problem, r.name)][2].log_p, -info[
-                             (r.problem, r.name)][2].drop))
+        passing = _upstream_first(
+            [r for r in rows if r.passes and r.name not in info[(r.problem, r.name)][0].rejected],
+            {w.name: w for w in live}, state)
+        passing.sort(key=lambda r: (info[(r.problem, r.name)][2].log_p,
+                                    -info[(r.problem, r.name)][2].drop))
         tried, chosen = [], None
         for row in passing[:settings.max_tries]:
             w, cand, s, factor = info[(row.problem, row.name)]
-            trial, ext = _confirm(w, cand, s.step, factor, settings.alpha)
+            say(f"step {k}: refit {w.name} with {cand.name}")
+            trial, ext = confirm(w, cand, s.step, factor, settings.alpha)
             tried.append(trial)
             if ext is None:
                 w.rejected.add(cand.name)  # not retried until this problem's model changes
                 continue
-            problem, obj, sol, ext_folds = ext
-            w.problem, w.objective, w.sol, w.fold_errors = problem, obj, sol, ext_folds
-            w.candidates = [c for c in w.candidates if c.name != cand.name]
-            w.history.append(cand.name)
-            w.rejected.clear()
-            renoise(w)
-            accepted.append(Accepted(
-                cand.name, w.name, cand.description, trial.coefficients, trial.stderr,
-                trial.error_before_pct, trial.error_after_pct, trial.heldout_before_pct,
-                trial.heldout_after_pct, trial.p_adjusted, row.ambiguity_group,
-                w.floor_pct, excess_explained(trial.error_before_pct, trial.error_after_pct,
-                                              w.floor_pct),
-                _sign_note(cand, trial.coefficients)))
+            accepted.append(_accept(w, cand, trial, ext, row.ambiguity_group, works, state,
+                                    say))
             chosen = cand.name
             break
+        if chosen is None and settings.joint:
+            found = try_blocks(tried, rows, info, live, settings.alpha, say)
+            tried += found[0]
+            if found[1] is not None:
+                w, cand, trial, ext = found[1]
+                names[cand.name] = cand
+                accepted.append(_accept(w, cand, trial, ext, (), works, state, say))
+                chosen = cand.name
         steps.append(Step(k, tuple(rows), tuple(tried), chosen))
         if chosen is None:
             break
-    probs = summaries(works)
-    accepted = _with_final_floors(accepted, probs)
-    floor, explained = _headline(accepted, probs)
+    probs = summaries(works, {w.name: {k: state.owner[k] for k in state.reads(w.problem)}
+                              for w in works},
+                      {w.name: state.upstream(w.name, w.problem) for w in works})
+    accepted = final_accepted(accepted, probs, names)
+    floor, explained = headline(accepted, probs)
     return Discovery(base=base or {"kind": "given", "name": "", "tir": None},
                      problems=probs, steps=tuple(steps), accepted=tuple(accepted),
                      noise_floor_pct=floor, excess_explained=explained,
-                     conclusion=conclusion(accepted, probs, steps),
-                     settings=settings.to_dict(), seconds=time.perf_counter() - t0)
-
-
-def _sign_note(cand: Candidate, values: dict) -> str:
-    if not cand.expected_sign:
-        return ""
-    k = next(iter(cand.coefficients))
-    dev = values[k] - cand.coefficients[k]
-    if (cand.expected_sign == "+" and dev < 0) or (cand.expected_sign == "-" and dev > 0):
-        return f"sign opposite to the physically expected one ({cand.expected_sign})"
-    return ""
-
-
-def _with_final_floors(accepted: list, probs) -> list:
-    """The noise floor of an accepted effect is its problem's, from the final residuals."""
-    by = {p.name: p for p in probs}
-    out = []
-    for a in accepted:
-        f = by[a.problem].noise_floor_pct
-        out.append(dataclasses.replace(a, noise_floor_pct=f, excess_explained=excess_explained(
-            a.error_before_pct, a.error_after_pct, f)))
-    return out
-
-
-def _headline(accepted, probs) -> tuple[float, float]:
-    if accepted:
-        return accepted[0].noise_floor_pct, accepted[0].excess_explained
-    if not probs:
-        return float("nan"), float("nan")
-    worst = max(probs, key=lambda p: p.final_error_pct ** 2 - p.noise_floor_pct ** 2
-                if np.isfinite(p.noise_floor_pct) else -np.inf)
-    return worst.noise_floor_pct, float("nan")
+                     conclusion=conclusion(accepted, probs, steps, notes),
+                     settings=settings.to_dict(), seconds=time.perf_counter() - t0,
+                     state=dict(state.values), sources=state.sources, notes=tuple(notes))

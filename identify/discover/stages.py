@@ -22,7 +22,9 @@ from typing import Mapping
 import lmfit
 import numpy as np
 import pandas as pd
+from scipy.ndimage import median_filter
 
+from identify.discover.drift import session_positions
 from identify.fit.problem import FitProblem
 from identify.model import aligning, lateral, longitudinal, moments
 from identify.model.parameters import bounds as table_bounds
@@ -71,53 +73,72 @@ STAGES: dict[str, Stage] = {
 }
 
 
+LOAD_WINDOW = 15
+"""Samples of the running median of the load before its steps are looked for (measured loads
+are noisy: the raw sample-to-sample change would split sweeps everywhere)."""
+
+
+def _moves_and_has(df: pd.DataFrame) -> pd.DataFrame:
+    """Per sweep: whether alpha, kappa, gamma move (range > tiny) and are ever nonzero."""
+    cols = ["alpha", "kappa", "gamma"]
+    g = df.groupby("sweep", sort=False)
+    lo, hi = g[cols].min(), g[cols].max()
+    mag = df[cols].abs().assign(sweep=df["sweep"]).groupby("sweep", sort=False).max()
+    out = pd.DataFrame(index=lo.index)
+    for c in cols:
+        out[f"moves_{c}"] = (hi[c] - lo[c]) > _TINY
+        out[f"has_{c}"] = mag[c] > _TINY
+    return out
+
+
 def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) -> pd.DataFrame:
-    """Add ``sweep`` (int id) and ``kind`` columns to a trailer table.
+    """Add ``sweep`` (int id), ``kind``, ``shape`` and ``session_pos`` columns to a trailer
+    table.
 
     A sweep ends where the running time jumps by more than 1.5 sample intervals, the run
-    changes, or the load changes by more than 2 %. The kind is the manifest test of the run
-    (``tests``: run id -> test) when it is a known one, else it follows from what varies.
+    changes, or the load (running median over :data:`LOAD_WINDOW` samples) changes by more
+    than 2 %. The kind is the manifest test of the run (``tests``: run id -> test) when it is
+    a known one, else it follows from what varies. ``session_pos`` is the sample's position
+    in the session, -1 .. +1 in row order (runs in manifest order): the drift candidate's
+    time axis (:mod:`identify.discover.drift`). Vectorised over samples and sweeps.
     """
     df = frame.reset_index(drop=True).copy()
     run = df["run"].astype(str).to_numpy() if "run" in df else np.zeros(len(df), dtype=str)
     t = df["t"].to_numpy(float) if "t" in df else np.arange(len(df), dtype=float)
-    fz = df["Fz"].to_numpy(float)
+    fz = median_filter(df["Fz"].to_numpy(float), size=LOAD_WINDOW, mode="nearest") \
+        if len(df) >= LOAD_WINDOW else df["Fz"].to_numpy(float)
     dt = np.diff(t)
     step = np.median(dt[dt > 0]) if np.any(dt > 0) else 1.0
     brk = np.ones(len(df), dtype=bool)
     brk[1:] = ((run[1:] != run[:-1]) | (dt > 1.5 * step) | (dt <= 0)
                | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0)))
     df["sweep"] = np.cumsum(brk) - 1
+    df["session_pos"] = session_positions(len(df))
     known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}
-    kinds = {}
-    for sid, g in df.groupby("sweep", sort=False):
-        test = (tests or {}).get(str(g["run"].iloc[0])) if "run" in g else None
-        if test in known:
-            kinds[sid] = test
-            continue
-        moves = {c: np.ptp(g[c].to_numpy(float)) > _TINY for c in ("alpha", "kappa", "gamma")}
-        has = {c: np.any(np.abs(g[c].to_numpy(float)) > _TINY) for c in ("alpha", "kappa",
-                                                                             "gamma")}
-        if has["gamma"] and not has["kappa"]:
-            kinds[sid] = "camber"
-        elif moves["kappa"]:
-            kinds[sid] = "combined" if has["alpha"] else "braking_driving"
-        elif moves["alpha"]:
-            kinds[sid] = "cornering"
-        else:
-            kinds[sid] = "rolling_resistance"
+    f = _moves_and_has(df)
+    kind = np.where(f["has_gamma"] & ~f["has_kappa"], "camber",
+                    np.where(f["moves_kappa"], np.where(f["has_alpha"], "combined",
+                                                        "braking_driving"),
+                             np.where(f["moves_alpha"], "cornering", "rolling_resistance")))
+    kinds = pd.Series(kind, index=f.index)
+    if tests and "run" in df:
+        first_run = df.groupby("sweep", sort=False)["run"].first().astype(str)
+        test = first_run.map(lambda r: tests.get(r))
+        kinds = kinds.where(~test.isin(known), test)
     df["kind"] = df["sweep"].map(kinds)
-    df["shape"] = df["sweep"].map(sweep_shapes(df))
+    df["shape"] = df["sweep"].map(sweep_shapes(df, f))
     return df
 
 
-def sweep_shapes(df: pd.DataFrame) -> dict:
+def sweep_shapes(df: pd.DataFrame, flags: pd.DataFrame | None = None) -> dict:
     """Sweep id -> what it varies (``alpha``, ``alpha@gamma``, ``gamma``, ``kappa`` ...)."""
+    f = _moves_and_has(df) if flags is None else flags
+    cols = ("alpha", "kappa", "gamma")
     out = {}
-    for sid, g in df.groupby("sweep", sort=False):
-        moves = [c for c in ("alpha", "kappa", "gamma") if np.ptp(g[c].to_numpy(float)) > _TINY]
-        held = [c for c in ("alpha", "kappa", "gamma") if c not in moves
-                and np.any(np.abs(g[c].to_numpy(float)) > _TINY)]
+    for sid, row in zip(f.index, f.itertuples(index=False)):  # one line per sweep
+        r = row._asdict()
+        moves = [c for c in cols if r[f"moves_{c}"]]
+        held = [c for c in cols if c not in moves and r[f"has_{c}"]]
         out[sid] = "+".join(moves or ["speed"]) + ("@" + "+".join(held) if held else "")
     return out
 
@@ -186,6 +207,8 @@ def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
              "noise_group": d["sweep"].to_numpy(),
              "metric_group": (d["shape"] if "shape" in d else d["kind"]).to_numpy(),
              "full_tir": True}
+    if "session_pos" in d:
+        extra["session_pos"] = d["session_pos"].to_numpy(float)
     return FitProblem("MF", name, P, model, d[stage.output].to_numpy(float),
                       cols["p"] / 1e5, objective="wls", sweeps=d["sweep"].to_numpy(),
                       unit="N" if stage.output.startswith("F") else "N*m", extra=extra)

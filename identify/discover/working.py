@@ -18,9 +18,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from identify.discover.design import folds
+from identify.discover.drift import DRIFT_KEY, with_drift
+from identify.discover.floor import table_floor_sigma
 from identify.discover.library import Candidate, Library
 from identify.discover.noise import (MIN_SWEEP, PHI_MIN, NoiseModel, choose_noise, fit_ar1,
-                                     sweep_index, variogram)
+                                     group_variogram, sweep_index, variogram)
 from identify.discover.objective import Objective, Solution, problem_name
 from identify.discover.stages import add_parameter
 from identify.fit.metric import group_weights, thesis_error, thesis_error_by_group
@@ -28,7 +31,7 @@ from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 
 __all__ = ["Working", "prepare", "cells", "folds", "metric_groups", "total_error_pct",
-           "final_floor", "renoise", "noise_scale"]
+           "final_floor", "renoise", "refresh", "noise_scale"]
 
 LONG_LAGS = 20
 """Variogram lags for the noise floor of correlated noise from the final residuals."""
@@ -60,6 +63,7 @@ class Working:
     has_sweeps: bool = False
     base_noise: NoiseModel | None = None
     score_seconds: float = 0.0
+    columns: dict = field(default_factory=dict)
     history: list[str] = field(default_factory=list)
     rejected: set = field(default_factory=set)
 
@@ -97,6 +101,11 @@ def _applicable(problem: FitProblem, name: str, library: Library) -> tuple[FitPr
     problem and the candidates present at their neutral values."""
     out = []
     for cand in library.for_problem(name):
+        if DRIFT_KEY in cand.coefficients:
+            if problem.extra.get("session_pos") is None:
+                continue  # no session order: a drift cannot be told from anything
+            if DRIFT_KEY not in problem.parameters:
+                problem = with_drift(problem)
         for k, neutral in cand.coefficients.items():
             if k not in problem.parameters and problem.extra.get("full_tir"):
                 problem = add_parameter(problem, k, neutral)
@@ -117,11 +126,7 @@ def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
     variogram pins the plateau of strongly correlated noise). NaN stds when a group has no
     pairs.
     """
-    gam1 = np.full(e.size, np.nan)
-    for g in np.unique(groups):
-        sel = groups == g
-        sub = [idx[sel[idx]] for idx in index if sel[idx].sum() > 1]
-        gam1[sel] = variogram(e, sub, 1)[0] if sub else np.nan
+    gam1, _ = group_variogram(e, index, groups, 1)  # one pass over the points
     ok = np.isfinite(gam1) & (gam1 > 0)
     if not ok.all():
         return 0.0, np.full(e.size, np.nan)
@@ -136,26 +141,49 @@ def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
 
 def noise_floor_pct(sigma: np.ndarray, meas: np.ndarray, groups: np.ndarray) -> float:
     """Thesis error of the noise alone: mean over groups of 100 sqrt(sum s^2/sum A^2) [%]."""
-    vals = [100.0 * np.sqrt(np.sum(sigma[groups == g] ** 2) / np.sum(meas[groups == g] ** 2))
-            for g in np.unique(groups)]
-    return float(np.mean(vals))
+    _, inv = np.unique(groups, return_inverse=True)
+    num = np.bincount(inv, np.asarray(sigma, dtype=float) ** 2)
+    den = np.bincount(inv, np.asarray(meas, dtype=float) ** 2)
+    return float(np.mean(100.0 * np.sqrt(num / den)))
 
 
 def final_floor(w: Working) -> tuple[float, str]:
-    """Noise floor [%] and its source from the final model's residuals: the within-sweep
-    variogram (long lags for correlated noise), or, without sweeps, the residual variance."""
+    """Noise floor [%] and its source at the end of the search: the within-sweep variogram of
+    the final residuals (long lags for correlated noise); for a table the estimate made at the
+    start (:mod:`identify.discover.floor`), else the final residual variance. Never above the
+    final model's error (the best model found)."""
     p = w.problem
-    e = p.predict(w.x) - p.measured
+    pred = p.predict(w.x)
+    e = pred - p.measured
+    best = total_error_pct(p, pred)
+    floor, source = float("nan"), ""
     if w.has_sweeps:
         groups = np.asarray(p.extra.get("noise_group", p.pressure_bar))
         _, sigma = noise_scale(e, w.objective.index, groups, long_lags=LONG_LAGS)
         if np.all(np.isfinite(sigma)):
-            return (noise_floor_pct(sigma, p.measured, metric_groups(p)),
-                    "within-sweep variogram of the final residuals")
-    r = e / np.asarray(p.sigma, dtype=float)
-    s = np.sqrt(float(r @ r) / max(r.size - len(p.free), 1))
-    return (noise_floor_pct(s * np.asarray(p.sigma, dtype=float), p.measured, metric_groups(p)),
-            "residual variance of the final model (no sweeps)")
+            floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
+            source = "within-sweep variogram"
+    elif np.isfinite(w.floor_pct):
+        floor, source = w.floor_pct, w.floor_source
+    if not np.isfinite(floor):
+        r = e / np.asarray(p.sigma, dtype=float)
+        s = np.sqrt(float(r @ r) / max(r.size - len(p.free), 1))
+        floor = noise_floor_pct(s * np.asarray(p.sigma, dtype=float), p.measured,
+                                metric_groups(p))
+        source = "final residuals (no replicates, no candidate left)"
+    if floor > best:
+        return best, f"{source}; capped at the final error"
+    return floor, source
+
+
+def refresh(w: Working, problem: FitProblem) -> None:
+    """Refit ``w`` on ``problem``: its own problem re-bound to new upstream values (same free
+    parameters, weights and error model), from its current solution."""
+    w.problem = problem
+    w.objective = Objective(problem, w.objective.index, w.objective.phi)
+    w.sol = w.objective.solve(w.x)
+    w.fold_errors = None
+    w.rejected.clear()
 
 
 def renoise(w: Working) -> None:
@@ -189,27 +217,8 @@ def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
     return tuple(out)
 
 
-def folds(problem: FitProblem, index: list[np.ndarray], max_folds: int = 5
-          ) -> tuple[list[np.ndarray], str]:
-    """Held-out folds (bool masks of held-out points) and the scheme's name."""
-    pres = np.round(problem.pressure_bar, 4)
-    levels = np.unique(pres)
-    if levels.size >= 3:
-        return [pres == lv for lv in levels], "leave one pressure level out"
-    n = problem.measured.size
-    real = [idx for idx in index if idx.size > 1]
-    if len(real) >= 2:
-        k = min(max_folds, len(index))
-        masks = [np.zeros(n, dtype=bool) for _ in range(k)]
-        for i, idx in enumerate(index):
-            masks[i % k][idx] = True
-        return masks, f"{k} folds of whole sweeps"
-    k = min(max_folds, n)
-    return [np.arange(n) % k == i for i in range(k)], f"{k} interleaved point folds"
-
-
 def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
-            seed: int = 0) -> Working:
+            seed: int = 0, heldout: str = "auto") -> Working:
     """Fit the base model of ``problem`` and diagnose it (see the module docstring)."""
     name = problem_name(problem)
     p = dataclasses.replace(problem, objective="wls", constraints=(), sigma=None)
@@ -225,7 +234,7 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     converged, stationary, message = sol.ok, sol.stationary, sol.message
     noise = choose_noise(sol.r, [])
     floor, source, phi = float("nan"), "no sweeps", 0.0
-    has_sweeps = any(idx.size >= MIN_SWEEP for idx in index)
+    has_sweeps = bool(np.any(index.sizes >= MIN_SWEEP))
     if has_sweeps:
         e = p.predict(sol.x) - p.measured
         groups = np.asarray(p.extra.get("noise_group", p.pressure_bar))
@@ -234,16 +243,22 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
             p = dataclasses.replace(p, sigma=sigma)
             sol = Objective(p, index).solve(sol.x)
             floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
-            source = "within-sweep variogram of the base residuals"
+            source = "within-sweep variogram"
         noise = choose_noise(sol.r, index)
         phi = noise.phi if noise.kind == "ar1" else 0.0
         if phi:
             sol = Objective(p, index, phi).solve(sol.x)
+    else:
+        est = table_floor_sigma(p, sol.x, cands, index)
+        if est is not None:
+            floor = noise_floor_pct(est[0] * np.asarray(p.sigma, dtype=float), p.measured,
+                                    metric_groups(p))
+            source = est[1]
     obj = Objective(p, index, phi)
     pred = p.predict(sol.x)
     by_p = thesis_error_by_group(pred, p.measured, p.pressure_bar)
     base_error = total_error_pct(p, pred)
-    masks, scheme = folds(p, index)
+    masks, scheme = folds(p, index, scheme=heldout)
     return Working(name=name, problem=p, objective=obj, sol=sol, noise=noise,
                    candidates=cands, base_free=p.free,
                    base_error_pct=base_error, base_by_pressure=by_p,

@@ -133,6 +133,13 @@ class FitResult:
                                             Jacobians included), as scipy's OptimizeResult counts
     status : int                            the best start's solver status (scipy's codes:
                                             > 0 converged, 0 budget exhausted, < 0 failed)
+    identification : str                    "ok" or "poorly identified" (a coefficient at a
+                                            bound, an interval wider than its bounds, a
+                                            correlation above 0.99, too few points per
+                                            coefficient: identify.fit.identifiability)
+    reasons : tuple of str                  why it is poorly identified, and what was held
+    held : Mapping[str, str]                coefficients the fit would free but held at their
+                                            default (``--hold`` or not identifiable) -> why
     """
 
     relation: str
@@ -160,6 +167,14 @@ class FitResult:
     mcmc: MCMCSummary | None = None
     nfev: int = 0
     status: int = 0
+    identification: str = "ok"
+    reasons: tuple[str, ...] = ()
+    held: Mapping[str, str] = field(default_factory=dict)
+
+    @property
+    def status_text(self) -> str:
+        """"failed" (did not converge), "poorly identified" or "ok"."""
+        return self.identification if self.converged else "failed"
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict in the fit.json schema."""
@@ -179,6 +194,8 @@ class FitResult:
             "starts_at_best": self.starts_at_best,
             "correlations": {k: _num(v) for k, v in self.correlations.items()},
             "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
+            "identification": self.identification, "reasons": list(self.reasons),
+            "held": dict(self.held),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -190,7 +207,8 @@ class FitResult:
         :attr:`parameters`; null numbers are NaN, a null bound is open (-inf, +inf). The
         per-point arrays are empty: they live in measured_vs_model.csv (see
         :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
-        documents written before they were recorded. Raises KeyError or TypeError/ValueError
+        documents written before they were recorded, ``identification`` to "ok" and
+        ``reasons``/``held`` to empty. Raises KeyError or TypeError/ValueError
         on a malformed entry.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
@@ -214,7 +232,10 @@ class FitResult:
                    predicted=_EMPTY, measured=_EMPTY, pressure_bar=_EMPTY,
                    seconds=_float(d.get("seconds"), 0.0),
                    mcmc=None if mc is None else MCMCSummary.from_dict(mc),
-                   nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0))
+                   nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0),
+                   identification=str(d.get("identification") or "ok"),
+                   reasons=tuple(str(x) for x in d.get("reasons") or ()),
+                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -245,4 +266,6 @@ class FitResult:
             lines.append(f"  {n:>10} = {self.parameters[n]: .6g} +/- {self.stderr[n]:.2g}{flag}")
         if self.active_constraints:
             lines.append("  active constraints: " + ", ".join(self.active_constraints))
+        for why in self.reasons:
+            lines.append(f"  {self.identification}: {why}")
         return "\n".join(lines)

@@ -22,8 +22,10 @@ from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
+from identify.fit.forms import FormChoice
 from identify.fit.mcmc import MAX_STEPS
 from identify.fit.result import FitResult
+from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
 __all__ = ["SCHEMA", "FitRun", "FitSettings", "InputFile", "Provenance", "failures"]
@@ -49,6 +51,9 @@ class FitSettings:
     fittyp : int           61 or 62 for the written .tir
     mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
                            and its summary says converged = false if the cap came first
+    forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
+    hold : tuple of str    coefficients held at their default in every relation fit
+                           (``--hold``)
     """
 
     seed: int = 0
@@ -58,9 +63,11 @@ class FitSettings:
     only: tuple[str, ...] = ()
     fittyp: int = 61
     mcmc_max_steps: int = MAX_STEPS
+    forms: tuple[str, ...] = ()
+    hold: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict (``only`` as a list)."""
+        """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
         return json_safe(dataclasses.asdict(self))
 
     @classmethod
@@ -68,8 +75,9 @@ class FitSettings:
         """Inverse of :meth:`to_dict`; a missing setting takes its default, an unknown one is
         a TypeError."""
         d = dict(d)
-        if "only" in d:
-            d["only"] = tuple(d["only"] or ())
+        for key in ("only", "forms", "hold"):
+            if key in d:
+                d[key] = tuple(d[key] or ())
         return cls(**d)
 
 
@@ -164,8 +172,11 @@ class FitRun:
     tyre : TyreInfo
     provenance : Provenance
     results : tuple of FitResult      one per relation/form or MF stage, in fit order
-    key_sources : Mapping[str, str]   .tir key -> "relation/form" that supplied it
-                                      (MF stages: "MF/<stage> (trailer)")
+    key_sources : Mapping[str, KeySource]  .tir key -> where its value came from (fitted by
+                                      "relation/form" or "MF/<stage> (trailer)", tyre.toml,
+                                      measured range, default ...): every key of the .tir
+    form_choices : tuple of FormChoice  the form of each relation with a nested pair that
+                                      the .tir takes, and why
     fittyp : int                      FITTYP of the written .tir (61 or 62)
     tir_name : str                    file name of the .tir in the fit directory
     flags : tuple of dict             data-quality flags {run, test, flag, detail} from
@@ -180,11 +191,12 @@ class FitRun:
     tyre: TyreInfo
     provenance: Provenance
     results: tuple[FitResult, ...]
-    key_sources: Mapping[str, str]
+    key_sources: Mapping[str, KeySource]
     fittyp: int
     tir_name: str
     flags: tuple[Mapping[str, Any], ...] = ()
     failed: tuple[str, ...] = ()
+    form_choices: tuple[FormChoice, ...] = ()
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
 
@@ -201,6 +213,26 @@ class FitRun:
     def ok(self) -> bool:
         """Every fit converged."""
         return not self.failed
+
+    @property
+    def poorly_identified(self) -> tuple[str, ...]:
+        """``relation/form`` of every converged fit whose status is "poorly identified"."""
+        return tuple(r.name for r in self.results
+                     if r.converged and r.identification != "ok")
+
+    def form_choice(self, relation: str) -> FormChoice | None:
+        """The form choice of ``relation``, or None (no nested pair, or not fitted)."""
+        for c in self.form_choices:
+            if c.relation == relation:
+                return c
+        return None
+
+    def source_counts(self) -> dict[str, int]:
+        """How many .tir keys came from each kind of source (fitted, tyre.toml ...)."""
+        counts = {k: 0 for k in KINDS}
+        for s in self.key_sources.values():
+            counts[s.kind] += 1
+        return {k: n for k, n in counts.items() if n}
 
     def _in_dir(self, name: str) -> Path:
         if self.fit_dir is None:
@@ -257,11 +289,13 @@ class FitRun:
     def summary_rows(self) -> list[SummaryRow]:
         """One summary row per fit (relation, form, total error, points, status, .tir,
         key coefficients)."""
-        return summary_rows(self.results, self.key_sources)
+        return summary_rows(self.results, self.key_sources, self.form_choices)
 
     def report(self) -> str:
-        """Plain-text summary: the table ``mfid fit`` prints, then the failed fits."""
-        return summary_text(self.summary_rows(), self.failed)
+        """Plain-text summary: the table ``mfid fit`` prints, then the form choices, the
+        poorly identified and the failed fits."""
+        return summary_text(self.summary_rows(), self.failed, self.form_choices,
+                            self.results)
 
     # ----- fit.json --------------------------------------------------------------------------
     def to_dict(self) -> dict[str, Any]:
@@ -271,7 +305,8 @@ class FitRun:
             "provenance": self.provenance.to_dict(),
             "fits": [r.to_dict() for r in self.results],
             "tir": {"path": self.tir_name, "fittyp": self.fittyp,
-                    "key_sources": dict(self.key_sources)},
+                    "key_sources": {k: s.to_dict() for k, s in self.key_sources.items()},
+                    "forms": [c.to_dict() for c in self.form_choices]},
             "flags": [dict(f) for f in self.flags], "failed": list(self.failed)})
 
     @classmethod
@@ -279,7 +314,8 @@ class FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        Documents from before ``failed`` or ``key_sources`` were recorded read as empty.
+        Documents from before ``failed``, ``key_sources`` or ``forms`` were recorded read as
+        empty; a key source written as a plain string (before typed sources) reads as fitted.
 
         Raises
         ------
@@ -303,13 +339,15 @@ class FitRun:
                 results.append(FitResult.from_dict(d))
         with _entry("tir"):
             fittyp = int(tir.get("fittyp") or 61)
-            key_sources = {str(k): str(v) for k, v in (tir.get("key_sources") or {}).items()}
+            key_sources = {str(k): KeySource.from_dict(v)
+                           for k, v in (tir.get("key_sources") or {}).items()}
+            forms = tuple(FormChoice.from_dict(c) for c in tir.get("forms") or ())
             tir_name = str(tir.get("path") or f"{tyre.id}.tir")
         with _entry("flags"):
             flags = tuple(dict(f) for f in doc.get("flags") or ())
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
-                   failed=tuple(str(f) for f in doc.get("failed") or ()))
+                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms)
 
 
 class _entry:

@@ -2,7 +2,9 @@
 points, status, whether it supplied .tir keys, key coefficients).
 
 The same rows feed ``FitRun.report()``, the ``mfid fit`` table on the terminal and the report's
-cover page; number formatting for all of them lives here.
+cover page; number formatting for all of them lives here. After the table come the form each
+relation with a choice of form took and why, and the fits that are poorly identified with their
+first reason (:func:`notes_text`).
 """
 from __future__ import annotations
 
@@ -11,7 +13,9 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from identify.fit.forms import FormChoice
 from identify.fit.result import FitResult
+from identify.fit.sources import KeySource
 
 __all__ = [
     "SUMMARY_TITLE",
@@ -19,6 +23,7 @@ __all__ = [
     "fmt",
     "fmt_pct",
     "key_coefficients",
+    "notes_lines",
     "num",
     "summary_rows",
     "summary_text",
@@ -52,12 +57,11 @@ def fmt_pct(x: Any) -> str:
     return f"{v:.3f}" if abs(v) < 100 else f"{v:.1f}"
 
 
-def tir_keys(result: FitResult, key_sources: Mapping[str, str]) -> list[str]:
-    """The .tir keys ``result`` supplied: those whose source is ``relation/form`` (MF stages:
+def tir_keys(result: FitResult, key_sources: Mapping[str, KeySource]) -> list[str]:
+    """The .tir keys ``result`` supplied: those fitted by ``relation/form`` (MF stages:
     ``MF/<stage> (trailer)``), sorted."""
     tag = result.name
-    return sorted(k for k, src in key_sources.items()
-                  if src == tag or src.startswith(tag + " "))
+    return sorted(k for k, src in key_sources.items() if src.supplied_by == tag)
 
 
 def key_coefficients(result: FitResult, limit: int = 4) -> str:
@@ -80,21 +84,58 @@ class SummaryRow:
     converged: bool
     in_tir: bool
     key_coefficients: str
+    status: str = "ok"
+    chosen: bool = False
+
+    @property
+    def status_cell(self) -> str:
+        """The status as the table shows it: ok, poorly identified, FAILED."""
+        return "FAILED" if not self.converged else self.status
+
+    @property
+    def tir_cell(self) -> str:
+        """"x" when the fit supplied .tir keys ("x*": the form chosen among a nested pair)."""
+        return ("x*" if self.chosen else "x") if self.in_tir else ""
 
 
-def summary_rows(results: Iterable[FitResult], key_sources: Mapping[str, str]
-                 ) -> list[SummaryRow]:
+def summary_rows(results: Iterable[FitResult], key_sources: Mapping[str, KeySource],
+                 form_choices: Sequence[FormChoice] = ()) -> list[SummaryRow]:
     """One row per fit, in fit order."""
+    chosen = {(c.relation, c.form) for c in form_choices}
     return [SummaryRow(r.relation, r.form, num(r.error_total_pct), int(r.n_points),
-                       bool(r.converged), bool(tir_keys(r, key_sources)), key_coefficients(r))
+                       bool(r.converged), bool(tir_keys(r, key_sources)), key_coefficients(r),
+                       r.identification, (r.relation, r.form) in chosen)
             for r in results]
 
 
-def summary_text(rows: Sequence[SummaryRow], failed: Sequence[str] = ()) -> str:
-    """The summary table as plain text (the table ``mfid fit`` prints), then any failures."""
+def notes_lines(form_choices: Sequence[FormChoice] = (),
+                results: Sequence[FitResult] = ()) -> list[str]:
+    """The lines after the summary table: the form each nested relation took and why
+    (x* in the .tir column), then the count of poorly identified fits and each one's first
+    reason."""
+    out = []
+    for c in form_choices:
+        how = "chosen by --form" if c.overridden else "chosen by the data"
+        out.append(f"form {c.relation}: {c.form} ({how}): {c.reason}")
+    poor = [r for r in results if r.converged and r.identification != "ok"]
+    if poor:
+        out.append(f"poorly identified: {len(poor)} of {len(list(results))} fits "
+                   "(fit.json 'reasons'; --hold NAME holds a coefficient at its default)")
+        for r in poor:
+            first = r.reasons[0] if r.reasons else ""
+            more = f" (+{len(r.reasons) - 1} more)" if len(r.reasons) > 1 else ""
+            out.append(f"  {r.name}: {first}{more}")
+    return out
+
+
+def summary_text(rows: Sequence[SummaryRow], failed: Sequence[str] = (),
+                 form_choices: Sequence[FormChoice] = (),
+                 results: Sequence[FitResult] = ()) -> str:
+    """The summary table as plain text (the table ``mfid fit`` prints), then the form choices,
+    the poorly identified fits and any failures."""
     head = ("relation", "form", "total error %", "points", "status", ".tir", "key coefficients")
     body = [(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
-             "ok" if r.converged else "FAILED", "x" if r.in_tir else "", r.key_coefficients)
+             r.status_cell, r.tir_cell, r.key_coefficients)
             for r in rows]
     widths = [max(len(row[i]) for row in [head, *body]) for i in range(len(head) - 1)]
     right = {2, 3}
@@ -106,5 +147,6 @@ def summary_text(rows: Sequence[SummaryRow], failed: Sequence[str] = ()) -> str:
 
     out = [SUMMARY_TITLE, line(head), line(tuple("-" * len(h) for h in head))]
     out += [line(row) for row in body] or ["(no fits)"]
+    out += notes_lines(form_choices, results)
     out += [f"FAILED {f}" for f in failed]
     return "\n".join(out)

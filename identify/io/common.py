@@ -23,7 +23,8 @@ import pandas as pd
 from identify.core.errors import InputError
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
-           "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip", "open_text"]
+           "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
+           "open_text"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -153,11 +154,14 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
 
 
 def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
-                     what: str = "channel") -> tuple[pd.DataFrame, dict[str, str]] | None:
+                     what: str = "channel", allow_nan: bool = False
+                     ) -> tuple[pd.DataFrame, dict[str, str]] | None:
     """Read a CSV of numbers with a header line (``NAME`` or ``NAME [unit]`` per column).
 
     Fast path: pandas' C parser straight into float64. Only when that fails, or a value is
-    NaN/inf, is the file walked row by row to name each bad line (header = line 1).
+    NaN/inf, is the file walked row by row to name each bad line (header = line 1). With
+    ``allow_nan`` NaN, inf and empty cells are read as NaN (trailer data: the loader cleans
+    them and warns).
 
     Returns
     -------
@@ -194,27 +198,33 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
     except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, UnicodeDecodeError,
             OSError, EOFError):
         frame = None
-    if frame is not None and frame.shape[1] == len(names) and np.isfinite(frame.to_numpy()).all():
+    finite = frame is not None and bool(np.isfinite(frame.to_numpy()).all())
+    if frame is not None and frame.shape[1] == len(names) and (finite or allow_nan):
         if len(frame) == 0:
             problems.add(path, "no data rows below the header", line=1)
             return None
+        if not finite:  # NaN cells, or short rows pandas filled with NaN: walk to tell
+            _diagnose(path, len(names), names, problems, allow_nan)
+            frame = frame.where(np.isfinite(frame.to_numpy()))
         frame.columns = names
         return (frame, header_units) if problems.total == start else None
-    _diagnose(path, len(names), names, problems)
+    _diagnose(path, len(names), names, problems, allow_nan)
     if problems.total == start:  # pandas refused something the row walk accepts
         problems.add(path, "cannot parse the file as a numeric CSV table")
     return None
 
 
-def _diagnose(path: Path, width: int, names: list[str], problems: Problems) -> None:
+def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
+              allow_nan: bool = False) -> None:
     """Walk the rows and report ragged rows, empty, non-numeric and non-finite cells."""
     try:
-        _walk_rows(path, width, names, problems)
+        _walk_rows(path, width, names, problems, allow_nan)
     except (OSError, EOFError) as exc:  # truncated or corrupt gzip data
         problems.add(path, f"corrupt compressed data: {exc}")
 
 
-def _walk_rows(path: Path, width: int, names: list[str], problems: Problems) -> None:
+def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
+               allow_nan: bool = False) -> None:
     rows = 0
     with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
         reader = csv.reader(fh)
@@ -229,13 +239,15 @@ def _walk_rows(path: Path, width: int, names: list[str], problems: Problems) -> 
                              line=line, kind="ragged-row")
             for name, cell in zip(names, row, strict=False):
                 text = cell.strip()
+                if allow_nan and text == "":
+                    continue
                 try:
                     value = float(text)
                 except ValueError:
                     why = "empty cell" if text == "" else f"not a number: '{text}'"
                     problems.add(path, why, line=line, key=name, kind="bad-cell")
                     continue
-                if not np.isfinite(value):
+                if not (allow_nan or np.isfinite(value)):
                     problems.add(path, f"{text} is not allowed (NaN/inf)", line=line, key=name,
                                  kind="bad-cell")
     if rows == 0:

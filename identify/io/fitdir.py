@@ -25,6 +25,7 @@ from identify.core.jsonsafe import json_text
 from identify.core.tyre import TyreInfo
 from identify.fit.result import FitResult
 from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
+from identify.fit.sources import KeySource
 from identify.io.atomic import atomic_path, atomic_write_text
 from identify.io.tir import format_tir, read_tir
 
@@ -86,7 +87,7 @@ class FitDir:
         return self.run.results
 
     @property
-    def key_sources(self) -> Mapping[str, str]:
+    def key_sources(self) -> Mapping[str, KeySource]:
         return self.run.key_sources
 
     @property
@@ -264,7 +265,8 @@ def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
         raise InputError(fit_dir, f"cannot create folder: {exc.strerror or exc}") from None
     run = dataclasses.replace(run, fit_dir=fit_dir)
     texts = {run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
-                                      comment_lines=_tir_comment(run)),
+                                      comment_lines=_tir_comment(run),
+                                      sources=dict(run.key_sources) or None),
              run.csv_path: points.to_csv(index=False, lineterminator="\n"),
              run.json_path: json_text(run.to_dict())}
     if extraction is not None:

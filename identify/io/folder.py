@@ -17,12 +17,17 @@ import numpy as np
 import pandas as pd
 
 from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
-from identify.io.common import Problem, Problems, sha256_file
+from identify.io.common import Problem, Problems, open_text, sha256_file, split_header_name
 from identify.io.flatplank import FLATPLANK_COLUMNS, read_flatplank
+from identify.io.hdf5 import is_hdf5
 from identify.io.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
-from identify.io.trailer import TRAILER_COLUMNS, channels_to_tidy, read_channels
+from identify.io.quirks import DataWarning
+from identify.io.trailer import CHANNELS, TRAILER_COLUMNS, channels_to_tidy, read_channels
+from identify.io.ttc import is_ttc_dat, is_ttc_mat, is_ttc_naming
+from identify.io.tydex import is_tydex
 
-__all__ = ["MeasurementSet", "load_folder", "check_folder", "scan_folder", "IMPLICIT_TABLE"]
+__all__ = ["MeasurementSet", "FolderScan", "load_folder", "check_folder", "scan_folder",
+           "inspect_folder", "IMPLICIT_TABLE"]
 
 #: A characteristic table at the folder's root that is loaded even when no run names it.
 IMPLICIT_TABLE = "characteristics.csv"
@@ -42,6 +47,10 @@ class MeasurementSet:
         Tidy tables of all runs of each kind (empty with the right columns when none).
     checksums : mapping
         SHA-256 of every input file read, by path relative to the folder.
+    warnings : tuple of DataWarning
+        The quirks found in the trailer data and cleaned while loading (each with its count);
+        a channel dropped as implausible is NaN in :attr:`trailer` and named by a warning of
+        kind ``"implausible"``.
     """
 
     path: str
@@ -50,9 +59,20 @@ class MeasurementSet:
     flatplank: pd.DataFrame
     characteristics: pd.DataFrame
     checksums: Mapping[str, str] = field(default_factory=dict)
+    warnings: tuple[DataWarning, ...] = ()
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "checksums", MappingProxyType(dict(self.checksums)))
+        object.__setattr__(self, "warnings", tuple(self.warnings))
+
+    def dropped_channels(self) -> dict[str, dict[str, str]]:
+        """Run -> {channel: why} for the channels dropped as implausible while loading."""
+        out: dict[str, dict[str, str]] = {}
+        for w in self.warnings:
+            if w.kind == "implausible":
+                for channel in w.channels:
+                    out.setdefault(w.run, {})[channel] = w.detail
+        return out
 
     def summary(self) -> str:
         """One line: tyre id, runs per kind and samples."""
@@ -69,7 +89,18 @@ class MeasurementSet:
         return {"path": self.path, "manifest": self.manifest.to_dict(),
                 "rows": {"trailer": len(self.trailer), "flatplank": len(self.flatplank),
                          "characteristics": len(self.characteristics)},
-                "checksums": dict(self.checksums)}
+                "checksums": dict(self.checksums),
+                "warnings": [w.to_dict() for w in self.warnings]}
+
+
+@dataclass(frozen=True, eq=False)
+class FolderScan:
+    """What one pass over a folder found: the set (None if anything is wrong), the problems
+    (errors: the data cannot be used) and the warnings (usable data, cleaned, with counts)."""
+
+    found: MeasurementSet | None
+    problems: tuple[Problem, ...]
+    warnings: tuple[DataWarning, ...]
 
 
 def load_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
@@ -89,7 +120,7 @@ def load_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
     InputError
         On the first problem found.
     """
-    return _scan(Path(path), Problems(strict=True), nominal_pressure_Pa, nominal_load_N)
+    return _scan(Path(path), Problems(strict=True), nominal_pressure_Pa, nominal_load_N, [])
 
 
 def check_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
@@ -103,14 +134,37 @@ def scan_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
                 nominal_load_N: float | None = None
                 ) -> tuple[MeasurementSet | None, list[Problem]]:
     """Check and load in one pass: the set (None if anything is wrong) and every problem."""
-    problems = Problems()
-    found = _scan(Path(path), problems, nominal_pressure_Pa, nominal_load_N)
+    scan = inspect_folder(path, nominal_pressure_Pa=nominal_pressure_Pa,
+                          nominal_load_N=nominal_load_N)
+    return scan.found, list(scan.problems)
+
+
+def inspect_folder(path: str | Path, *, nominal_pressure_Pa: float | None = None,
+                   nominal_load_N: float | None = None) -> FolderScan:
+    """Check and load in one pass: the set, every problem and every warning."""
+    problems, warnings = Problems(), []
+    found = _scan(Path(path), problems, nominal_pressure_Pa, nominal_load_N, warnings)
     listed = problems.finish()
-    return (None if listed else found), listed
+    return FolderScan(None if listed else found, tuple(listed), tuple(warnings))
+
+
+def _trailer_file(path: Path) -> bool:
+    """True when a single file is trailer data (not a characteristic table)."""
+    if is_ttc_mat(path) or is_hdf5(path) or is_tydex(path) or path.suffix.lower() == ".dat":
+        return True
+    if is_ttc_dat(path):
+        return True
+    try:
+        with open_text(path, encoding="utf-8-sig", errors="replace") as fh:
+            first = fh.readline()
+    except (OSError, EOFError):
+        return False
+    names = {split_header_name(cell)[0] for cell in first.split(",")}
+    return is_ttc_naming(names) or len(names & set(CHANNELS)) >= 5
 
 
 def _scan(path: Path, problems: Problems, pressure: float | None,
-          load: float | None) -> MeasurementSet | None:
+          load: float | None, warnings: list) -> MeasurementSet | None:
     start = problems.total
     if path.is_dir() or path.name == MANIFEST_NAME:
         toml = path / MANIFEST_NAME if path.is_dir() else path
@@ -119,6 +173,10 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
             return None
         folder = toml.parent
         checksums = {MANIFEST_NAME: sha256_file(toml)}
+    elif path.is_file() and _trailer_file(path):
+        problems.add(path, f"a single trailer data file, not a measurement folder: import it "
+                           f"first with `mfid import {path} --out FOLDER`, then fit FOLDER")
+        return None
     elif path.is_file():
         manifest, folder, checksums = None, path.parent, {}
     else:
@@ -144,7 +202,7 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
                          else f"is a directory, expected a file: {file}", key=f"runs[{i}].file")
             continue
         checksums[Path(run.file).as_posix()] = sha256_file(file)
-        tables[run.kind] += _load_run(run, file, manifest, problems, where, i)
+        tables[run.kind] += _load_run(run, file, manifest, problems, where, i, warnings)
     if problems.total > start:
         return None
     frames = {kind: _concat(tables[kind], columns) for kind, columns in (
@@ -156,16 +214,16 @@ def _scan(path: Path, problems: Problems, pressure: float | None,
     manifest = Manifest(manifest.path, manifest.tyre, manifest.rig, tuple(runs), manifest.extra,
                         manifest.notes + tuple(notes))
     return MeasurementSet(str(path), manifest, frames["trailer"], frames["flatplank"],
-                          frames["characteristics"], checksums)
+                          frames["characteristics"], checksums, tuple(warnings))
 
 
 def _load_run(run: RunSpec, file: Path, manifest: Manifest | None, problems: Problems,
-              where: str, i: int) -> list[pd.DataFrame]:
+              where: str, i: int, warnings: list) -> list[pd.DataFrame]:
     conditions = dict(run.conditions)
     if run.kind == "trailer":
         channels = read_channels(file, run=run.id, units=run.units, problems=problems) or []
-        frames = [channels_to_tidy(ch, axes=run.axes, conditions=conditions, problems=problems)
-                  for ch in channels]
+        frames = [channels_to_tidy(ch, axes=run.axes, conditions=conditions, problems=problems,
+                                   warnings=warnings) for ch in channels]
     elif run.kind == "flatplank":
         if manifest is None or manifest.rig is None:
             return []  # the manifest check has reported the missing [rig]

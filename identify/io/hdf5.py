@@ -50,8 +50,11 @@ def _text(value) -> str:
 
 
 def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
-              time: str = "RUNTIME") -> list[RawRun] | None:
+              time: str = "RUNTIME", allow_nan: bool = False) -> list[RawRun] | None:
     """Read the runs (groups) of an HDF5 channel file; ``run`` selects one group.
+
+    With ``allow_nan`` NaN/inf values are read as NaN instead of being reported (trailer data:
+    the loader cleans them and warns).
 
     A group named ``run`` is taken; if there is none and the file has exactly one group, that
     one is. Datasets at the file's root count as one run named after the file.
@@ -80,11 +83,12 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
             else:
                 problems.add(path, f"no group '{run}' (groups: {', '.join(groups)})", key=run)
                 return None
-        runs = [_group(path, name, grp, problems, time) for name, grp in groups.items()]
+        runs = [_group(path, name, grp, problems, time, allow_nan) for name, grp in groups.items()]
     return None if problems.total > start else runs
 
 
-def _group(path: Path, name: str, grp, problems: Problems, time: str) -> RawRun | None:
+def _group(path: Path, name: str, grp, problems: Problems, time: str,
+           allow_nan: bool = False) -> RawRun | None:
     import h5py
 
     data, units, long_names = {}, {}, {}
@@ -97,7 +101,9 @@ def _group(path: Path, name: str, grp, problems: Problems, time: str) -> RawRun 
             continue
         values = ds[()].astype(np.float64)
         bad = np.flatnonzero(~np.isfinite(values))
-        if bad.size:
+        if bad.size and allow_nan:
+            values[bad] = np.nan
+        elif bad.size:
             problems.add(path, f"{bad.size} NaN/inf value(s), first at sample {bad[0]}",
                          key=f"{name}/{key}")
         data[key] = values

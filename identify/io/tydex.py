@@ -99,7 +99,8 @@ def _entry(line: str) -> tuple[str, str, str, str]:
     return line[:10].strip(), line[10:40].strip(), line[40:50].strip(), line[50:].strip()
 
 
-def read_tydex(path: str | Path, problems: Problems | None = None) -> TydexFile | None:
+def read_tydex(path: str | Path, problems: Problems | None = None, *,
+               allow_nan: bool = False) -> TydexFile | None:
     """Read a .tdx file.
 
     Parameters
@@ -108,6 +109,9 @@ def read_tydex(path: str | Path, problems: Problems | None = None) -> TydexFile 
         The file.
     problems : Problems, optional
         Collector; by default strict (the first problem raises InputError).
+    allow_nan : bool
+        Read NaN/inf data values as NaN instead of reporting them (trailer data: the loader
+        cleans them and warns).
 
     Returns
     -------
@@ -177,7 +181,7 @@ def read_tydex(path: str | Path, problems: Problems | None = None) -> TydexFile 
         body = body[:end]
     if problems.total > start:
         return None
-    data = _data(path, body, data_line, len(channels), names, problems)
+    data = _data(path, body, data_line, len(channels), names, problems, allow_nan)
     if data is None:
         return None
     factor = np.array([c.factor for c in channels])
@@ -215,7 +219,7 @@ def _channel(path: Path, number: int, line: str, problems: Problems) -> TydexCha
 
 
 def _data(path: Path, body: str, first_line: int, width: int, names: list[str],
-          problems: Problems) -> np.ndarray | None:
+          problems: Problems, allow_nan: bool = False) -> np.ndarray | None:
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
@@ -228,8 +232,20 @@ def _data(path: Path, body: str, first_line: int, width: int, names: list[str],
                 return None
             return values
     except (ValueError, pd.errors.ParserError, pd.errors.ParserWarning):
-        pass
+        values = None
     start = problems.total
+    if values is not None and allow_nan:  # NaN cells, or short rows filled with NaN: walk
+        _walk(path, body, first_line, width, names, problems, allow_nan)
+        return np.where(np.isfinite(values), values, np.nan) if problems.total == start else None
+    _walk(path, body, first_line, width, names, problems, allow_nan)
+    if problems.total == start:
+        problems.add(path, "cannot parse the **MEASURDATA section", line=first_line)
+    return None
+
+
+def _walk(path: Path, body: str, first_line: int, width: int, names: list[str],
+          problems: Problems, allow_nan: bool) -> None:
+    """Report ragged rows and bad cells of the data section, line by line."""
     for number, line in enumerate(body.split("\n"), first_line):
         cells = line.split()
         if not cells or cells[0].startswith("!"):
@@ -239,15 +255,12 @@ def _data(path: Path, body: str, first_line: int, width: int, names: list[str],
                          kind="ragged-row")
         for name, cell in zip(names, cells, strict=False):
             try:
-                bad = not np.isfinite(float(cell))
+                bad = not (allow_nan or np.isfinite(float(cell)))
                 why = f"{cell} is not allowed (NaN/inf)"
             except ValueError:
                 bad, why = True, f"not a number: '{cell}'"
             if bad:
                 problems.add(path, why, line=number, key=name, kind="bad-cell")
-    if problems.total == start:
-        problems.add(path, "cannot parse the **MEASURDATA section", line=first_line)
-    return None
 
 
 def _line(key: str, description: str, unit: str, value: str) -> str:

@@ -7,6 +7,7 @@ from identify.core.version import __version__
 from identify.io.fitdir import FitDir
 from identify.report import tables as T
 from identify.report.layout import (
+    ORANGE,
     PAGE,
     RED,
     Page,
@@ -43,14 +44,25 @@ def cover(fd: FitDir) -> list[Page]:
     ]
     lines += wrap("settings          ", setting_text, 70)
     lines += wrap("command           ", prov.command or "n/a", 70)
-    ax = fig.add_axes((0.04, 0.60, 0.50, 0.29))
+    counts = fd.run.source_counts()
+    if counts:
+        lines += wrap(".tir key sources  ", ", ".join(f"{n} {k}" for k, n in counts.items()),
+                      70)
+    for c in fd.run.form_choices:
+        how = "chosen by --form" if c.overridden else "chosen by the data"
+        lines.append(f"form {c.relation:<13}{c.form} ({how}, F test p = {c.p_value:.2g})")
+    poor = fd.run.poorly_identified
+    if poor:
+        lines += wrap("poorly identified ", f"{len(poor)}: " + ", ".join(poor), 70)
+    ax = fig.add_axes((0.04, 0.55, 0.50, 0.34))
     ax.set_axis_off()
     ax.text(0, 1, "\n".join(lines), fontsize=7.5, family="monospace", va="top",
             transform=ax.transAxes, linespacing=1.35)
     files = [f"input files ({len(inputs)}), SHA-256 (first 16 hex digits):"]
     shown = inputs if len(inputs) <= 12 else inputs[:8]
-    for i in shown:
-        files.append(f"  {_short_path(i.path, fd):<40.40} {i.sha256[:16]}")
+    width = max((len(_short_path(i.path, fd)) for i in shown), default=0)
+    for i in shown:  # whole names: a cut name is no reference
+        files.append(f"  {_short_path(i.path, fd):<{width}} {i.sha256[:16]}")
     if len(shown) < len(inputs):
         by_dir: dict[str, int] = {}
         for i in inputs[len(shown):]:
@@ -59,16 +71,17 @@ def cover(fd: FitDir) -> list[Page]:
             by_dir[d] = by_dir.get(d, 0) + 1
         files.append("  ... and " + ", ".join(f"{n} more in {d}" for d, n in by_dir.items()))
         files.append("  (every file and its checksum: appendix)")
-    fax = fig.add_axes((0.56, 0.60, 0.40, 0.29))
+    fax = fig.add_axes((0.56, 0.55, 0.40, 0.34))
     fax.set_axis_off()
-    fax.text(0, 1, "\n".join(files), fontsize=7, family="monospace", va="top",
-             transform=fax.transAxes, linespacing=1.35)
+    longest = max(len(f) for f in files)
+    fax.text(0, 1, "\n".join(files), fontsize=min(7.0, 7.0 * 80 / max(longest, 1)),
+             family="monospace", va="top", transform=fax.transAxes, linespacing=1.35)
     if fd.failed:
-        fig.text(0.04, 0.69, "FIT FAILED: " + "; ".join(fd.failed)[:170], fontsize=9,
+        fig.text(0.04, 0.565, "FIT FAILED: " + "; ".join(fd.failed)[:170], fontsize=9,
                  color=RED, weight="bold", va="top")
     rows = fd.run.summary_rows()
     fs = 8.0
-    height_in = 0.60 * PAGE[1]
+    height_in = 0.49 * PAGE[1]
     while fs > 5.0 and rows_fitting(height_in, fs) < len(rows):
         fs -= 0.5
     per = rows_fitting(height_in, fs)
@@ -77,15 +90,16 @@ def cover(fd: FitDir) -> list[Page]:
     for i, part in enumerate(parts):
         if i:
             fig = new_page(f"Fit report: {fd.tyre_id} (summary continued)")
-        tax = fig.add_axes((0.04, 0.06, 0.92, 0.60 if i == 0 else 0.82))
+        tax = fig.add_axes((0.04, 0.05, 0.92, 0.49 if i == 0 else 0.82))
         table = [[r.relation, r.form, T.fmt_pct(r.error_total_pct), str(r.n_points),
-                  "yes" if r.converged else "NO", "yes" if r.in_tir else "",
-                  r.key_coefficients[:95]] for r in part]
-        draw_table(tax, ["relation", "form", "total error %", "points", "converged",
+                  r.status_cell, r.tir_cell, r.key_coefficients[:90]] for r in part]
+        draw_table(tax, ["relation", "form", "total error %", "points", "status",
                          "-> .tir", "key coefficients"], table,
-                   [0.07, 0.12, 0.09, 0.06, 0.08, 0.06, 0.52], fontsize=fs,
-                   title="Every fit: total thesis error (mean of the per-pressure errors)",
-                   colours=[RED if not r.converged else "black" for r in part],
+                   [0.07, 0.11, 0.08, 0.05, 0.12, 0.05, 0.52], fontsize=fs,
+                   title="Every fit: total thesis error (mean of the per-pressure errors); "
+                         "x* = the form the data (or --form) chose",
+                   colours=[RED if not r.converged else ORANGE if r.status_cell != "ok"
+                            else "black" for r in part],
                    align=["left", "left", "right", "right", "left", "left", "left"])
         if not rows:
             tax.text(0, 0.8, "no fits", fontsize=9, transform=tax.transAxes)
@@ -125,7 +139,8 @@ def inputs_appendix(fd: FitDir) -> list[Page]:
                 continue
             ax = fig.add_axes((0.04 + 0.47 * c, 0.06, 0.45, 0.83))
             ax.set_axis_off()
-            ax.text(0, 1, "\n".join(f"{_short_path(i.path, fd):<48.48} {i.sha256[:16]}"
+            width = max(len(_short_path(i.path, fd)) for i in part)
+            ax.text(0, 1, "\n".join(f"{_short_path(i.path, fd):<{width}} {i.sha256[:16]}"
                                     for i in part),
                     fontsize=5.6, family="monospace", va="top", transform=ax.transAxes,
                     linespacing=1.25)

@@ -138,7 +138,7 @@ def _context(fd: FitDir) -> Context:
            if isinstance(v, (int, float)) and not isinstance(v, bool)}
     ks = fd.key_sources
     return Context(fz0=fd.nominal_load_N, p0_bar=fd.nominal_pressure_bar, tir=tir,
-                   kya_from_tir=any(str(ks.get(k, "")).startswith("MF/")
+                   kya_from_tir=any(k in ks and ks[k].supplied_by.startswith("MF/")
                                     for k in ("PKY1", "PKY2")))
 
 
@@ -232,3 +232,44 @@ def _dense(rows, xcol, sec, keys, evaluate) -> list[Curve]:
             frame[c] = level
         out.append(Curve(p, key, grid, evaluate(frame)))
     return out
+
+
+# ----- sweeps ------------------------------------------------------------------------------------
+
+SWEEP_MIN_POINTS = 8
+"""Fewest points of one sweep at a fixed operating point for it to count as a sweep."""
+
+
+def sweep_rows(rows: pd.DataFrame, fixed: str, varying: str, spread: float,
+               resolution: float) -> np.ndarray:
+    """Rows of sweeps in ``varying`` at a fixed ``fixed`` (e.g. camber sweeps at a fixed slip
+    angle): rows that share pressure, load level, quantity and ``fixed`` (to ``resolution``)
+    with rows of at least :data:`SWEEP_MIN_POINTS` distinct values of ``varying`` (to a tenth
+    of ``spread``) spanning more than ``spread``. Plotted against ``fixed`` they would be
+    vertical bars. A point of another sweep at the same operating point goes with them."""
+    n = len(rows)
+    if n == 0 or fixed not in rows or varying not in rows:
+        return np.zeros(n, bool)
+    f = rows[fixed].to_numpy(float)
+    v = rows[varying].to_numpy(float)
+    fz = levels(rows["Fz_N"].to_numpy(float), 100.0) if "Fz_N" in rows else np.zeros(n)
+    key = pd.DataFrame({"q": rows["quantity"].astype(str).to_numpy() if "quantity" in rows
+                        else "", "p": np.round(rows["pi_bar"].to_numpy(float), 4),
+                        "fz": np.round(fz, 3), "f": np.round(f / resolution)})
+    key["v"] = v
+    key["vr"] = np.round(v / (spread / 10.0))
+    groups = key.groupby(["q", "p", "fz", "f"], dropna=False)
+    g = groups["v"]
+    distinct = groups["vr"].transform("nunique").to_numpy()
+    span = np.nan_to_num((g.transform("max") - g.transform("min")).to_numpy(float))
+    return (distinct >= SWEEP_MIN_POINTS) & (span > spread) & np.isfinite(f)
+
+
+def camber_sweeps(rows: pd.DataFrame) -> np.ndarray:
+    """Rows of camber sweeps at a fixed slip angle (vertical bars against slip angle)."""
+    return sweep_rows(rows, "alpha_rad", "gamma_deg", 1.0, np.deg2rad(0.05))
+
+
+def slip_sweeps(rows: pd.DataFrame) -> np.ndarray:
+    """Rows of slip-angle sweeps at a fixed camber (vertical bars against camber)."""
+    return sweep_rows(rows, "gamma_deg", "alpha_rad", np.deg2rad(1.0), 0.05)

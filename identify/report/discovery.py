@@ -1,6 +1,7 @@
 """A small PDF of a discovery run: the conclusion, the candidate table, residual maps.
 
-Page 1 holds the plain conclusion, the accepted effects and the first step's candidate table.
+Page 1 holds the plain conclusion, then the accepted effects and the first step's candidates
+as tables.
 Then, per problem (those with an accepted effect first, at most ``MAX_PROBLEMS``), binned
 maps of the mean residual (model - measured, in % of the RMS of the measurement) over pairs of
 conditions (pressure x camber, pressure x load, camber x load, or the swept slip), before
@@ -16,6 +17,7 @@ import numpy as np
 
 from identify.discover.result import Discovery, ProblemSummary
 from identify.io.atomic import atomic_path
+from identify.report.layout import GREY, PAGE, draw_table, new_page, rows_fitting, text_block
 
 __all__ = ["write_pdf", "MAX_PROBLEMS"]
 
@@ -94,30 +96,48 @@ def _problem_page(pdf, s: ProblemSummary) -> None:
 
 
 def _text_page(pdf, d: Discovery) -> None:
-    import matplotlib.pyplot as plt
-
-    fig = plt.figure(figsize=(11.7, 8.3))
-    lines = ["mfid discover", ""]
+    """Page 1: the conclusion, then the accepted effects and the first step's candidates as
+    tables with aligned columns, then each problem's noise note."""
+    fig = new_page("mfid discover: which effect is the model missing?",
+                   "conclusion, accepted effects, and the first step's candidates (sorted by "
+                   "the Holm-adjusted p-value)")
+    lines = []
     for line in d.conclusion.splitlines():
-        lines += textwrap.wrap(line, 150, subsequent_indent="    ")
-    lines.append("")
-    for a in d.accepted:
-        lines.append(f"accepted {a.name} on {a.problem}: error {a.error_before_pct:.3g} -> "
-                     f"{a.error_after_pct:.3g} %, held out {a.heldout_before_pct:.3g} -> "
-                     f"{a.heldout_after_pct:.3g} %, p = {a.p_value:.2g}, excess explained "
-                     f"{a.excess_explained:.2f}")
+        lines += textwrap.wrap(line, 170, subsequent_indent="    ") or [""]
+    top = fig.add_axes((0.04, 0.74, 0.92, 0.15))
+    text_block(top, lines[:9], fontsize=8)
+    acc = fig.add_axes((0.04, 0.56, 0.92, 0.17))
+    rows = [[a.name, a.problem,
+             ", ".join(f"{k} = {v:.4g} +/- {a.stderr.get(k, float('nan')):.2g}"
+                       for k, v in a.coefficients.items())[:60],
+             f"{a.error_before_pct:.3g} -> {a.error_after_pct:.3g}",
+             f"{a.heldout_before_pct:.3g} -> {a.heldout_after_pct:.3g}",
+             f"{a.p_value:.2g}", f"{a.excess_explained:.2f}"] for a in d.accepted[:6]]
+    draw_table(acc, ["accepted", "problem", "coefficients", "error %", "held-out %", "p",
+                     "explained"], rows or [["none", "", "", "", "", "", ""]],
+               [0.09, 0.14, 0.37, 0.12, 0.12, 0.07, 0.09], fontsize=7.5,
+               title="Accepted effects (error and held-out error before -> after)",
+               align=["left", "left", "left", "right", "right", "right", "right"])
+    cand = fig.add_axes((0.04, 0.06, 0.92, 0.48))
+    n_rows = rows_fitting(0.48 * PAGE[1], 7.0)
+    crow = []
     if d.steps:
-        lines += ["", "step 1 candidates (name, problem, statistic, p Holm, |cos| > 0.5):"]
-        rows = sorted(d.steps[0].candidates, key=lambda r: r.p_holm)[:28]
-        for r in rows:
+        for r in sorted(d.steps[0].candidates, key=lambda r: r.p_holm)[:n_rows]:
             cos = ", ".join(f"{k} {v:.2f}" for k, v in r.cosines.items() if v > 0.5)
-            stat = f"{r.statistic:10.3g}" if r.testable else "untestable"
-            lines.append(f"  {r.name:8s} {r.problem:16s} {stat}  {r.p_holm:8.2g}  {cos}")
-    for p in d.problems:
-        lines.append(f"{p.name}: {p.noise.reason}")
-    fig.text(0.03, 0.97, "\n".join(lines[:75]), va="top", family="monospace", fontsize=7)
+            crow.append([r.name, r.problem, f"{r.statistic:.3g}" if r.testable
+                         else "untestable", f"{r.p_holm:.2g}",
+                         f"{r.predicted_error_pct:.3g}", "yes" if r.passes else "",
+                         cos[:60]])
+    draw_table(cand, ["candidate", "problem", "statistic", "p (Holm)", "predicted error %",
+                      "passes", "|cos| > 0.5 with"], crow or [["none", "", "", "", "", "",
+                                                               ""]],
+               [0.10, 0.16, 0.10, 0.09, 0.12, 0.07, 0.36], fontsize=7.0,
+               title="Step 1 candidates",
+               align=["left", "left", "right", "right", "right", "left", "left"])
+    notes = [f"{p.name}: {p.noise.reason}" for p in d.problems]
+    if notes:
+        fig.text(0.04, 0.025, " | ".join(notes)[:260], fontsize=6.5, color=GREY)
     pdf.savefig(fig)
-    plt.close(fig)
 
 
 def write_pdf(d: Discovery, path: str | Path) -> Path:

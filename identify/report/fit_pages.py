@@ -16,9 +16,11 @@ from identify.report import tables as T
 from identify.report.curves import (
     X_LABEL,
     RelationCurves,
+    camber_sweeps,
     group_key,
     relation_curves,
     secondary_columns,
+    slip_sweeps,
 )
 from identify.report.layout import (
     GREY,
@@ -75,8 +77,16 @@ def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
         note = f"{T.label(fit)}: no measured-vs-model rows"
     elif is_mf:
         xcol = _mf_x(rows)
+        # sweeps at a fixed x would stand as vertical bars: left out of the panels
+        bars = camber_sweeps(rows) if xcol in ("alpha_deg", "kappa") else \
+            slip_sweeps(rows) if xcol == "gamma_deg" else np.zeros(len(rows), bool)
+        if bars.any():
+            what = "camber sweeps at a fixed slip" if xcol != "gamma_deg" else \
+                "slip-angle sweeps at a fixed camber"
+            note = (f"{T.label(fit)}: {int(bars.sum())} points of {what} are not drawn "
+                    "against this x (they are in the thesis error)")
+            rows = rows[~bars].reset_index(drop=True)
         curves = _joined(rows, xcol)
-        note = ""
     else:
         rc = relation_curves(fd, fit, rows)
         curves, xcol = rc, rc.x_column
@@ -88,6 +98,12 @@ def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
            f"{fit.n_points} points, objective {fit.objective}, {status}, "
            f"{fit.starts_at_best}/{fit.n_starts} starts at the best value"
            + (f"; supplies {_keys_text(keys)} to the .tir" if keys else "; not used in the .tir"))
+    choice = fd.run.form_choice(fit.relation)
+    if choice is not None and fit.form in (choice.simpler, choice.richer):
+        sub += (f". Form {'chosen' if fit.form == choice.form else 'not chosen'} "
+                f"({'--form' if choice.overridden else 'by the data'}): {choice.reason}")
+    if fit.converged and fit.identification != "ok":
+        sub += f". POORLY IDENTIFIED: {'; '.join(fit.reasons)}"
     fig = new_page(f"MF stage {fit.form}" if is_mf else f"Relation {T.label(fit)}", sub)
     unit = _unit(rows)
     quantity = str(rows["quantity"].iloc[0]) if len(rows) else fit.relation
@@ -116,8 +132,8 @@ def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
     extra = []
     if fit.active_constraints:
         extra.append("active constraints: " + "; ".join(fit.active_constraints))
-    if note and not is_mf:
-        extra.append(note)
+    if note:
+        extra.append(note.split(": ", 1)[-1] if is_mf else note)
     elif not is_mf and curves is not None:
         extra.append(curves.note)
     footer(fig, fd, "  |  ".join(extra)[:220])
@@ -180,8 +196,31 @@ def _joined(rows, xcol):
 
 
 MAX_STYLED_LEVELS = 4
-"""Above this many secondary levels (loads, cambers, speeds) the levels are not told apart by
-marker and line style (an MF stage can hold dozens of sweeps): one marker, thin lines."""
+"""Above this many levels of one secondary condition (loads, cambers, speeds) the levels are
+not told apart by marker and line style (an MF stage can hold dozens of sweeps): one marker,
+thin lines. With two conditions, markers tell the first apart (up to len(MARKERS) levels) and
+line styles the second (up to len(STYLES)), one legend entry per level of each."""
+
+
+def _level_styles(keys: list[tuple], sec: list[str]):
+    """(styled, style of each level key -> (marker, line style, hollow), legend entries
+    [(label, marker, line style, hollow)]): one legend entry per level of each condition."""
+    levels_sorted = sorted(set(keys))
+    per = [sorted({k[i][1] for k in levels_sorted}) for i in range(len(sec))]
+    if len(sec) == 1 and len(per[0]) <= MAX_STYLED_LEVELS:
+        style = {k: (MARKERS[j % len(MARKERS)], STYLES[j % len(STYLES)], j > 0)
+                 for j, k in enumerate(levels_sorted)}
+        legend = [(f"{_cond_name(sec[0])} {k[0][1]:.4g}", *style[k]) for k in levels_sorted]
+        return True, style, legend if len(levels_sorted) > 1 else []
+    if len(sec) == 2 and len(per[0]) <= len(MARKERS) and len(per[1]) <= len(STYLES):
+        style = {k: (MARKERS[per[0].index(k[0][1])], STYLES[per[1].index(k[1][1])],
+                     per[0].index(k[0][1]) > 0) for k in levels_sorted}
+        legend = [(f"{_cond_name(sec[0])} {v:.4g}", MARKERS[i], "none", i > 0)
+                  for i, v in enumerate(per[0])]
+        legend += [(f"{_cond_name(sec[1])} {v:.4g}", "none", STYLES[i], False)
+                   for i, v in enumerate(per[1])]
+        return True, style, legend
+    return False, {k: ("o", "-", False) for k in levels_sorted}, []
 
 
 def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
@@ -194,7 +233,7 @@ def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
     levels = sorted(set(keys))
     level_of = {k: j for j, k in enumerate(levels)}
     idx = np.array([level_of[k] for k in keys], dtype=int)
-    styled = len(levels) <= MAX_STYLED_LEVELS
+    styled, style_of, legend = _level_styles(keys, sec)
     many = len(rows) > 400
     ms = 2.0 if many else 4.5
     for p in sorted(set(pis)):
@@ -203,8 +242,7 @@ def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
             sel = (pis == p) & (idx == j)
             if not sel.any():
                 continue
-            mk = MARKERS[j % len(MARKERS)] if styled else "o"
-            hollow = styled and j > 0
+            mk, _, hollow = style_of[levels[j]]
             ax.plot(x[sel], meas[sel], mk, color=c, ms=ms, mfc="none" if hollow else c,
                     mew=0.8, ls="none", alpha=0.5 if many else 1.0)
             rax.plot(x[sel], model[sel] - meas[sel], mk, color=c, ms=ms * 0.9, ls="none",
@@ -212,8 +250,8 @@ def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
     if isinstance(curves, RelationCurves):
         for cv in curves.curves:
             c = pcol.get(round(cv.pi_bar, 4), "black") if math.isfinite(cv.pi_bar) else "black"
-            j = level_of.get(cv.group, 0)
-            ax.plot(cv.x, cv.y, STYLES[j % len(STYLES)] if styled else "-", color=c, lw=1.3)
+            ls = style_of.get(cv.group, ("o", "-", False))[1]
+            ax.plot(cv.x, cv.y, ls, color=c, lw=1.3)
     else:  # joined model values per pressure and secondary level, sorted by x
         for p in sorted(set(pis)):
             for j in range(len(levels)):
@@ -221,7 +259,7 @@ def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
                 if sel.sum() < 2:
                     continue
                 o = np.argsort(x[sel], kind="stable")
-                ax.plot(x[sel][o], model[sel][o], STYLES[j % len(STYLES)] if styled else "-",
+                ax.plot(x[sel][o], model[sel][o], style_of[levels[j]][1],
                         color=pcol.get(round(float(p), 4), "black"), lw=1.0 if styled else 0.6)
     ax.set_xlabel(X_LABEL.get(xcol, xcol))
     ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
@@ -238,11 +276,9 @@ def _plot_fit(ax, rax, rows, curves, xcol, pcol, quantity, unit) -> None:
     rax.grid(alpha=0.3)
     handles = [Line2D([], [], color=c, marker="o", ls="-", label=f"{p:g} bar")
                for p, c in pcol.items()]
-    for j, k in enumerate(levels if 1 < len(levels) and styled else []):
-        text = ", ".join(f"{_cond_name(c)} {v:.4g}" for c, v in k)
-        handles.append(Line2D([], [], color="black", marker=MARKERS[j % len(MARKERS)],
-                              mfc="none" if j else "black", ls=STYLES[j % len(STYLES)],
-                              label=text))
+    for text, mk, ls, hollow in legend:
+        handles.append(Line2D([], [], color="black", marker=None if mk == "none" else mk,
+                              mfc="none" if hollow else "black", ls=ls, label=text))
     if handles:
         ax.legend(handles=handles, fontsize=6.5, loc="best", ncol=2 if len(handles) > 6 else 1)
 

@@ -21,6 +21,7 @@ PAGE = (11.69, 8.27)  # landscape A4 [in]
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 STYLES = ("-", "--", ":", "-.")
 RED = "#b00020"
+ORANGE = "#b35900"
 GREY = "#666666"
 
 Page = tuple[str, Figure]

@@ -7,17 +7,22 @@ Mx-gamma, friction ellipse) when the fit has MF rows; MCMC pages when MCMC ran; 
 data-quality page; an appendix of input files when the cover cannot list them all.
 
 matplotlib ``Figure`` objects (no pyplot state) go into ``PdfPages`` one per page and are
-released after saving. The file is written to a temporary name in the target's folder and
-renamed, so an interrupted run leaves no partial PDF. The metadata's CreationDate is the fit's
-creation time from fit.json, so the same fit directory gives the same PDF.
+released after saving. matplotlib writes no document outline, so pypdf (a runtime dependency
+for this) adds one bookmark per page, titled as the page, and opens the file with the outline
+shown; pypdf writes the same bytes for the same input, and keeps the metadata. The file is
+written to a temporary name in the target's folder and renamed, so an interrupted run leaves no
+partial PDF. The metadata's CreationDate is the fit's creation time from fit.json, so the same
+fit directory gives the same PDF.
 """
 from __future__ import annotations
 
+import io
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
 from matplotlib.backends.backend_pdf import PdfPages
+from pypdf import PdfReader, PdfWriter
 
 from identify.core.errors import InputError
 from identify.core.version import __version__
@@ -96,6 +101,29 @@ def build_pages(fd: FitDir, progress: Progress | None = None):
     return notes
 
 
+def bookmark_titles(titles: list[str]) -> list[str]:
+    """One bookmark title per page: the page title, numbered when several pages share it
+    ("data flags (2)")."""
+    seen: dict[str, int] = {}
+    total = {t: titles.count(t) for t in titles}
+    out = []
+    for t in titles:
+        seen[t] = seen.get(t, 0) + 1
+        out.append(f"{t} ({seen[t]})" if total[t] > 1 else t)
+    return out
+
+
+def add_outline(path: str | Path, titles: list[str]) -> None:
+    """Rewrite the PDF at ``path`` with one top-level bookmark per page (``titles`` in page
+    order), the metadata kept and the outline shown on opening."""
+    writer = PdfWriter(clone_from=PdfReader(io.BytesIO(Path(path).read_bytes())))
+    for i, title in enumerate(bookmark_titles(titles)[:len(writer.pages)]):
+        writer.add_outline_item(title=title, page_number=i)
+    writer.page_mode = "/UseOutlines"
+    with open(path, "wb") as f:
+        writer.write(f)
+
+
 def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None, *,
                  progress: Progress | None = None) -> Report:
     """Write the PDF report of a fit directory.
@@ -122,15 +150,17 @@ def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None,
         raise InputError(out.parent, f"cannot create folder: {exc.strerror or exc}") from None
     titles: list[str] = []
     notes: list[str] = []
-    with atomic_path(out) as tmp, PdfPages(tmp, metadata=metadata(fd)) as pdf:
-        gen = build_pages(fd, progress)
-        while True:
-            try:
-                title, fig = next(gen)
-            except StopIteration as stop:
-                notes = list(stop.value or [])
-                break
-            pdf.savefig(fig)
-            fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
-            titles.append(title)
+    with atomic_path(out) as tmp:
+        with PdfPages(tmp, metadata=metadata(fd)) as pdf:
+            gen = build_pages(fd, progress)
+            while True:
+                try:
+                    title, fig = next(gen)
+                except StopIteration as stop:
+                    notes = list(stop.value or [])
+                    break
+                pdf.savefig(fig)
+                fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
+                titles.append(title)
+        add_outline(tmp, titles)
     return Report(out, tuple(titles), tuple(notes))

@@ -1,7 +1,9 @@
-"""The data-quality pages: data flags (fit.json and extraction.json) counted by kind, fit
-diagnostics and report notes, then every flag run by run."""
+"""The data-quality pages: data flags (fit.json and extraction.json) counted by kind, which
+flagged runs were used in the fit and which excluded, fit diagnostics and report notes, then
+every flag run by run with whether its run is in the fit."""
 from __future__ import annotations
 
+import math
 import textwrap
 from collections.abc import Sequence
 
@@ -18,6 +20,22 @@ from identify.report.layout import (
 )
 
 
+def run_use(extraction) -> dict[str, str]:
+    """run id -> "used" (its extracted value entered a characteristic) or "excluded" (the
+    extraction gave it no value), from extraction.json's per-run records."""
+    out: dict[str, str] = {}
+    for r in (extraction or {}).get("runs") or ():
+        if not isinstance(r, dict) or "run" not in r:
+            continue
+        v = r.get("value")
+        try:
+            finite = v is not None and math.isfinite(float(v))
+        except (TypeError, ValueError):
+            finite = False
+        out[str(r["run"])] = "used" if finite else "excluded"
+    return out
+
+
 def quality_pages(fd: FitDir, notes: Sequence[str]) -> list[Page]:
     """Every data-quality flag (fit.json and extraction.json), fit diagnostics, report notes.
 
@@ -25,9 +43,15 @@ def quality_pages(fd: FitDir, notes: Sequence[str]) -> list[Page]:
     then the full list of flags, run by run."""
     flags = T.data_flags(fd.run, fd.extraction)
     diags = T.fit_diagnostics(fd.run)
+    use = run_use(fd.extraction)
+    flagged = sorted({f["run"] for f in flags if f.get("run")})
+    used = [r for r in flagged if use.get(r) == "used"]
+    excluded = [r for r in flagged if use.get(r) == "excluded"]
     fig = new_page("Data quality",
                    f"{len(flags)} data flag(s) from extraction (stick-slip, short runs, "
-                   "asymmetry, spread, conditions); fit diagnostics; report notes")
+                   f"asymmetry, spread, conditions) on {len(flagged)} run(s): {len(used)} used "
+                   f"(their value entered the characteristic), {len(excluded)} excluded (no "
+                   "value); fit diagnostics; report notes")
     ax = fig.add_axes((0.04, 0.08, 0.40, 0.80))
     if flags:
         counts: dict[tuple[str, str], int] = {}
@@ -48,7 +72,9 @@ def quality_pages(fd: FitDir, notes: Sequence[str]) -> list[Page]:
                else "the extraction flagged no run")
         ax.text(0, 0.95, f"no flags: {why}, and fit.json lists no flag", fontsize=9,
                 va="top", transform=ax.transAxes)
-    lines = ["Fit diagnostics:"]
+    lines = [f"Flagged runs used: {len(used)}; excluded: {len(excluded)}"
+             + (" (" + ", ".join(excluded[:6]) + (" ..." if len(excluded) > 6 else "") + ")"
+                if excluded else ""), "", "Fit diagnostics:"]
     for d in diags[:16] or ["none: every fit converged, off its bounds"]:
         lines += textwrap.wrap(d, 88, initial_indent="  - ", subsequent_indent="    ")
     if len(diags) > 16:
@@ -69,9 +95,10 @@ def quality_pages(fd: FitDir, notes: Sequence[str]) -> list[Page]:
         lfig = new_page(f"Data flags ({i + 1}/{len(parts)})",
                         f"flags {i * per_page + 1}-{i * per_page + len(part)} of {len(flags)}")
         lax = lfig.add_axes((0.04, 0.06, 0.92, 0.82))
-        draw_table(lax, ["run", "test", "flag", "detail"],
-                   [[f["run"], f["test"], f["flag"], f["detail"][:110]] for f in part],
-                   [0.22, 0.14, 0.1, 0.54], fontsize=7)
+        draw_table(lax, ["run", "test", "flag", "in the fit", "detail"],
+                   [[f["run"], f["test"], f["flag"], use.get(f["run"], "n/a"),
+                     f["detail"][:100]] for f in part],
+                   [0.24, 0.13, 0.08, 0.07, 0.48], fontsize=7)
         footer(lfig, fd)
         pages.append(("data flags", lfig))
     return pages

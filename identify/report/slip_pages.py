@@ -2,7 +2,11 @@
 
 The curves are the written .tir evaluated with ``identify.model.evaluate`` over the slip,
 camber and load ranges of the MF rows of measured_vs_model.csv; the measured points of the MF
-stages near pure slip are drawn over them. One panel per pressure, one colour per load.
+stages near pure slip are drawn over them (not the camber sweeps at a fixed slip angle, nor the
+slip sweeps at a fixed camber, which would stand as vertical bars). The friction ellipse is
+drawn at the measured combined slip angles, with the measured combined points (Fx and Fy of
+one operating point) as markers. One panel per pressure, one colour per load (one legend entry
+each), one y-scale across the panels of a page.
 """
 from __future__ import annotations
 
@@ -16,7 +20,7 @@ from matplotlib.lines import Line2D
 
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
-from identify.report.curves import N_DENSE, levels
+from identify.report.curves import N_DENSE, camber_sweeps, levels, slip_sweeps
 from identify.report.layout import STYLES, Page, footer, load_colours, new_page
 from identify.report.tables import num
 
@@ -122,13 +126,16 @@ def mf_slip_pages(fd: FitDir) -> tuple[list[SlipPage], list[str]]:
     small_k = np.nan_to_num(np.abs(kappa), nan=0.0) <= PURE_KAPPA
     small_a = np.nan_to_num(np.abs(alpha), nan=0.0) <= PURE_ALPHA
     small_g = np.nan_to_num(np.abs(gamma), nan=0.0) <= PURE_GAMMA_DEG
+    not_camber_sweep = ~camber_sweeps(mf)   # vertical bars against slip angle
+    not_slip_sweep = ~slip_sweeps(mf)       # vertical bars against camber
     pages = []
     a_rng = rng(alpha, np.isin(q, ("Fy", "Mz")), None)
     k_rng = rng(kappa, q == "Fx", None)
     g_rng = rng(gamma, np.ones(q.size, bool), None)
     if a_rng is not None:
         pages.append(page("Fy - alpha (pure side slip, kappa = 0, gamma = 0)", "Fy", "a",
-                          "slip angle [deg]", "Fy [N]", a_rng, small_k & small_g, np.rad2deg))
+                          "slip angle [deg]", "Fy [N]", a_rng,
+                          small_k & small_g & not_camber_sweep, np.rad2deg))
     else:
         notes.append("Fy-alpha and Mz-alpha pages left out: the MF rows hold no slip-angle "
                      "range")
@@ -140,31 +147,61 @@ def mf_slip_pages(fd: FitDir) -> tuple[list[SlipPage], list[str]]:
         notes.append("Fx-kappa page left out: the MF rows hold no longitudinal-slip range")
     if a_rng is not None:
         pages.append(page("Mz - alpha (pure side slip, kappa = 0, gamma = 0)", "Mz", "a",
-                          "slip angle [deg]", "Mz [N m]", a_rng, small_k & small_g,
-                          np.rad2deg))
+                          "slip angle [deg]", "Mz [N m]", a_rng,
+                          small_k & small_g & not_camber_sweep, np.rad2deg))
     if g_rng is not None and g_rng[1] - g_rng[0] >= 2 * PURE_GAMMA_DEG:
         pages.append(page("Mx - gamma (alpha = 0, kappa = 0)", "Mx", "g_deg",
-                          "camber angle [deg]", "Mx [N m]", g_rng, small_k & small_a,
-                          lambda v: v))
+                          "camber angle [deg]", "Mx [N m]", g_rng,
+                          small_k & small_a & not_slip_sweep, lambda v: v))
     else:
         notes.append("Mx-gamma page left out: the MF rows hold no camber range")
     if a_rng is not None and k_rng is not None:
-        amax = max(abs(a_rng[0]), abs(a_rng[1]))
-        alphas = tuple(float(np.rad2deg(a)) for a in (amax / 3, 2 * amax / 3, amax))
+        combined = _combined_pairs(mf, pis, loads)
+        measured_alphas = np.unique(np.round(np.abs(combined["alpha_deg"]), 1)) \
+            if len(combined) else np.empty(0)
+        measured_alphas = measured_alphas[measured_alphas > 0]
+        if 0 < measured_alphas.size <= len(STYLES):
+            alphas = tuple(float(a) for a in measured_alphas)
+        else:
+            amax = max(abs(a_rng[0]), abs(a_rng[1]))
+            alphas = tuple(float(np.rad2deg(a)) for a in (amax / 3, 2 * amax / 3, amax))
         panels = []
         for p in pressures:
-            curves = []
+            curves, points = [], []
             for fz in load_levels:
                 for sign in (1.0, -1.0):
                     for a_deg in alphas:
                         grid = np.linspace(*k_rng, N_DENSE)
                         r = model(p, fz, grid, np.deg2rad(sign * a_deg), 0.0, ("Fx", "Fy"))
                         curves.append((r["Fx"], r["Fy"]))
-            panels.append(SlipPanel(p, tuple(load_levels), tuple(curves), ()))
+                sel = (combined["pi_bar"] == round(p, 2)) & (combined["Fz_level"] == fz) \
+                    if len(combined) else np.zeros(0, bool)
+                points.append((combined["Fx"].to_numpy(float)[sel],
+                               combined["Fy"].to_numpy(float)[sel]) if len(combined)
+                              else (np.empty(0), np.empty(0)))
+            panels.append(SlipPanel(p, tuple(load_levels), tuple(curves), tuple(points)))
         pages.append(SlipPage("Friction ellipse (combined slip: Fy vs Fx, kappa swept at "
                               "fixed slip angles)", "Fx [N]", "Fy [N]", tuple(panels),
                               ellipse=True, alphas_deg=alphas))
     return pages, notes
+
+
+def _combined_pairs(mf: pd.DataFrame, pis: np.ndarray, loads: np.ndarray) -> pd.DataFrame:
+    """Measured (Fx, Fy) of the same combined-slip operating points (the MF rows of the Fx and
+    Fy quantities at |alpha| > 0 and |kappa| > 0, joined on the operating point)."""
+    cols = ["pi_bar", "Fz_N", "alpha_rad", "kappa", "gamma_deg", "Vx_mps"]
+    frame = mf.assign(pi_bar=pis, Fz_level=loads)
+    a = np.nan_to_num(np.abs(frame["alpha_rad"].to_numpy(float)))
+    k = np.nan_to_num(np.abs(frame["kappa"].to_numpy(float)))
+    frame = frame[(a > PURE_ALPHA) & (k > PURE_KAPPA)]
+    q = frame["quantity"].astype(str)
+    keys = cols + ["Fz_level"]
+    fx = frame[q == "Fx"].drop_duplicates(keys)[keys + ["measured"]]
+    fy = frame[q == "Fy"].drop_duplicates(keys)[keys + ["measured"]]
+    both = fx.merge(fy, on=keys, suffixes=("_x", "_y"))
+    return pd.DataFrame({"pi_bar": both["pi_bar"], "Fz_level": both["Fz_level"],
+                         "alpha_deg": np.rad2deg(both["alpha_rad"].to_numpy(float)),
+                         "Fx": both["measured_x"], "Fy": both["measured_y"]})
 
 
 # ----- pages ------------------------------------------------------------------------------------
@@ -194,7 +231,9 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
                         for sign in (0, 1):  # +alpha and -alpha
                             xs, ys = panel.curves[(2 * j + sign) * na + m]
                             ax.plot(xs, ys, STYLES[m % len(STYLES)], color=lcol[fz], lw=1.1)
-                ax.set_aspect("equal", adjustable="datalim")
+                    if panel.points and panel.points[j][0].size:
+                        px, py = panel.points[j]
+                        ax.plot(px, py, "o", color=lcol[fz], ms=2.0, alpha=0.5, ls="none")
             else:
                 for j, fz in enumerate(panel.loads):
                     xs, ys = panel.curves[j]
@@ -207,6 +246,7 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
             ax.set_ylabel(sp.ylabel, fontsize=8)
             ax.tick_params(labelsize=7)
             ax.grid(alpha=0.3)
+        _share_limits(axes, sp)
         if axes:
             handles = [Line2D([], [], color=c, lw=1.5, label=f"Fz {fz:.0f} N")
                        for fz, c in lcol.items()]
@@ -214,6 +254,9 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
                 handles += [Line2D([], [], color="black", ls=STYLES[m % len(STYLES)],
                                    label=f"alpha +/-{a:.1f} deg")
                             for m, a in enumerate(sp.alphas_deg)]
+                if any(pt[0].size for panel in sp.panels for pt in panel.points):
+                    handles.append(Line2D([], [], color="black", marker="o", ls="none", ms=3,
+                                          label="measured (combined slip)"))
             else:
                 handles.append(Line2D([], [], color="black", marker="o", ls="none", ms=3,
                                       label="measured"))
@@ -221,6 +264,33 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
         footer(fig, fd)
         out.append((f"MF {sp.title.split(' (')[0]}", fig))
     return out
+
+
+def _share_limits(axes, sp: SlipPage) -> None:
+    """One y-range (and for the ellipse one x-range, equal aspect) across the panels."""
+    ys = [np.asarray(y, float) for panel in sp.panels for _, y in panel.curves]
+    ys += [np.asarray(y, float) for panel in sp.panels for _, y in panel.points]
+    xs = [np.asarray(x, float) for panel in sp.panels for x, _ in panel.curves]
+    xs += [np.asarray(x, float) for panel in sp.panels for x, _ in panel.points]
+
+    def span(arrays):
+        v = np.concatenate([a[np.isfinite(a)] for a in arrays]) if arrays else np.empty(0)
+        if v.size == 0:
+            return None
+        lo, hi = float(v.min()), float(v.max())
+        pad = 0.05 * (hi - lo) if hi > lo else 1.0
+        return lo - pad, hi + pad
+
+    y, x = span(ys), span(xs)
+    if sp.ellipse and x is not None and y is not None:
+        lim = max(abs(v) for v in (*x, *y))
+        x = y = (-lim, lim)
+    for ax in axes:
+        if y is not None:
+            ax.set_ylim(*y)
+        if sp.ellipse and x is not None:
+            ax.set_xlim(*x)
+            ax.set_aspect("equal", adjustable="box")
 
 
 # ----- MCMC ------------------------------------------------------------------------------------

@@ -12,6 +12,7 @@ from typing import Any
 
 from identify.fit.result import FitResult, MCMCSummary
 from identify.fit.run import FitRun
+from identify.fit.sources import KeySource
 from identify.fit.summary import (
     SummaryRow,
     fmt,
@@ -88,7 +89,7 @@ class ParamRow:
     median: float = math.nan  # MCMC posterior median (NaN without MCMC)
 
 
-def parameter_rows(fit: FitResult, key_sources: Mapping[str, str] | None = None
+def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None = None
                    ) -> list[ParamRow]:
     """The free parameters with value, standard error, 95 % interval, bounds and flags.
 

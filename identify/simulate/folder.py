@@ -23,7 +23,7 @@ from identify.core.version import __version__
 from identify.core.errors import InputError
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng
-from identify.simulate.coefficients import DEFAULT_RELATIONS, Relations
+from identify.simulate.coefficients import Relations, relations_from_tir
 from identify.simulate.flatplank import locked_hub_runs, parking_runs, vertical_runs
 from identify.simulate.flatplank_rolling import camber_runs, free_rolling_runs, relaxation_runs
 from identify.simulate.grid import GRIDS, Grid
@@ -137,7 +137,7 @@ def _write_csv(path: Path, columns: Mapping[str, np.ndarray], digits: int | None
 
 
 def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
-                    relations: Relations = DEFAULT_RELATIONS, seed: int = 0,
+                    relations: Relations | None = None, seed: int = 0,
                     noise: float = 0.01, ar1_rho: float = 0.0, transients: bool = True,
                     stick_slip: bool = True, asymmetry: float = 0.0,
                     short_relaxation: bool = True, hide: Mapping[str, float] | None = None,
@@ -152,8 +152,11 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
         Numeric .tir values in SI (``read_tir(path).params()``); missing keys take defaults.
     outdir : str or Path
         Folder to create (must be absent or empty unless ``overwrite``).
-    relations : Relations
-        Flatplank structural relations (CFz, CFx, CFy, CMz, sidewall ring).
+    relations : Relations, optional
+        Flatplank structural relations (CFz, CFx, CFy, CMz, sidewall ring). Default: the
+        relations the .tir carries (:func:`~identify.simulate.coefficients.relations_from_tir`:
+        NOMPRES, the vertical and structural stiffness keys), so the data are that tyre's;
+        hidden .tir keys (``hide``) enter the data's relations but not the recorded ones.
     seed : int
         Seed of the noise (``numpy.random.default_rng``); equal seeds give equal folders.
     noise : float
@@ -203,7 +206,11 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
     except ValueError as exc:
         raise InputError(None, str(exc)) from None
     base = _numeric_params(tir_params)
-    hidden_tir, data_relations = split_hidden(hide, relations)
+    recorded = relations if relations is not None else relations_from_tir(base)
+    hidden_tir, _ = split_hidden(hide, recorded)
+    # a hidden structural key (LATERAL_STIFFNESS, PFZ1, ...) changes the data's relations too
+    data_base = recorded if relations is not None else relations_from_tir({**base, **hidden_tir})
+    _, data_relations = split_hidden(hide, data_base)
     model = TyreModel({**base, **hidden_tir}, data_relations, rig)
     _prepare_target(outdir, overwrite)
 
@@ -226,7 +233,7 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
         "model_modes": {"flatplank": FLATPLANK_MODE, "trailer": TRAILER_MODE},
         "fittyp": int(base["FITTYP"]), "tir": base,
         "hidden": {**hidden_tir, **{k: float(v) for k, v in (hide or {}).items() if "." in k}},
-        "relations": relations.to_dict(), "characteristics": truth_rows,
+        "relations": recorded.to_dict(), "characteristics": truth_rows,
     }
     truth_text = json.dumps(truth, indent=1, allow_nan=False) + "\n"
     truth = json.loads(truth_text)  # the result holds exactly what the file holds

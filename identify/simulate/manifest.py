@@ -5,6 +5,7 @@ import json
 import math
 from typing import Mapping, Sequence
 
+from identify.core.tyre_size import size_designation
 from identify.simulate.model import Run
 from identify.simulate.rig import Rig
 
@@ -38,7 +39,12 @@ def manifest_text(tyre_id: str, params: Mapping[str, float], rig: Rig,
              f"nominal_pressure_Pa = {toml_value(int(round(params['NOMPRES'])))}",
              f"nominal_load_N = {toml_value(int(round(params['FNOMIN'])))}",
              f"unloaded_radius_m = {toml_value(float(params['UNLOADED_RADIUS']))}",
-             'source = "simulated"', "", "[rig]",
+             'source = "simulated"']
+    size = size_designation(float(params["WIDTH"]), float(params["ASPECT_RATIO"]),
+                            float(params["RIM_RADIUS"]))
+    if size is not None:  # the .tir's dimensions as the designation a tyre.toml carries
+        lines.append(f"size = {toml_value(size)}")
+    lines += ["", "[rig]",
              f"hub_a_m = {toml_value(float(rig.hub_a))}",
              f"hub_b_m = {toml_value(float(rig.hub_b))}"]
     entries = [(r.run_id, r.file, r.kind, r.test, r.conditions) for r in runs]

@@ -2,7 +2,9 @@
 
 Outputs (each written atomically): ``discovery.json`` (schema in
 :mod:`identify.discover.result`), ``discovery.pdf`` (:mod:`identify.report.discovery`), the
-enriched ``<tyre id>.tir`` (base .tir + every fitted and accepted coefficient) and ``fit.json``
+enriched ``<tyre id>.tir`` (the base .tir with the discovery's one model state: every key some
+problem fits or tests, from the problem that owns it, :mod:`identify.discover.state`) and
+``fit.json``
 (the final fits, ``mfid.fit/1`` layout). The measurement folder is only read.
 """
 from __future__ import annotations
@@ -35,6 +37,7 @@ from identify.io.atomic import atomic_write_text
 from identify.io.fitdir import write_fit_json
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir, write_tir
+from identify.io.tir.write import source_text
 from identify.model.parameters import spec
 from identify.report.discovery import write_pdf
 from identify.simulate import default_tir_path
@@ -106,24 +109,30 @@ def _characteristics(mset, notes: list[str]):
     return chars
 
 
-def _enriched(tir: dict, d: Discovery) -> dict:
-    out = dict(tir)
-    for p in d.problems:
-        vals = dict(p.parameters)
-        if p.name == "CMz":  # T1 nested in T2 (identify.discover.problems.cmz_problem)
-            t2 = abs(vals.get("PCMZ2", 0.0)) > 0
-            out.update({"YAW_STIFFNESS": vals["YAW_STIFFNESS"], "CMZ_FORM": 2.0 if t2 else 1.0,
-                        "PCMZ1": 1.0 if t2 else vals["PCMZ1"],
-                        "PCMZ2": vals["PCMZ2"] if t2 else 0.0,
-                        "PCMZ3": vals["PCMZ1"] if t2 else 0.0})
-            continue
-        for k, v in vals.items():
-            try:
-                if not spec(k).is_string and spec(k).vary:
-                    out[k] = float(v)
-            except KeyError:
+def _enriched(tir: dict, d: Discovery) -> tuple[dict, dict]:
+    """(the .tir values, key -> source): the base .tir with every key of the discovery's one
+    model state (each from the problem that owns it; identify.discover.state)."""
+    out, sources = dict(tir), {}
+    vals = dict(d.state)
+    if "YAW_STIFFNESS" in vals and d.sources.get("YAW_STIFFNESS") == "CMz":
+        # T1 nested in T2 (identify.discover.problems.cmz_problem) -> the .tir's CMz form
+        t2 = abs(vals.get("PCMZ2", 0.0)) > 0
+        pcmz1 = vals.pop("PCMZ1", 0.0)
+        cmz = {"YAW_STIFFNESS": vals.pop("YAW_STIFFNESS"), "CMZ_FORM": 2.0 if t2 else 1.0,
+               "PCMZ1": 1.0 if t2 else pcmz1, "PCMZ2": vals.pop("PCMZ2", 0.0) if t2 else 0.0,
+               "PCMZ3": pcmz1 if t2 else 0.0}
+        vals.pop("PCMZ2", None)
+        out.update(cmz)
+        sources.update({k: source_text("mfid discover", "CMz") for k in cmz})
+    for k, v in vals.items():
+        try:
+            if spec(k).is_string or not spec(k).vary:
                 continue
-    return out
+        except KeyError:
+            continue
+        out[k] = float(v)
+        sources[k] = source_text("mfid discover", d.sources.get(k, ""))
+    return out, sources
 
 
 def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
@@ -160,9 +169,11 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
         _NoRuns(mset), notes)
     ctx = Context(fz0=float(tir["FNOMIN"]), p0_bar=float(tir["NOMPRES"]) / 1e5, tir=tir)
     tests = {r.id: r.test for r in mset.manifest.runs}
-    problems = relation_problems(chars, ctx)
-    has_rr = any(p.extra.get("name") == "RR" for p in problems)
-    problems += trailer_problems(mset.trailer, tir, ctx, tests, with_rr=not has_rr)
+    relations = relation_problems(chars, ctx)
+    has_rr = any(p.extra.get("name") == "RR" for p in relations)
+    # model-state order (identify.discover.state): the trailer's MF stages own the keys they
+    # fit, as in `mfid fit`; the relations read them
+    problems = trailer_problems(mset.trailer, tir, ctx, tests, with_rr=not has_rr) + relations
     if base.form is not None:
         problems = [p for p in problems if base.form.selects(p.extra["name"])]
     problems = [apply_base(p, base, library, tir) for p in select(problems, tuple(only))]
@@ -173,7 +184,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     say(f"discover: {len(problems)} problem(s): "
         + ", ".join(p.extra["name"] for p in problems))
     d = discover(problems, library, settings,
-                 base={**base.to_dict(), "tir": str(base_tir) if base_tir else "bundled"})
+                 base={**base.to_dict(), "tir": str(base_tir) if base_tir else "bundled"},
+                 progress=say)
     out = Path(out_dir) if out_dir is not None else Path(out_root) / tyre.id / "discovery"
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -182,17 +194,19 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     provenance = Provenance.now(command=command, seed=settings.seed, settings=None,
                                 checksums=mset.checksums, folder=mset.path)
     recorded = {k: v for k, v in provenance.to_dict().items() if k != "settings"}
-    doc = {**d.to_dict(), "tyre": tyre.to_dict(), "provenance": recorded, "notes": notes}
+    doc = {**d.to_dict(), "tyre": tyre.to_dict(), "provenance": recorded,
+           "notes": notes + list(d.notes)}
     json_path = atomic_write_text(out / "discovery.json", json_text(doc))
     pdf_path = write_pdf(d, out / "discovery.pdf")
-    enriched = _enriched(tir, d)
-    tir_path = write_tir(out / f"{tyre.id}.tir", enriched, fittyp=fittyp,
+    enriched, sources = _enriched(tir, d)
+    tir_path = write_tir(out / f"{tyre.id}.tir", enriched, fittyp=fittyp, sources=sources,
                          comment_lines=[f"mfid discover {__version__}: base {base.kind} "
                                         f"{base.name}".rstrip(),
                                         "accepted: " + (", ".join(a.name for a in d.accepted)
                                                         or "none")])
     results = tuple(p.fit for p in d.problems if p.fit is not None)
-    run = FitRun(tyre=tyre, provenance=provenance, results=results, key_sources={},
+    key_sources = {k: d.sources.get(k, "CMz") for k in sources}
+    run = FitRun(tyre=tyre, provenance=provenance, results=results, key_sources=key_sources,
                  fittyp=fittyp, tir_name=Path(tir_path).name, failed=failures(results),
                  tir_values=enriched)
     fit_json = write_fit_json(run, out / "fit.json")

@@ -19,15 +19,17 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.extract import extract_folder
 from identify.fit.mcmc import run_mcmc
+from identify.fit.identifiability import assess
 from identify.fit.mf_stages import fit_mf, stage_mcmc
-from identify.fit.optimize import fit
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
+from identify.fit.sources import FITTED, KeySource
 from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
 from identify.model.parameters import defaults
+from identify.workflows import tir_assembly as TA
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
@@ -124,13 +126,15 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
                                f"{', '.join(RELATION_NAMES)}", key="--only")
+    overrides = TA.form_overrides(settings.forms)
+    hold = TA.hold_names(settings.hold)
     _say(progress, f"load: {source}")
     mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
                        nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
-    key_sources: dict[str, str] = {}
+    key_sources: dict[str, KeySource] = TA.apply_tyre(tir, tyre)
     results: list[FitResult] = []
     rows: list[pd.DataFrame] = []
     wanted = (lambda name: not settings.only or name in settings.only)
@@ -138,23 +142,22 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     # the MF geometry stage holds the vertical stiffness Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi)
     # of the Re equation (trailer files carry no deflection): fit the relation that supplies it
     # (CFz, Flatplank) first; the plan loop below reuses that fit
-    prefit: dict[tuple[str, str], tuple] = {}
+    prefit: dict[tuple[str, str], TA.EntryFit] = {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
         ctx0 = Context(fz0=float(tyre.nominal_load_N),
                        p0_bar=float(tyre.nominal_pressure_Pa) / 1e5, tir=_numeric(tir))
         for entry in PLAN:
             if not wanted(entry.relation) or not set(entry.writes) & set(GEOMETRY_INPUTS):
                 continue
-            problem = entry.build(chars, ctx0)
-            if problem is None:
+            if entry.build(chars, ctx0) is None:
                 continue
             _say(progress, f"fit: {entry.relation} [{entry.form}] (vertical stiffness for the "
                            "MF geometry stage)")
-            result = fit(problem, seed=settings.seed)
-            prefit[(entry.relation, entry.form)] = (problem, result)
-            if result.converged:
-                tir.update({k: result.parameters[k] for k in entry.writes
-                            if k in result.parameters})
+            ef = TA.fit_entry(entry, chars, ctx0, seed=settings.seed, hold=hold)
+            prefit[(entry.relation, entry.form)] = ef
+            if ef.result.converged:
+                tir.update({k: ef.result.parameters[k] for k in entry.writes
+                            if k in ef.result.parameters})
 
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
         _say(progress, "fit: Magic Formula stages on trailer data")
@@ -167,51 +170,57 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                 r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
                                ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
                                chain_file=chain)
-            results.append(r)
-            for k in r.free:
-                key_sources[k] = f"MF/{r.form} (trailer)"
+            results.append(assess(r))
+        key_sources.update(TA.mf_sources(mf.results, mf.held))
         tir.update(mf.params)
         rows.append(mf.measured_vs_model())
 
     ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
-                  tir=_numeric(tir), kya_from_tir=any(k in key_sources for k in ("PKY1", "PKY2")))
-    for entry in PLAN:
-        if not wanted(entry.relation):
+                  tir=_numeric(tir),
+                  kya_from_tir=any(key_sources.get(k, KeySource.default()).kind == FITTED
+                                   for k in ("PKY1", "PKY2")))
+    choices = []
+    for relation in TA.relations_in_plan_order():
+        if not wanted(relation):
             continue
-        if (entry.relation, entry.form) in prefit:
-            problem, result = prefit[(entry.relation, entry.form)]
-        else:
-            problem = entry.build(chars, ctx)
-            if problem is None:
-                continue
-            _say(progress, f"fit: {entry.relation} [{entry.form}]")
-            result = fit(problem, seed=settings.seed)
-        if settings.mcmc:
-            _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
-            chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
-            result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
-                              max_steps=settings.mcmc_max_steps, chain_file=chain)
-        results.append(result)
-        rows.append(_csv_rows(result, problem))
-        for key in entry.writes:
-            if key in key_sources and key_sources[key].startswith("MF/"):
-                continue  # the trailer's MF stage identified it; keep that, report both
-            if key in result.parameters:
-                tir[key] = result.parameters[key]
-                key_sources[key] = f"{entry.relation}/{entry.form}"
-        if entry.relation == "camber":  # later camber fits see the updated coefficients
-            ctx = dataclasses.replace(ctx, tir=_numeric(tir))
+        fitted: dict[str, TA.EntryFit] = {}
+        for entry in (e for e in PLAN if e.relation == relation):
+            if (entry.relation, entry.form) in prefit:
+                ef = prefit[(entry.relation, entry.form)]
+            else:
+                if entry.build(chars, ctx) is None:
+                    continue
+                _say(progress, f"fit: {entry.relation} [{entry.form}]")
+                ef = TA.fit_entry(entry, chars, ctx, seed=settings.seed, hold=hold)
+            problem, result = ef.problem, ef.result
+            if settings.mcmc:
+                _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
+                chain = _chain_file(settings, out_root, tyre.id, f"{entry.relation}_{entry.form}")
+                result = run_mcmc(problem, result, seed=settings.seed, ar1=settings.mcmc_ar1,
+                                  max_steps=settings.mcmc_max_steps, chain_file=chain)
+                ef = dataclasses.replace(ef, result=result)
+            fitted[entry.form] = ef
+            results.append(result)
+            rows.append(_csv_rows(result, problem))
+        choice = TA.write_relation(relation, fitted, chars, ctx, tir, key_sources,
+                                   override=overrides.get(relation))
+        if choice is not None:
+            choices.append(choice)
+        ctx = dataclasses.replace(ctx, tir=_numeric(tir))  # later relations see the .tir
     if not results:
         raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
                                     f"of a known quantity{' for --only' if settings.only else ''}")
+    points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+    TA.apply_limits(tir, key_sources, points)
     run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,
                                                      settings=settings,
                                                      checksums=mset.checksums,
                                                      folder=mset.path),
-                 results=tuple(results), key_sources=key_sources, fittyp=settings.fittyp,
-                 tir_name=f"{tyre.id}.tir", flags=tuple(dict(f) for f in flags),
-                 failed=failures(results), tir_values=tir)
-    points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
+                 results=tuple(results),
+                 key_sources=TA.complete(key_sources, settings.fittyp),
+                 fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
+                 flags=tuple(dict(f) for f in flags), failed=failures(results),
+                 tir_values=tir, form_choices=tuple(choices))
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
 
 

@@ -118,7 +118,7 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
                comment_lines: Sequence[str] = (),
                unknown: Mapping[str, float | str] | None = None,
                tables: Mapping[str, Sequence[str]] | None = None,
-               sources: Mapping[str, str] | None = None) -> str:
+               sources: Mapping[str, object] | None = None) -> str:
     """Return the text of a .tir file; see :func:`write_tir` for the parameters."""
     if fittyp not in (61, 62):
         raise ValueError(f"fittyp must be 61 (MF 6.1) or 62 (MF 6.2), not {fittyp!r}")
@@ -140,8 +140,12 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
     def source(name: str, value) -> str:
         if sources is None:
             return ""
-        text = sources.get(name) or (DEFAULT_SOURCE if value == spec(name).default else "")
-        kind = text.split(" ", 1)[0] if text else "unstated"
+        given = sources.get(name)
+        if hasattr(given, "kind"):  # a typed source (identify.fit.sources.KeySource)
+            kind, text = str(given.kind), str(given.text())
+        else:
+            text = given or (DEFAULT_SOURCE if value == spec(name).default else "")
+            kind = text.split(",", 1)[0].split(" ", 1)[0] if text else "unstated"
         counts[kind] = counts.get(kind, 0) + 1
         return f"; {text}" if text else ""
 
@@ -186,7 +190,7 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
               comment_lines: Sequence[str] = (),
               unknown: Mapping[str, float | str] | None = None,
               tables: Mapping[str, Sequence[str]] | None = None,
-              sources: Mapping[str, str] | None = None) -> Path:
+              sources: Mapping[str, object] | None = None) -> Path:
     """Write a complete MF 6.1 or 6.2 .tir file atomically.
 
     Parameters
@@ -208,9 +212,11 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
     tables : mapping, optional
         Raw lines of tabular sections (``[SHAPE]`` ...), written before ``[MFID_EXTENSIONS]``.
     sources : mapping, optional
-        Table name -> where the value came from (:func:`source_text`), appended to the key's
-        comment; a key without an entry is marked :data:`DEFAULT_SOURCE` when it holds its
-        default. The header counts the sources. None: no source comments.
+        Table name -> where the value came from: a text (:func:`source_text`) or a typed
+        source with ``kind`` and ``text()`` (:class:`identify.fit.sources.KeySource`),
+        appended to the key's comment; a key without an entry is marked
+        :data:`DEFAULT_SOURCE` when it holds its default. The header counts the sources by
+        kind. None: no source comments.
 
     Returns
     -------

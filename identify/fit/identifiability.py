@@ -1,0 +1,113 @@
+"""Is a fit's every free coefficient determined by the data? The status a fit reports.
+
+A fit can converge and still leave coefficients the data do not determine: its value is then
+an accident of the start, the bounds or the noise, and a .tir that carries it misleads. A
+converged fit is **poorly identified** when any of these holds (thresholds below):
+
+- a free coefficient sits on a bound (the optimum is where the bound put it);
+- the 95 % interval of a coefficient (value +/- 1.96 standard errors) is wider than its bounds,
+  or it has no finite standard error (the covariance is singular in that direction);
+- two coefficients are correlated beyond :data:`MAX_CORRELATION` (only a combination of them
+  is determined);
+- fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient.
+
+Otherwise its status is "ok". :func:`suspects` ranks the coefficients the problems name, so
+that a caller can hold the worst at its default and re-fit, one at a time.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Mapping
+
+from identify.fit.result import FitResult
+
+__all__ = ["MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
+           "problems", "suspects"]
+
+MAX_CORRELATION = 0.99
+"""|correlation| of two estimates above which only their combination is determined."""
+MIN_POINTS_PER_COEFFICIENT = 2
+"""Fewest data points per free coefficient for a fit to carry them."""
+Z95 = 1.959964
+OK = "ok"
+POOR = "poorly identified"
+
+
+def _relative_se(r: FitResult, name: str) -> float:
+    se = float(r.stderr.get(name, math.nan))
+    if not math.isfinite(se):
+        return math.inf
+    lo, hi = r.bounds.get(name, (-math.inf, math.inf))
+    span = hi - lo if math.isfinite(lo) and math.isfinite(hi) else abs(r.parameters[name])
+    return se / span if span > 0 else math.inf
+
+
+def _pairs(r: FitResult) -> list[tuple[str, str, float]]:
+    out = []
+    for key, c in r.correlations.items():
+        a, _, b = key.partition("|")
+        if a in r.free and b in r.free and math.isfinite(c) and abs(c) > MAX_CORRELATION:
+            out.append((a, b, float(c)))
+    return out
+
+
+def _wide(r: FitResult) -> list[tuple[str, str]]:
+    """(name, why) of free coefficients without a usable interval."""
+    out = []
+    for n in r.free:
+        se = float(r.stderr.get(n, math.nan))
+        lo, hi = r.bounds.get(n, (-math.inf, math.inf))
+        if not math.isfinite(se):
+            out.append((n, f"{n} has no finite standard error"))
+        elif math.isfinite(lo) and math.isfinite(hi) and 2 * Z95 * se > hi - lo:
+            v = r.parameters[n]
+            out.append((n, f"{n} = {v:.4g}: 95 % interval [{v - Z95 * se:.3g}, "
+                           f"{v + Z95 * se:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
+    return out
+
+
+def problems(r: FitResult) -> list[str]:
+    """Why ``r`` is poorly identified, one line each (empty: identified)."""
+    out = []
+    n_free = len(r.free)
+    if n_free and r.n_points < MIN_POINTS_PER_COEFFICIENT * n_free:
+        out.append(f"{n_free} free coefficients on {r.n_points} points (fewer than "
+                   f"{MIN_POINTS_PER_COEFFICIENT} points per coefficient)")
+    for n in r.at_bound:
+        lo, hi = r.bounds.get(n, (-math.inf, math.inf))
+        v = r.parameters[n]
+        side = "lower" if abs(v - lo) <= abs(v - hi) else "upper"
+        out.append(f"{n} = {v:.4g} is at its {side} bound {lo if side == 'lower' else hi:g}")
+    out += [why for _, why in _wide(r)]
+    for a, b, c in _pairs(r):
+        out.append(f"{a} and {b} are correlated {c:+.4f}: only their combination is "
+                   "determined")
+    return out
+
+
+def suspects(r: FitResult) -> list[str]:
+    """The free coefficients the problems name, most suspect first: by the number of problems
+    that name them (on a bound, interval wider than its bounds, each correlated pair), ties by
+    the larger standard error relative to the bounds (or value). Holding the first and
+    re-fitting is the smallest step towards an identified fit."""
+    count: dict[str, int] = {}
+    for n in (*r.at_bound, *(n for n, _ in _wide(r)),
+              *(x for a, b, _ in _pairs(r) for x in (a, b))):
+        count[n] = count.get(n, 0) + 1
+    return sorted((n for n in r.free if n in count),
+                  key=lambda n: (-count[n], -_relative_se(r, n)))
+
+
+def assess(r: FitResult, held: Mapping[str, str] | None = None,
+           notes: tuple[str, ...] = ()) -> FitResult:
+    """``r`` with its identification status and reasons (and the coefficients ``held``, name ->
+    why, recorded). ``notes`` are further reasons (e.g. the problems of the free fit that led to
+    the holds); any note, like any problem, makes the status "poorly identified"."""
+    held = dict(r.held) | dict(held or {})
+    found = problems(r) if r.converged else []
+    reasons = tuple(found) + tuple(notes)
+    status = POOR if reasons else OK
+    reasons += tuple(f"{n} held at {r.parameters.get(n, math.nan):.6g}: {why}"
+                     for n, why in held.items())
+    return dataclasses.replace(r, identification=status, reasons=reasons, held=held)

@@ -1,0 +1,263 @@
+"""Tire Test Consortium (TTC) trailer files: MATLAB v5 ``.mat`` and tab-separated ``.dat``.
+
+The layout follows the public description of the TTC data (Calspan flat-belt machine, 100 Hz):
+
+- ``.mat`` (MATLAB v5, read with :func:`scipy.io.loadmat`): one column vector per channel
+  (:data:`TTC_CHANNELS`), a struct ``channel`` whose cell arrays ``name`` and ``units`` give
+  each channel's unit, and the strings ``source``, ``testid`` and ``tireid``;
+- ``.dat``: line 1 a title, line 2 the channel names, line 3 their units, data from line 4,
+  tab-separated.
+
+Both come in SI (kph, N, N-m, kPa, cm, deg C) and USCS (mph, lbf, ft-lb, psi, in, deg F)
+variants; the units are read from the file and converted by :mod:`identify.core.units`. The
+axes are SAE (FZ is negative under load; SA, FY and MZ change sign to ISO-W), so a run read
+here declares ``axes = "SAE"``. Of the two slip ratios, SL (based on the effective radius:
+SL = 0 gives FX = 0) is kappa; SR (based on the loaded radius) is kept but not used.
+
+Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channel each one is
+for :mod:`identify.io.trailer` (temperatures and radii become optional columns of the tidy
+table). Every unusable file gives one problem naming the file (and the channel when there is
+one): not a MATLAB v5 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
+channel without a unit.
+"""
+from __future__ import annotations
+
+import zlib
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import scipy.io
+from scipy.io.matlab import MatReadError
+
+from identify.io.common import Problems, open_text, starts_with
+from identify.io.hdf5 import RawRun
+
+__all__ = [
+    "TTC_CHANNELS",
+    "TTC_STRINGS",
+    "TTC_TO_TYDEX",
+    "TtcChannel",
+    "is_ttc_dat",
+    "is_ttc_mat",
+    "is_ttc_naming",
+    "read_ttc",
+]
+
+MAT_MAGIC = b"MATLAB"
+#: The strings a TTC .mat file carries besides the channels.
+TTC_STRINGS = ("source", "testid", "tireid")
+
+
+@dataclass(frozen=True)
+class TtcChannel:
+    """One TTC channel: its dimension, units (SI and USCS files), meaning, TYDEX counterpart."""
+
+    dimension: str
+    si_unit: str
+    uscs_unit: str
+    long_name: str
+    tydex: str | None
+
+
+#: The TTC channels in file order (the public description's names and units).
+TTC_CHANNELS: dict[str, TtcChannel] = {
+    "ET": TtcChannel("time", "s", "s", "elapsed time", "RUNTIME"),
+    "V": TtcChannel("speed", "kph", "mph", "road speed", "LONGVEL"),
+    "N": TtcChannel("angular_velocity", "rpm", "rpm", "wheel rotational speed", "WHROTSPD"),
+    "SA": TtcChannel("angle", "deg", "deg", "slip angle", "SLIPANGL"),
+    "IA": TtcChannel("angle", "deg", "deg", "inclination angle", "INCLANGL"),
+    "RL": TtcChannel("length", "cm", "in", "loaded radius", "RLOADED"),
+    "RE": TtcChannel("length", "cm", "in", "effective rolling radius", "REFFECT"),
+    "P": TtcChannel("pressure", "kPa", "psi", "inflation pressure", "INFLPRES"),
+    "FX": TtcChannel("force", "N", "lbf", "longitudinal force", "FX"),
+    "FY": TtcChannel("force", "N", "lbf", "lateral force", "FYW"),
+    "FZ": TtcChannel("force", "N", "lbf", "normal force", "FZW"),
+    "MX": TtcChannel("moment", "N-m", "ft-lb", "overturning moment", "MXW"),
+    "MZ": TtcChannel("moment", "N-m", "ft-lb", "aligning moment", "MZW"),
+    "NFX": TtcChannel("ratio", "none", "none", "normalized longitudinal force", None),
+    "NFY": TtcChannel("ratio", "none", "none", "normalized lateral force", None),
+    "RST": TtcChannel("temperature", "deg C", "deg F", "road surface temperature", "TROAD"),
+    "TSTI": TtcChannel("temperature", "deg C", "deg F", "tread temperature inner", "TTREADI"),
+    "TSTC": TtcChannel("temperature", "deg C", "deg F", "tread temperature centre", "TTREADC"),
+    "TSTO": TtcChannel("temperature", "deg C", "deg F", "tread temperature outer", "TTREADO"),
+    "AMBTMP": TtcChannel("temperature", "deg C", "deg F", "ambient temperature", "TAMBIENT"),
+    "SR": TtcChannel("ratio", "none", "none", "slip ratio based on RL", None),
+    "SL": TtcChannel("ratio", "none", "none", "slip ratio based on RE", "LONGSLIP"),
+    "RUN": TtcChannel("ratio", "none", "none", "run number", None),
+}
+#: TTC channel name -> TYDEX channel name of identify.io.trailer.
+TTC_TO_TYDEX: dict[str, str] = {k: c.tydex for k, c in TTC_CHANNELS.items() if c.tydex}
+
+
+def is_ttc_naming(names) -> bool:
+    """True when channel names are TTC's (``ET`` and two more TTC names, no ``RUNTIME``)."""
+    names = set(names)
+    return "ET" in names and "RUNTIME" not in names and len(names & TTC_CHANNELS.keys()) >= 3
+
+
+def is_ttc_mat(path: str | Path) -> bool:
+    """True when the file starts like a MATLAB .mat file (``MATLAB`` text header)."""
+    return starts_with(path, MAT_MAGIC)
+
+
+def is_ttc_dat(path: str | Path) -> bool:
+    """True for a ``.dat`` file, or a text file whose line 2 holds tab-separated TTC names."""
+    path = Path(path)
+    if path.suffix.lower() == ".dat":
+        return True
+    try:
+        with open_text(path, encoding="utf-8", errors="replace") as fh:
+            fh.readline()
+            names = fh.readline().rstrip("\r\n").split("\t")
+    except (OSError, EOFError):
+        return False
+    return len(names) > 2 and is_ttc_naming(n.strip() for n in names)
+
+
+def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) -> RawRun | None:
+    """Read a TTC ``.mat`` or ``.dat`` file as stored (TTC names, file units, SAE axes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (the format is recognised from the content: a MATLAB header, else .dat).
+    problems : Problems
+        Collector.
+    run : str, optional
+        The run id (default: the file stem).
+
+    Returns
+    -------
+    RawRun or None
+        Channels (float arrays), units, long names; ``attrs`` holds ``axes = "SAE"``, the
+        format and, from a .mat file, ``source``, ``testid`` and ``tireid``.
+    """
+    path = Path(path)
+    start = problems.total
+    read = _read_mat if is_ttc_mat(path) else _read_dat
+    found = read(path, problems)
+    if found is None:
+        return None
+    data, units, attrs = found
+    if "ET" not in data:
+        problems.add(path, "missing required channel (elapsed time)", key="ET")
+        return None
+    n = data["ET"].size
+    for name, values in data.items():
+        if values.size != n:
+            problems.add(path, f"{values.size} samples, but ET has {n}", key=name)
+    if problems.total > start:
+        return None
+    long_names = {k: TTC_CHANNELS[k].long_name if k in TTC_CHANNELS else k for k in data}
+    return RawRun(run or path.stem, data, units, long_names, {"axes": "SAE", **attrs})
+
+
+def _text(value) -> str:
+    if isinstance(value, np.ndarray):
+        return " ".join(_text(v) for v in value.reshape(-1))
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
+def _read_mat(path: Path, problems: Problems):
+    try:
+        mat = scipy.io.loadmat(path, simplify_cells=True)
+    except NotImplementedError:
+        problems.add(path, "a MATLAB v7.3 (HDF5) .mat file: save it as MATLAB v5 (-v7)")
+        return None
+    except (MatReadError, ValueError, TypeError, OSError, EOFError, IndexError, KeyError,
+            zlib.error) as exc:
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: {exc})")
+        return None
+    struct = mat.get("channel")
+    names, unit_list = ([], [])
+    if isinstance(struct, Mapping):
+        names = [_text(v) for v in np.atleast_1d(struct.get("name", []))]
+        unit_list = [_text(v) for v in np.atleast_1d(struct.get("units", []))]
+    units = dict(zip(names, unit_list))
+    data: dict[str, np.ndarray] = {}
+    for key, value in mat.items():
+        if key.startswith("__") or key == "channel" or key in TTC_STRINGS:
+            continue
+        array = np.asarray(value)
+        if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
+            continue  # not a channel (a string, a struct, a matrix)
+        data[key] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+    if not data:
+        problems.add(path, "no channel vectors in the .mat file")
+        return None
+    if not units:
+        problems.add(path, "no 'channel' struct with the channel units (name, units)",
+                     key="channel")
+        return None
+    attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
+    return data, {k: units[k] for k in data if k in units}, {"format": "ttc-mat", **attrs}
+
+
+def _read_dat(path: Path, problems: Problems):
+    try:
+        with open_text(path, encoding="utf-8-sig", newline="") as fh:
+            head = [fh.readline() for _ in range(3)]
+    except UnicodeDecodeError:
+        problems.add(path, "not a text file (a .dat file is tab-separated text)", line=1)
+        return None
+    except (OSError, EOFError) as exc:
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
+    lines = [h.rstrip("\r\n") for h in head if h]
+    names = lines[1].split("\t") if len(lines) > 1 else []
+    unit_cells = lines[2].split("\t") if len(lines) > 2 else []
+    if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
+        found = (f"line {len(lines)} holds numbers" if lines and _numeric(
+            lines[-1].split("\t")) else f"{len(lines)} line(s)")
+        problems.add(path, "short header: a TTC .dat file has a title line, a line of channel "
+                           f"names and a line of units before the data (found {found})",
+                     line=min(len(lines) + 1, 3))
+        return None
+    names = [n.strip() for n in names]
+    unit_cells = [u.strip() for u in unit_cells]
+    if len(unit_cells) != len(names):
+        problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)
+        return None
+    for dup in sorted({n for n in names if names.count(n) > 1}):
+        problems.add(path, "channel named twice", line=2, key=dup)
+    try:
+        frame = pd.read_csv(path, sep="\t", skiprows=3, header=None, names=names,
+                            dtype=np.float64, index_col=False, engine="c",
+                            compression="infer" if path.suffix == ".gz" else None)
+    except (ValueError, pd.errors.ParserError) as exc:
+        problems.add(path, f"data below the header are not tab-separated numbers ({exc})",
+                     line=4)
+        return None
+    if len(frame) == 0:
+        problems.add(path, "no data rows below the header", line=3)
+        return None
+    if frame.isna().to_numpy().any() and _ragged(path, len(names), problems):
+        return None  # pandas fills a short row with NaN: tell it from a NaN cell
+    data = {n: frame[n].to_numpy(np.float64) for n in names}
+    units = {n: u for n, u in zip(names, unit_cells) if u}
+    return data, units, {"format": "ttc-dat", "title": lines[0].strip()}
+
+
+def _ragged(path: Path, width: int, problems: Problems) -> bool:
+    """Report the rows whose number of fields is not ``width``; True if there is one."""
+    with open_text(path, encoding="utf-8-sig", newline="") as fh:
+        lines = fh.read().split("\n")[3:]
+    counts = np.array([line.count("\t") + 1 if line.strip() else width for line in lines])
+    bad = np.flatnonzero(counts != width)
+    for i in bad[:10]:
+        problems.add(path, f"ragged row: {counts[i]} fields, the header has {width}",
+                     line=int(i) + 4, kind="ragged-row")
+    for _ in bad[10:]:
+        problems.add(path, "ragged row", kind="ragged-row")
+    return bad.size > 0
+
+
+def _numeric(cells) -> bool:
+    try:
+        [float(c) for c in cells if c.strip()]
+    except ValueError:
+        return False
+    return any(c.strip() for c in cells)

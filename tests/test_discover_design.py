@@ -1,0 +1,134 @@
+"""Discovery's statistics along sweeps, its held-out folds and its table noise floors
+(issue 19): vectorised statistics equal their definitions, folds fit the design, a table's
+floor comes from replicates or the richest model and is never above the best model's error."""
+from __future__ import annotations
+
+import lmfit
+import numpy as np
+import pytest
+
+from identify.discover.design import folds, pressure_is_crossed, condition_cells
+from identify.discover.floor import replicate_sigma
+from identify.discover.library import load_library
+from identify.discover.noise import (Sweeps, group_variogram, lag1, sweep_index, variogram,
+                                     whiten)
+from identify.discover.scenarios import make_confounded
+from identify.discover.search import Settings, discover
+from identify.fit.problem import FitProblem
+
+PRESSURES = (1.9, 2.2, 2.5, 2.7, 3.0)
+
+
+@pytest.fixture(scope="module")
+def library():
+    return load_library()
+
+
+def _layout(rng, n_sweeps=40):
+    sizes = rng.integers(1, 30, n_sweeps)
+    labels = np.repeat(np.arange(n_sweeps), sizes)
+    return labels, [np.flatnonzero(labels == s) for s in range(n_sweeps)]
+
+
+def test_sweep_statistics_equal_their_definitions():
+    """Variogram, lag-one correlation, prewhitening and per-sweep sums in one pass equal the
+    loops over sweeps that define them (sweeps of 1 to 29 points)."""
+    rng = np.random.default_rng(0)
+    labels, index = _layout(rng)
+    r = rng.standard_normal(labels.size)
+    sw = sweep_index(labels, labels.size)
+    assert [list(i) for i in sw] == [list(i) for i in index]
+    for h in (1, 2, 3, 7):
+        d = np.concatenate([r[i[h:]] - r[i[:-h]] for i in index if i.size > h])
+        assert variogram(r, sw, h)[h - 1] == pytest.approx(0.5 * d @ d / d.size, rel=1e-12)
+    num = sum(float((r[i] - r[i].mean())[1:] @ (r[i] - r[i].mean())[:-1]) for i in index
+              if i.size > 1)
+    den = sum(float((r[i] - r[i].mean()) @ (r[i] - r[i].mean())) for i in index if i.size > 1)
+    assert lag1(r, sw) == pytest.approx(num / den, rel=1e-12)
+    want = r.copy()
+    for i in index:
+        want[i[1:]] = r[i[1:]] - 0.7 * r[i[:-1]]
+        want[i[0]] = np.sqrt(1 - 0.49) * r[i[0]]
+    np.testing.assert_allclose(whiten(r, sw, 0.7), want, rtol=1e-14)
+    np.testing.assert_allclose(sw.sums(r), [r[i].sum() for i in index], rtol=1e-12)
+    masked = sw.subset(np.arange(labels.size) % 3 != 0)
+    assert len(masked) == sum(1 for i in index if np.any(i % 3 != 0))
+
+
+def test_group_variogram_per_noise_group():
+    """Each group's lag-one semivariogram from its own within-sweep pairs; a group without
+    pairs gets NaN."""
+    rng = np.random.default_rng(1)
+    labels, index = _layout(rng, 12)
+    groups = labels % 3
+    r = rng.standard_normal(labels.size) * (1 + groups)
+    gam, _ = group_variogram(r, Sweeps(labels), groups)
+    for g in range(3):
+        d = np.concatenate([np.diff(r[i]) for i in index if i.size > 1 and labels[i[0]] % 3 == g])
+        assert gam[groups == g][0] == pytest.approx(0.5 * d @ d / d.size, rel=1e-12)
+    lone = np.arange(5)
+    gam, _ = group_variogram(np.ones(5), Sweeps(lone), lone)
+    assert np.isnan(gam).all()
+
+
+def _table(pb, fz, meas=None, reps=1):
+    P = lmfit.Parameters()
+    P.add("a", value=1.0)
+    pb, fz = np.repeat(pb, reps), np.repeat(fz, reps)
+    meas = fz.copy() if meas is None else meas
+    return FitProblem("X", "y", P, lambda v: v["a"] * fz, meas, pb, extra={"Fz_N": fz})
+
+
+def test_crossed_design_leaves_one_pressure_out():
+    """The thesis grid (every load at every pressure): leave one pressure level out."""
+    pb = np.repeat(PRESSURES, 3)
+    fz = np.tile([3000.0, 5000.0, 7000.0], 5)
+    masks, scheme = folds(_table(pb, fz), sweep_index(None, 15))
+    assert scheme == "leave one pressure level out"
+    assert [np.unique(pb[m]).tolist() for m in masks] == [[p] for p in PRESSURES]
+
+
+def test_confounded_design_keeps_every_condition_in_training():
+    """Five load/pressure pairs at four speeds: leaving a pressure out would leave its load
+    out, so the folds rotate the speeds within each pair and every pair always trains."""
+    problem, _ = make_confounded(np.random.default_rng(0))
+    index = sweep_index(None, problem.measured.size)
+    pres, other = condition_cells(problem, index)
+    assert not pressure_is_crossed(pres, other)
+    masks, scheme = folds(problem, index)
+    assert scheme.startswith("4-fold over rows within pressure x load cells")
+    assert "not varied independently" in scheme
+    held = np.sum(masks, axis=0)
+    assert np.all(held == 1)  # every point held out exactly once
+    for m in masks:
+        assert set(np.unique(problem.pressure_bar[~m])) == set(problem.pressure_bar)
+        # no fold holds out one speed everywhere
+        assert np.unique(problem.extra["Vx_mps"][m]).size > 1
+    forced, name = folds(problem, index, scheme="pressure")
+    assert name == "leave one pressure level out (forced)" and len(forced) == 5
+
+
+def test_replicates_give_the_pure_error():
+    """Two measurements per condition: the pure-error std recovers the noise (weighted
+    values), identical copies of a row are not replicates."""
+    rng = np.random.default_rng(2)
+    pb = np.repeat(PRESSURES, 3)
+    fz = np.tile([3000.0, 5000.0, 7000.0], 5)
+    truth = np.repeat(fz, 40)
+    noisy = truth * (1 + 0.01 * rng.standard_normal(truth.size))
+    p = _table(pb, fz, noisy, reps=40)
+    s, dof = replicate_sigma(p)
+    assert dof == 15 * 39
+    w = p.weights()
+    assert s == pytest.approx(0.01 * np.sqrt(np.mean((truth * w) ** 2)), rel=0.1)
+    assert replicate_sigma(_table(pb, fz, np.repeat(fz, 2), reps=2)) is None
+
+
+def test_table_floor_never_above_the_best_error(library):
+    """Tables without sweeps (the confounded trial tables, hidden and null): the printed floor
+    comes from the richest candidate model and never exceeds the final error."""
+    for seed, hidden in [(0, True), (1, True), (9, True), (351000, False), (351004, False)]:
+        problem, _ = make_confounded(np.random.default_rng(seed), hidden)
+        s = discover([problem], library, Settings()).problems[0]
+        assert s.floor_source.startswith("richest candidate model")
+        assert s.noise_floor_pct <= s.final_error_pct + 1e-12, (seed, s.noise_floor_pct)

@@ -1,0 +1,72 @@
+"""The README's discovery transcripts are what ``bench/discovery_examples.py`` prints for the
+README's commands (issue 19, 7), and the worked example's .tir agrees with its discovery.json
+and reproduces the printed errors (issue 18, 2). Simulates two folders: about two minutes."""
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.discover_cases import assert_consistent
+
+ROOT = Path(__file__).resolve().parents[1]
+SCRIPT = ROOT / "bench" / "discovery_examples.py"
+MARK = re.compile(r"^<!-- discovery transcript: (\w+) -->$")
+
+
+def _script():
+    spec = importlib.util.spec_from_file_location("discovery_examples", SCRIPT)
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[spec.name] = mod
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def readme_transcripts() -> dict[str, str]:
+    """name -> the indented block after each ``<!-- discovery transcript: name -->``."""
+    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    out = {}
+    for i, line in enumerate(lines):
+        m = MARK.match(line)
+        if not m:
+            continue
+        j = i + 1
+        while j < len(lines) and not lines[j].strip():
+            j += 1
+        block = []
+        while j < len(lines) and (lines[j].startswith("    ") or not lines[j].strip()):
+            block.append(lines[j][4:])
+            j += 1
+        out[m.group(1)] = "\n".join(block).strip("\n")
+    return out
+
+
+@pytest.fixture(scope="module")
+def examples(tmp_path_factory):
+    work = tmp_path_factory.mktemp("discovery-examples")
+    mod = _script()
+    return work, mod.run(work), mod.EXAMPLES
+
+
+def test_readme_transcripts_are_current(examples):
+    _, produced, names = examples
+    readme = readme_transcripts()
+    assert sorted(readme) == sorted(names)
+    for name in names:
+        assert readme[name] == produced[name].strip("\n"), f"README transcript {name!r} is stale"
+
+
+def test_worked_example_tir_equals_discovery(examples):
+    """Every accepted coefficient of discovery.json is the .tir's; every problem whose
+    parameters are .tir keys, evaluated with the .tir alone, has the final error."""
+    work, _, _ = examples
+    out = work / "fits" / "hidden" / "discovery"
+    assert assert_consistent(out, work / "hidden", "hidden") >= 9
+    doc = json.loads((out / "discovery.json").read_text())
+    ppy5 = [a["coefficients"]["PPY5"] for a in doc["accepted"] if a["name"] == "PPY5"]
+    assert len(ppy5) == 1 and ppy5[0] == pytest.approx(-0.15, abs=0.03)
+    assert doc["model"]["sources"]["PPY5"] == "MF/Fy"

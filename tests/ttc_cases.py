@@ -1,0 +1,62 @@
+"""Simulated Tire Test Consortium sessions for the TTC reader, segmentation and import tests."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+from identify.io.tir import read_tir
+from identify.io.ttc import TTC_CHANNELS
+from identify.simulate.default_tyre import default_tir_path
+from identify.simulate.ttc import TtcSession, simulate_ttc
+
+
+def session(path: Path, **settings) -> TtcSession:
+    """A session of the bundled 225/50 R17 tyre written to ``path``."""
+    return simulate_ttc(read_tir(default_tir_path()).params(), path, **settings)
+
+
+def small_mat(path, drop=(), units=None, struct=True):
+    n = 200
+    t = np.arange(n) / 100.0
+    ch = {"ET": t, "V": np.full(n, 40.0), "N": np.full(n, 340.0), "SA": np.sin(t),
+          "IA": np.zeros(n), "P": np.full(n, 83.0), "FX": np.zeros(n) + 5, "FY": 500 * np.sin(t),
+          "FZ": np.full(n, -1000.0), "MX": np.ones(n), "MZ": np.ones(n), "SL": np.zeros(n)}
+    ch = {k: v for k, v in ch.items() if k not in drop}
+    names = list(ch)
+    content = {k: v.reshape(-1, 1) for k, v in ch.items()}
+    if struct:
+        u = {k: TTC_CHANNELS[k].si_unit for k in names} | dict(units or {})
+        content["channel"] = {"name": np.array(names, dtype=object),
+                              "units": np.array([u[k] for k in names], dtype=object)}
+    scipy.io.savemat(path, content, format="5")
+    return path
+
+
+def _truncated(path):
+    data = small_mat(path).read_bytes()
+    path.write_bytes(data[: len(data) // 2])
+    return path
+
+
+def _short_header(path):
+    path.write_text("ET\tFZ\ns\tN\n0.0\t-1000\n0.01\t-1000\n")
+    return path
+
+
+
+#: Unusable TTC files: (id, maker(path) -> file, the one line InputError prints; "..." = starts).
+UNUSABLE = [
+    ("no-FZ", lambda p: small_mat(p, drop=("FZ",)), "{p}: FZ: missing required channel"),
+    ("unknown-unit", lambda p: small_mat(p, units={"FY": "furlong"}),
+     "{p}: FY: unknown unit 'furlong'"),
+    ("wrong-dimension", lambda p: small_mat(p, units={"P": "N"}),
+     "{p}: P: unit 'N' is a force unit, expected a pressure unit such as 'Pa'"),
+    ("no-channel-struct", lambda p: small_mat(p, struct=False),
+     "{p}: channel: no 'channel' struct with the channel units (name, units)"),
+    ("truncated-mat", _truncated, "{p}: truncated or corrupt .mat file (scipy.io: ..."),
+    ("dat-short-header", lambda p: _short_header(p.with_suffix(".dat")),
+     ("{p}:3: short header: a TTC .dat file has a title line, a line of channel names and a "
+      "line of units before the data (found line 3 holds numbers)")),
+]
