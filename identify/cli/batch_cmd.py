@@ -135,6 +135,11 @@ def batch_command(
     only: list[str] = typer.Option([], "--only", metavar="NAME",
                                    help="Fit only these relations (as mfid fit --only)."),
     fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
+    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
+                                   help="Write this form of a relation (as mfid fit --form)."),
+    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
+                                   help="Hold this coefficient at its default (as mfid fit "
+                                        "--hold)."),
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.
@@ -152,12 +157,13 @@ def batch_command(
     def command(folder: str) -> str:
         """The `mfid fit` command of one folder, recorded in its fit.json."""
         return _command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
-                             fittyp, mcmc_ar1, mcmc_max_steps)
+                             fittyp, mcmc_ar1, mcmc_max_steps, form, hold)
 
     events = RichBatchEvents()
     try:
         settings = fit_settings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
-                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp)
+                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp,
+                                form=form, hold=hold)
         run = run_batch([str(f) for f in folders], out_root=out,
                         reports=None if no_report else reports, settings=settings,
                         workers=workers, scheduler=scheduler, retries=retries, force=force,

@@ -18,7 +18,8 @@ __all__ = ["fit_settings"]
 
 def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
                  mcmc_max_steps: int | None = None, only: Sequence[str] = (),
-                 fittyp: int = 61) -> FitSettings:
+                 fittyp: int = 61, form: Sequence[str] = (),
+                 hold: Sequence[str] = ()) -> FitSettings:
     """The FitSettings of these command-line options (as ``mfid fit`` builds them).
 
     Raises
@@ -37,4 +38,5 @@ def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
                                f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
     return FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                        only=only_names(only), fittyp=fittyp,
-                       mcmc_max_steps=mcmc_max_steps or MAX_STEPS)
+                       mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
+                       forms=only_names(form), hold=only_names(hold))
