@@ -10,11 +10,13 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
 import sys
 import time
+import tomllib
 from pathlib import Path
 
 import pandas as pd
@@ -31,6 +33,7 @@ from identify.workflows.batch import run_batch
 from identify.workflows.batch_plan import Freshness, freshness, manifest_of
 
 MFID = Path(sys.executable).parent / "mfid"
+ROOT = Path(__file__).resolve().parents[1]
 ONLY = ["--only", "CFx,CFz"]
 ENV = {**os.environ, "OMP_NUM_THREADS": "1", "OPENBLAS_NUM_THREADS": "1",
        "MKL_NUM_THREADS": "1", "MPLBACKEND": "Agg"}
@@ -265,6 +268,17 @@ def test_bad_options_are_one_line_exit_2(folders, tmp_path, args, message):
     assert result.exit_code == 2, result.output
     assert result.stderr.strip() == message
     assert not (tmp_path / "fits").exists()
+
+
+def test_base_dependencies_do_not_name_dask():
+    """`pip install .` pulls only [project] dependencies: none is Dask (or its distributed
+    scheduler, or dask-jobqueue); they come with the `dask` extra alone."""
+    project = tomllib.loads((ROOT / "pyproject.toml").read_text())["project"]
+    names = {re.split(r"[\s\[<>=!~;]", dep, maxsplit=1)[0].lower()
+             for dep in project["dependencies"]}
+    assert names and not names & {"dask", "distributed", "dask-jobqueue"}, names
+    extra = " ".join(project["optional-dependencies"]["dask"])
+    assert "dask[distributed]" in extra and "dask-jobqueue" in extra
 
 
 def test_scheduler_without_dask_names_the_extra(folders, tmp_path):
