@@ -9,7 +9,8 @@ against pressure, one line per tyre.
 Every curve is the tyre's written .tir evaluated by the model (``identify.model.evaluate``, use
 mode 211 as in the fits) at its nominal load, zero slip and camber, over the pressures it was
 measured at. A quantity is drawn for a tyre only when a fit supplied the .tir keys it rests on
-(``key_sources``): a .tir default is never shown as a result.
+(its ``key_sources`` say ``fitted``): a .tir default, or a key held at it, is never shown as a
+result.
 """
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from matplotlib import colormaps
 from matplotlib.backends.backend_pdf import PdfPages
 
 from identify.core.version import __version__
+from identify.fit.sources import FITTED
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
@@ -106,12 +108,18 @@ def _outputs(tir, p_bar: np.ndarray) -> dict[str, np.ndarray]:
     return out
 
 
+def _fitted(fd: FitDir, key: str) -> bool:
+    """Whether a fit identified .tir key ``key`` (every key has a source; most are defaults)."""
+    source = fd.key_sources.get(key)
+    return source is not None and source.kind == FITTED
+
+
 def tyre_curves(fd: FitDir) -> TyreCurves | None:
     """The compared quantities of one fit directory (None without a readable .tir)."""
     if fd.tir is None:
         return None
     tir = dict(fd.tir)
-    fitted = [q for q in QUANTITIES if all(k in fd.key_sources for k in q.needs)]
+    fitted = [q for q in QUANTITIES if all(_fitted(fd, k) for k in q.needs)]
     if not fitted:
         return TyreCurves(fd.tyre_id, np.empty(0), {}, {})
     p0 = float(tir.get("NOMPRES") or fd.tyre.nominal_pressure_Pa) / 1e5
@@ -184,7 +192,7 @@ def _sensitivity_page(group: list[TyreCurves], fits: list[FitDir], tag: str) -> 
     rows = []
     for fd in fits:
         tir = fd.tir or {}
-        rows.append([fd.tyre_id] + [fmt(tir.get(c)) if c in fd.key_sources else "not fitted"
+        rows.append([fd.tyre_id] + [fmt(tir.get(c)) if _fitted(fd, c) else "not fitted"
                                     for c in coef])
     tab = fig.add_axes((0.07, 0.07, 0.86, 0.28))
     draw_table(tab, ["tyre"] + coef, rows, [0.22] + [0.15] * len(coef), fontsize=8.0)
