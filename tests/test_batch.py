@@ -78,7 +78,9 @@ def leftovers(root: Path) -> list[Path]:
 def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
     """fit.json (less time stamp, command, wall times), the .tir, measured_vs_model.csv and
     extraction.json (less its wall time) of `mfid batch` equal those of 4 `mfid fit` runs, on
-    the process pool, on `--scheduler local` and on a 2-worker LocalCluster via tcp://."""
+    the process pool and on a 2-worker Dask LocalCluster (through its tcp:// address; the
+    `--scheduler local` path, which starts such a cluster itself, runs in the killed-worker and
+    summary tests)."""
     ref = tmp_path / "ref"
     procs = [subprocess.Popen([str(MFID), "fit", str(folders / name), "--out", str(ref),
                                "--no-report", *ONLY], env=ENV, stdout=subprocess.DEVNULL,
@@ -86,7 +88,7 @@ def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
     for p in procs:
         assert p.wait(timeout=900) == 0, p.stderr.read()
     batch_folders = [folders / name for name in IDS]
-    runs = {"pool": ["--workers", "2"], "local": ["--scheduler", "local", "--workers", "2"]}
+    runs = {"pool": ["--workers", "2"]}
     with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
         runs["tcp"] = ["--scheduler", cluster.scheduler_address]
         for name, extra in runs.items():
