@@ -3,8 +3,9 @@ a worker killed mid-task, bad input among good folders, and a second batch that 
 
 The folders are simulated on the small grid (seeds 1-4) and fitted with ``--only CFx,CFz``
 (multi-start fits of two relations from extracted Flatplank characteristics: a few seconds
-each). The reference is four separate ``mfid fit`` processes with one BLAS thread, as
-``make fits`` runs them.
+each). The reference is separate ``mfid fit`` processes with one BLAS thread, as ``make fits``
+runs them: two folders on the process pool in the default suite, all four on the pool and on
+Dask under ``-m trials`` (``make trials``).
 """
 from __future__ import annotations
 
@@ -75,30 +76,24 @@ def leftovers(root: Path) -> list[Path]:
 
 # ----------------------------------------------------------------- same outputs as mfid fit
 
-def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
-    """fit.json (less time stamp, command, wall times), the .tir, measured_vs_model.csv and
-    extraction.json (less its wall time) of `mfid batch` equal those of 4 `mfid fit` runs, on
-    the process pool and on a 2-worker Dask LocalCluster (through its tcp:// address; the
-    `--scheduler local` path, which starts such a cluster itself, runs in the killed-worker and
-    summary tests)."""
+def _check_same_as_separate_fits(folders: Path, tmp_path: Path, tyres: tuple[str, ...],
+                                 runs: dict[str, list[str]]) -> None:
+    """Fit ``tyres`` with separate `mfid fit` processes, then with one `mfid batch` per entry
+    of ``runs`` (its engine options), and compare the outputs (see the callers)."""
     ref = tmp_path / "ref"
     procs = [subprocess.Popen([str(MFID), "fit", str(folders / name), "--out", str(ref),
                                "--no-report", *ONLY], env=ENV, stdout=subprocess.DEVNULL,
-                              stderr=subprocess.PIPE, text=True) for name in IDS]
+                              stderr=subprocess.PIPE, text=True) for name in tyres]
     for p in procs:
         assert p.wait(timeout=900) == 0, p.stderr.read()
-    batch_folders = [folders / name for name in IDS]
-    runs = {"pool": ["--workers", "2"]}
-    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
-        runs["tcp"] = ["--scheduler", cluster.scheduler_address]
-        for name, extra in runs.items():
-            out = tmp_path / name
-            res = mfid("batch", *batch_folders, "--out", out, "--no-report", *ONLY, *extra,
-                       cwd=tmp_path)
-            assert res.returncode == 0, res.stdout + res.stderr
-            assert "batch: 4 folders: 4 ok" in res.stdout
+    for name, extra in runs.items():
+        out = tmp_path / name
+        res = mfid("batch", *[folders / t for t in tyres], "--out", out, "--no-report", *ONLY,
+                   *extra, cwd=tmp_path)
+        assert res.returncode == 0, res.stdout + res.stderr
+        assert f"batch: {len(tyres)} folders: {len(tyres)} ok" in res.stdout
     for name in runs:
-        for tyre in IDS:
+        for tyre in tyres:
             a, b = ref / tyre, tmp_path / name / tyre
             doc_a = json.loads((a / "fit.json").read_text())
             doc_b = json.loads((b / "fit.json").read_text())
@@ -111,6 +106,25 @@ def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
             ex_b = json.loads((b / "extraction.json").read_text())
             assert without_run_details(ex_b) == without_run_details(ex_a)
         assert not leftovers(tmp_path / name)
+
+
+def test_pool_batch_matches_separate_fits(folders, tmp_path):
+    """Two folders on the process pool (the default suite's share of acceptance 1): fit.json
+    (less time stamp, command, wall times), the .tir, measured_vs_model.csv and
+    extraction.json (less its wall time) equal those of separate `mfid fit` runs."""
+    _check_same_as_separate_fits(folders, tmp_path, IDS[:2], {"pool": ["--workers", "2"]})
+
+
+@pytest.mark.trials  # 16 fits, 2 Dask clusters: ~55 CPU-s, ~30 s on 2 idle cores (est.)
+def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
+    """Issue 16, acceptance 1: the outputs of `mfid batch` on four folders equal those of four
+    `mfid fit` runs (as in the test above), on the process pool, on a 2-worker Dask
+    LocalCluster reached through its tcp:// address, and on `--scheduler local --workers 2`
+    (which starts such a cluster itself)."""
+    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
+        _check_same_as_separate_fits(folders, tmp_path, IDS, {
+            "pool": ["--workers", "2"], "tcp": ["--scheduler", cluster.scheduler_address],
+            "local": ["--scheduler", "local", "--workers", "2"]})
 
 
 # ----------------------------------------------------------------- worker killed, bad input
