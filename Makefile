@@ -55,8 +55,11 @@ $(foreach id,$(FIT_IDS),$(eval $(call FIT_RULE,$(id))))
 
 fits: $(foreach id,$(FIT_IDS),$(FITS)/$(id)/$(id).tir $(REPORTS)/$(id).pdf)
 
+# lint (ruff), the layers contract (import-linter), then the default suite on every core
 test: $(STAMP)
-	$(BIN)/python -m pytest -q
+	$(BIN)/ruff check identify
+	$(BIN)/lint-imports
+	$(BIN)/python -m pytest -q -n auto
 
 trials: $(STAMP)
 	$(BIN)/python -m pytest -q -m trials

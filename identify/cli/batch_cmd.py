@@ -21,11 +21,13 @@ from rich.progress import (
 )
 
 from identify.cli.app import app, err_console, fail, out_console
+from identify.cli.fit_cmd import _command_line
+from identify.cli.fit_options import fit_settings
 from identify.core.errors import MfidError
+from identify.workflows.batch import run_batch
+from identify.workflows.batch_task import OK, UP_TO_DATE
 
-# the statuses of identify.workflows.batch_task, spelled out here so that --help does not
-# import the fit stack
-_GOOD = ("ok", "up to date")
+_GOOD = (OK, UP_TO_DATE)
 
 
 def _clock(eta_s: float | None) -> str:
@@ -148,12 +150,6 @@ def batch_command(
     skipped (unless --force). At the end: OUT/batch_summary.csv and REPORTS/batch_summary.pdf.
     Exit 0 all ok; 1 some fit failed or a task was lost; 2 some folder had bad input.
     """
-    # imported here, not at the top: the fit stack takes ~1.5 s to import, which every other
-    # command (and --help) would pay
-    from identify.cli.fit_cmd import _command_line
-    from identify.cli.fit_options import fit_settings
-    from identify.workflows.batch import run_batch
-
     def command(folder: str) -> str:
         """The `mfid fit` command of one folder, recorded in its fit.json."""
         return _command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,

@@ -7,6 +7,7 @@ from typing import Optional
 import typer
 
 from identify.cli.app import app, err_console, out_console
+from identify.io.folder import inspect_folder
 
 
 @app.command("check")
@@ -24,7 +25,6 @@ def check_command(
     of usable trailer data, cleaned while loading, each with its count); exit 2 if there is
     any error, else 0. The folder is only read, never modified.
     """
-    from identify.io.folder import inspect_folder
 
     scan = inspect_folder(folder, nominal_pressure_Pa=nominal_pressure,
                           nominal_load_N=nominal_load)

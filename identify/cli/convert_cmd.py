@@ -8,14 +8,15 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.common import Problems
+from identify.io.manifest import MANIFEST_NAME, read_manifest
+from identify.io.trailer import read_channels, write_channels
 
 _FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
 
 
 def _manifest_run(src: Path):
     """The manifest run that names ``src`` (tyre.toml in its folder or the one above), or None."""
-    from identify.io.common import Problems
-    from identify.io.manifest import MANIFEST_NAME, read_manifest
 
     for folder in (src.parent, src.parent.parent):
         toml = folder / MANIFEST_NAME
@@ -53,7 +54,6 @@ def convert_command(
 
     Units: --unit, else the manifest run that lists SRC, else the file. Atomic write.
     """
-    from identify.io.trailer import read_channels, write_channels
 
     try:
         if dst.exists() and src.exists() and dst.resolve() == src.resolve():

@@ -12,6 +12,9 @@ import typer
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import StageProgress
 from identify.core.errors import InputError, MfidError
+from identify.workflows.discover import discover_folder
+from identify.discover.design import SCHEMES
+from identify.discover.search import Settings
 
 
 @app.command("discover")
@@ -49,9 +52,6 @@ def discover_command(
     repeat until nothing passes. Prints the plain conclusion; writes discovery.json,
     discovery.pdf, the enriched .tir and fit.json.
     """
-    from identify.workflows.discover import discover_folder
-    from identify.discover.design import SCHEMES
-    from identify.discover.search import Settings
 
     try:
         if not 0.0 < alpha < 1.0:

@@ -8,6 +8,12 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.points import read_points
+from identify.io.tir import read_tir
+from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
+from identify.model.modes import UseMode
+from identify.io.atomic import atomic_write_csv
+from identify.model.kernel import evaluate_fused_frame
 
 
 class Engine(str, Enum):
@@ -39,11 +45,6 @@ def eval_command(
     Rl, 2b, Mzr, Cx, Cy, Cz, Kya, sigmax, sigmay, Kxk (ISO-W, SI). Fz and omega hold the
     model's values (load after the negative clip; spin rate used).
     """
-    from identify.io.points import read_points
-    from identify.io.tir import read_tir
-    from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
-    from identify.model.modes import UseMode
-    from identify.io.atomic import atomic_write_csv
 
     try:
         try:
@@ -55,7 +56,6 @@ def eval_command(
         tirfile = read_tir(tir)
         points = read_points(input)
         if engine is Engine.fused:
-            from identify.model.kernel import evaluate_fused_frame
             result = evaluate_fused_frame(tirfile.params(), points, mode=use_mode)
         else:
             solver = SolverOptions.mfeval_call() if mfeval_call else SolverOptions()

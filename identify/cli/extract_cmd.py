@@ -10,6 +10,9 @@ import typer
 
 from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.extract import extract_folder
+from identify.io.folder import load_folder
+from identify.io.atomic import atomic_write_csv, atomic_write_text
 
 
 def _inside(path: Path, folder: Path) -> bool:
@@ -35,9 +38,6 @@ def extract_command(
 
     The measurement folder is only read; outputs must lie outside it.
     """
-    from identify.extract import extract_folder
-    from identify.io.folder import load_folder
-    from identify.io.atomic import atomic_write_csv, atomic_write_text
 
     try:
         root = folder if folder.is_dir() else folder.parent if folder.is_file() else None

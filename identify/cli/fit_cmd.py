@@ -22,6 +22,13 @@ from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, InputError, MfidError
+from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
+from identify.fit.mcmc import CHUNK, MAX_STEPS
+from identify.report.pdf import write_report
+from identify.workflows.fit import FitSettings, fit_folder, only_names
+from identify.fit.summary import notes_lines  # lazy: see fit_command
+from identify.io.fitdir import EXTRACTION_NAME
+from identify.report.tables import mcmc_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
     from identify.fit.run import FitRun
@@ -73,7 +80,6 @@ class StageProgress:
 def summary_table(run: FitRun) -> Table:
     """Relation, form, total thesis error, key coefficients: one row per fit (the rows of
     ``FitRun.report()``)."""
-    from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
 
     table = Table(title=SUMMARY_TITLE, title_justify="left", box=box.SIMPLE_HEAD,
                   pad_edge=False)
@@ -171,9 +177,6 @@ def fit_command(
     # imported here, not at the top: the fit stack takes ~1.5 s to import against 0.24 s for
     # the CLI itself (python -c "import identify.fit.run" / "import identify.cli.app"), which
     # every other command (and --help) would pay
-    from identify.fit.mcmc import CHUNK, MAX_STEPS
-    from identify.report.pdf import write_report
-    from identify.workflows.fit import FitSettings, fit_folder, only_names
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
@@ -222,9 +225,6 @@ def fit_command(
 
 
 def _print_outputs(run: FitRun, report: Report | None) -> None:
-    from identify.fit.summary import notes_lines  # lazy: see fit_command
-    from identify.io.fitdir import EXTRACTION_NAME
-    from identify.report.tables import mcmc_warnings
 
     if out_console.is_terminal:
         out_console.print(summary_table(run))

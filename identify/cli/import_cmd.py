@@ -8,6 +8,9 @@ import typer
 
 from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.cli.fit_cmd import StageProgress
+from identify.io.axes import AXES
+from identify.workflows.import_session import import_session
 
 
 def parse_units(items: list[str]) -> dict[str, str]:
@@ -74,9 +77,6 @@ def import_command(
     spikes, NaN stretches, implausible channels) are listed as warnings; `mfid check` lists
     them again. Exit 2 on a file that cannot be used (one line naming file and channel).
     """
-    from identify.cli.fit_cmd import StageProgress
-    from identify.io.axes import AXES
-    from identify.workflows.import_session import import_session
 
     try:
         if axes is not None and axes not in AXES:

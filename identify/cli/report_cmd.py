@@ -8,6 +8,8 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import MfidError
+from identify.io.fitdir import read_fit_dir
+from identify.report.pdf import default_report_path, write_report
 
 
 @app.command("report")
@@ -19,8 +21,6 @@ def report_command(
 ) -> None:
     """Rebuild the PDF fit report from FITDIR alone (fit.json, measured_vs_model.csv, the
     .tir, extraction.json and saved MCMC chains)."""
-    from identify.io.fitdir import read_fit_dir
-    from identify.report.pdf import default_report_path, write_report
 
     try:
         fd = read_fit_dir(fit_dir)

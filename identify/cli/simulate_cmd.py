@@ -10,6 +10,9 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.tir import read_tir
+from identify.simulate import default_tir_path, simulate_folder
+from identify.simulate.ttc import simulate_ttc
 
 
 class GridChoice(str, Enum):
@@ -103,9 +106,6 @@ def simulate_command(
     """Simulate every Flatplank and trailer test of a tyre into a measurement folder; or,
     with --format ttc, a TTC trailer session (a cornering and a drive/brake run in the TTC
     .mat and .dat formats, with warm-ups, drift and logging quirks; truth.json)."""
-    from identify.io.tir import read_tir
-    from identify.simulate import default_tir_path, simulate_folder
-    from identify.simulate.ttc import simulate_ttc
 
     try:
         hidden = parse_hide(hide)

@@ -17,6 +17,7 @@ import numpy as np
 from identify.discover.noise import Sweeps, whiten
 from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
 from identify.fit.problem import FitProblem
+from scipy.linalg import qr
 
 __all__ = ["Objective", "Solution", "problem_name", "with_free", "with_fixed"]
 
@@ -142,7 +143,6 @@ class Objective:
     def identifiable(self, x: np.ndarray, rtol: float = 1e-5) -> np.ndarray:
         """Bool mask of the free parameters the points of this objective determine (pivoted QR
         of the column-normalised Jacobian; the trailing pivots below ``rtol`` are not)."""
-        from scipy.linalg import qr
 
         J = self.jacobian(x)
         norms = np.linalg.norm(J, axis=0)

@@ -38,6 +38,9 @@ from identify.discover.stages import STAGES, sweep_shapes, stage_problem
 from identify.fit.problem import FitProblem
 from identify.fit.relations import Context, rolling_resistance
 from identify.model.relations import load_pressure_stiffness
+from identify.io.tir import read_tir
+from identify.simulate import default_tir_path
+from identify.model.evaluate import evaluate
 
 __all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir", "make_confounded",
            "make_session", "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]
@@ -69,8 +72,6 @@ class Matrix:
 
 @lru_cache(maxsize=1)
 def _default_tir() -> tuple:
-    from identify.io.tir import read_tir
-    from identify.simulate import default_tir_path
 
     params = read_tir(default_tir_path()).params()
     return tuple((k, float(v)) for k, v in params.items() if isinstance(v, (int, float)))
@@ -177,7 +178,6 @@ def make_problem(scenario: str, rng: np.random.Generator, hidden: str | None = N
     m = matrix if stage else dataclasses.replace(matrix, density=max(matrix.density, 1.0))
     frame = _trailer(kind, m)
     out = {"Fx": "Fx", "Fy": "Fy", "Mx": "Mx"}.get(stage, "My")
-    from identify.model.evaluate import evaluate
     clean = evaluate(truth, frame["Fz"].to_numpy(), frame["kappa"].to_numpy(),
                      frame["alpha"].to_numpy(), frame["gamma"].to_numpy(),
                      frame["Vx"].to_numpy(), p=frame["p"].to_numpy(), mode=111)[out]
@@ -261,7 +261,6 @@ def make_confounded(rng: np.random.Generator, hidden: bool = True, *, noise: flo
     pb = np.repeat([p for _, p in CONFOUNDED_PAIRS], len(CONFOUNDED_SPEEDS))
     vx = np.tile(CONFOUNDED_SPEEDS, len(CONFOUNDED_PAIRS))
     zeros = np.zeros_like(fz)
-    from identify.model.evaluate import evaluate
     clean = evaluate(truth, fz, zeros, zeros, zeros, vx, p=pb * 1e5, mode=111)["My"]
     value = clean / start["UNLOADED_RADIUS"]
     pair = np.repeat(np.arange(len(CONFOUNDED_PAIRS)), len(CONFOUNDED_SPEEDS))
@@ -294,7 +293,6 @@ def make_session(rng: np.random.Generator, samples: int = 136_000, *, hidden: di
     frame : DataFrame  trailer columns (run, t, Fz, kappa, alpha, gamma, Vx, p, Fx, Fy, Mx, Mz)
     truth : dict       the .tir values that generated it
     """
-    from identify.model.evaluate import evaluate
 
     t = base_tir()
     truth = {**t, **(hidden or {})}

@@ -34,6 +34,7 @@ from identify.discover.score import ambiguity_groups, canonical_cosines, holm, s
 from identify.discover.state import ModelState
 from identify.discover.working import Working, prepare, refresh, renoise
 from identify.fit.problem import FitProblem
+from threadpoolctl import threadpool_limits
 
 __all__ = ["Settings", "discover", "Progress"]
 
@@ -142,7 +143,6 @@ def discover(problems: Sequence[FitProblem], library: Library,
     progress : callable, optional
         Called with one line per phase (base fits, scoring, refits, updates), with times.
     """
-    from threadpoolctl import threadpool_limits
 
     with threadpool_limits(limits=1):  # small dense problems: threads only add overhead
         return _discover(list(problems), library, settings, base, progress or _quiet)

@@ -29,6 +29,7 @@ from identify.fit.problem import FitProblem
 from identify.model import aligning, lateral, longitudinal, moments
 from identify.model.parameters import bounds as table_bounds
 from identify.model.state import prepare
+import dataclasses
 
 __all__ = ["Stage", "STAGES", "TRAILER_MODE", "label_sweeps", "stage_problem", "add_parameter",
            "sweep_shapes"]
@@ -158,7 +159,6 @@ def add_parameter(problem: FitProblem, name: str, value: float, *, vary: bool = 
                   lo: float = -np.inf, hi: float = np.inf) -> FitProblem:
     """A copy of ``problem`` with one more parameter (for problems whose model reads the whole
     .tir: MF stages, camber and rolling-resistance relations)."""
-    import dataclasses
 
     P = problem.parameters.copy()
     P.add(name, value=float(value), vary=vary, min=lo, max=hi)

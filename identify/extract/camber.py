@@ -31,7 +31,8 @@ def camber_run(run: RunData, refs: list[RunData]) -> dict:
     -------
     dict
         ``values`` (quantity -> steady difference [N or N m]), ``errors`` (their standard
-        errors, the moments' including the uncertainty of the build-up length), ``fit`` (the Fy build-up fit of :func:`fit_build_up`) and ``distance`` [m].
+        errors, the moments' including the uncertainty of the build-up length), ``fit`` (the
+        Fy build-up fit of :func:`fit_build_up`) and ``distance`` [m].
     """
     x, fy = difference(run, refs, "Fy")
     fit = fit_build_up(x, fy)

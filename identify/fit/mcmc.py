@@ -4,7 +4,8 @@ Posterior: uniform priors on the parameter bounds (flat where a bound is open), 
 on log(sigma), Gaussian likelihood of the weighted residuals r_i = w_i (model_i - meas_i) with
 the noise level sigma as a parameter, w_i from the problem's noise model
 (FitProblem.noise_weights: the relations' characteristics have relative noise, sigma the noise
-level as a fraction; the MF stages' channels noise relative to each sweep's RMS); optionally AR(1) noise along each sweep (innovations
+level as a fraction; the MF stages' channels noise relative to each sweep's RMS); optionally
+AR(1) noise along each sweep (innovations
 e_t - phi e_(t-1) ~ N(0, sigma^2), stationary start), phi in (-0.99, 0.99).
 
 Walkers >= max(32, 2 x parameters); the chain runs in chunks until it is longer than 50

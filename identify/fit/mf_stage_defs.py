@@ -40,7 +40,8 @@ class StageDef:
     unit : str             its unit
     selection : str        ``"free_rolling"`` (runs without a kappa sweep, |kappa| <= FREE_KAPPA,
                            a wheel speed omega > 0 and Vx >= FREE_MIN_SPEED; see
-                           identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA in runs with a kappa sweep),
+                           identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
+                           in runs with a kappa sweep),
                            ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
                            sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA)
                            or ``"all"``

@@ -54,6 +54,7 @@ from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import bounds, defaults, spec
 from identify.model.state import OperatingState, prepare
+from identify.fit.mcmc import run_mcmc
 
 __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
            "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
@@ -307,8 +308,6 @@ def stage_mcmc(trailer: pd.DataFrame, mf: MFFit, stage: str, *, seed: int = 0,
     coefficients; the returned FitResult is the stage's with ``mcmc`` set. ``kwargs`` go to
     run_mcmc (n_walkers, max_steps, chain_file).
     """
-    from identify.fit.mcmc import run_mcmc
-
     result = mf.result(stage)
     hold = {n: "held in the fit" for n in result.parameters if n not in result.free}
     sp = stage_problem(stage, trailer, mf.params, free={stage: list(result.parameters)},

@@ -15,6 +15,7 @@ import numpy as np
 
 from identify.io.common import Problems, starts_with
 from identify.io.atomic import atomic_path
+import h5py
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
 
@@ -59,7 +60,6 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
     A group named ``run`` is taken; if there is none and the file has exactly one group, that
     one is. Datasets at the file's root count as one run named after the file.
     """
-    import h5py
 
     path = Path(path)
     start = problems.total
@@ -89,7 +89,6 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
 
 def _group(path: Path, name: str, grp, problems: Problems, time: str,
            allow_nan: bool = False) -> RawRun | None:
-    import h5py
 
     data, units, long_names = {}, {}, {}
     for key, ds in grp.items():
@@ -128,7 +127,6 @@ def write_hdf5(path: str | Path, runs: Sequence[RawRun], *, time: str = "RUNTIME
     The ``time`` channel of each group is made a dimension scale and attached to every other
     dataset of the group.
     """
-    import h5py
 
     target = Path(path)
     with atomic_path(target) as tmp:

@@ -91,17 +91,19 @@ def _vertical_pass(c, inp, m, has_omega, blk):
                                 blk[(SCRATCH + 5) * BLOCK:])
     if c.FITTYP == 62.0:
         for i in range(m):
-            rho, rl, cz, ok = kv.deflection_62(c, blk[FX * BLOCK + i], blk[FY * BLOCK + i], blk[OMEGA * BLOCK + i],
-                                               blk[(SCRATCH + 1) * BLOCK + i], blk[(SCRATCH + 3) * BLOCK + i], blk[(SCRATCH + 2) * BLOCK + i],
-                                               blk[FZ * BLOCK + i])
+            rho, rl, cz, ok = kv.deflection_62(
+                c, blk[FX * BLOCK + i], blk[FY * BLOCK + i], blk[OMEGA * BLOCK + i],
+                blk[(SCRATCH + 1) * BLOCK + i], blk[(SCRATCH + 3) * BLOCK + i],
+                blk[(SCRATCH + 2) * BLOCK + i], blk[FZ * BLOCK + i])
             blk[RHO * BLOCK + i] = rho
             blk[RL * BLOCK + i] = rl
             blk[CZ * BLOCK + i] = cz
             blk[RL_CONVERGED * BLOCK + i] = 1.0 if ok else 0.0
     else:
         for i in range(m):
-            rho, rl, cz = kv.deflection_61(c, blk[FX * BLOCK + i], blk[FY * BLOCK + i], blk[OMEGA * BLOCK + i],
-                                           blk[(SCRATCH + 1) * BLOCK + i], blk[(SCRATCH + 4) * BLOCK + i])
+            rho, rl, cz = kv.deflection_61(
+                c, blk[FX * BLOCK + i], blk[FY * BLOCK + i], blk[OMEGA * BLOCK + i],
+                blk[(SCRATCH + 1) * BLOCK + i], blk[(SCRATCH + 4) * BLOCK + i])
             blk[RHO * BLOCK + i] = rho
             blk[RL * BLOCK + i] = rl
             blk[CZ * BLOCK + i] = cz

@@ -59,10 +59,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import re
-from collections.abc import Mapping
 from dataclasses import dataclass
-from functools import cache
 from importlib.resources import files
 
 __all__ = ["ParameterSpec", "PARAMETERS", "SECTIONS", "PRESSURE_KEYS", "STRING_KEYS",

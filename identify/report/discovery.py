@@ -14,6 +14,8 @@ import textwrap
 from pathlib import Path
 
 import numpy as np
+from matplotlib.backends.backend_pdf import PdfPages
+from matplotlib.figure import Figure
 
 from identify.discover.result import Discovery, ProblemSummary
 from identify.io.atomic import atomic_path
@@ -54,13 +56,12 @@ def _pairs(a: dict) -> list[tuple[str, str]]:
 
 
 def _problem_page(pdf, s: ProblemSummary) -> None:
-    import matplotlib.pyplot as plt
-
     a = dict(s.arrays)
     if "alpha_rad" in a:
         a["alpha_deg"] = np.rad2deg(a["alpha_rad"])
     pairs = _pairs(a)
-    fig, axes = plt.subplots(2, max(len(pairs), 1), figsize=(11.7, 8.3), squeeze=False)
+    fig = Figure(figsize=(11.7, 8.3))
+    axes = fig.subplots(2, max(len(pairs), 1), squeeze=False)
     fig.suptitle(f"{s.name}: thesis error {s.base_error_pct:.3g} % (base) -> "
                  f"{s.final_error_pct:.3g} % (final), noise floor {s.noise_floor_pct:.3g} %; "
                  f"noise model {s.noise.kind}", fontsize=10)
@@ -92,7 +93,6 @@ def _problem_page(pdf, s: ProblemSummary) -> None:
             ax.set_axis_off()
     fig.tight_layout(rect=(0, 0, 1, 0.95))
     pdf.savefig(fig)
-    plt.close(fig)
 
 
 def _text_page(pdf, d: Discovery) -> None:
@@ -142,11 +142,6 @@ def _text_page(pdf, d: Discovery) -> None:
 
 def write_pdf(d: Discovery, path: str | Path) -> Path:
     """Write the discovery PDF atomically; returns the path."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    from matplotlib.backends.backend_pdf import PdfPages
-
     changed = {a.problem for a in d.accepted}
     probs = sorted(d.problems, key=lambda p: (p.name not in changed,
                                               -(p.base_error_pct - p.noise_floor_pct)))

@@ -17,6 +17,7 @@ from pathlib import Path
 
 from identify.model.relations import YawT1, mf_from_qfz
 from identify.simulate.coefficients import DEFAULT_RELATIONS, Relations
+from identify.io.tir import write_tir
 
 __all__ = ["default_tir_path", "default_tyre_values", "write_default_tir"]
 
@@ -102,8 +103,6 @@ def default_tir_path() -> Path:
 
 def write_default_tir(path: str | Path | None = None) -> Path:
     """Write the default tyre as MF 6.1 (to the bundled location unless ``path`` is given)."""
-    from identify.io.tir import write_tir
-
     target = Path(path) if path is not None else default_tir_path()
     return write_tir(target, default_tyre_values(), fittyp=61, comment_lines=(
         "mfid default tyre 225/50 R17 for the rig simulator (identify.simulate.default_tyre)",

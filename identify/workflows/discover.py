@@ -31,8 +31,10 @@ from identify.discover.problems import (
 )
 from identify.discover.result import Discovery
 from identify.discover.search import Settings, discover
+from identify.extract import extract_folder
 from identify.fit.relations import Context
 from identify.fit.run import FitRun, Provenance, failures
+from identify.fit.sources import KeySource
 from identify.io.atomic import atomic_write_text
 from identify.io.fitdir import write_fit_json
 from identify.io.folder import load_folder
@@ -96,9 +98,8 @@ def _characteristics(mset, notes: list[str]):
     frames = []
     if mset.flatplank is not None and len(mset.flatplank):
         try:
-            from identify.extract import extract_folder
             frames.append(extract_folder(mset).characteristics)
-        except (ImportError, AttributeError, NotImplementedError) as exc:
+        except (AttributeError, NotImplementedError) as exc:
             notes.append(f"raw Flatplank runs not used: extraction unavailable ({exc})")
     if mset.characteristics is not None and len(mset.characteristics):
         frames.append(mset.characteristics)
@@ -205,7 +206,8 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
                                         "accepted: " + (", ".join(a.name for a in d.accepted)
                                                         or "none")])
     results = tuple(p.fit for p in d.problems if p.fit is not None)
-    key_sources = {k: d.sources.get(k, "CMz") for k in sources}
+    key_sources = {k: KeySource.fitted(f"mfid discover {d.sources.get(k, 'CMz')}")
+                   for k in sources}
     run = FitRun(tyre=tyre, provenance=provenance, results=results, key_sources=key_sources,
                  fittyp=fittyp, tir_name=Path(tir_path).name, failed=failures(results),
                  tir_values=enriched)
