@@ -8,6 +8,24 @@ stages' wall time over one evaluation of all their points. The yardstick is the 
 every version, so ratios of different versions compare the fits, not the kernels.
 
     python bench/fit_cost.py [--folder DIR] [--json out.json]
+    python bench/fit_cost.py --trailer table.pkl --fnomin 4980 --nompres 256600 --r0 0.3255
+    python bench/fit_cost.py --trailer table.pkl ... --bin     # dense sweeps binned first
+
+``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
+e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
+given nominal load [N], pressure [Pa] and unloaded radius [m], so that two checkouts fit the
+same samples. ``--bin`` selects the points as ``mfid fit`` does by default
+(identify.workflows.sweep_bins.mf_table: logged runs segmented, dense sweeps binned); that
+step is part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
+every trailer sample (the same yardstick with and without binning, and in every version).
+
+Measured 2026-11-23 on the 2-core machine under a load average of 20-29 (the per-stage
+yardsticks vary by 2-10x between runs at that load; the totals are the numbers to compare):
+the bundled sample, total fit/eval 939 at ddb9f71 (MF stages 86.6 s), 310 and 421 in two runs
+at e85cb99/7bca3d3 (49 s, 70 s); 507 with ``--jacobian fd``. A generated 136k-sample TTC
+session (``mfid simulate default DIR --format ttc --seed 0``, ``mfid import DIR/*.mat``) with
+``--bin``: MF stages 92.8 s, 68 evaluations of every trailer sample; ddb9f71 did not finish
+on it (over 13 GB resident in its validity grid, then under 10 % of a core for 9 minutes).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
@@ -27,6 +45,7 @@ import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
 
 from identify.fit.mf_stages import fit_mf  # noqa: E402
 from identify.model.evaluate import evaluate  # noqa: E402
@@ -42,14 +61,13 @@ FOLDER = ROOT / "measurements" / "sample-225-50R17"
 REPEATS = 5
 
 
-def start_values(mset) -> dict[str, float]:
+def start_values(fnomin: float, nompres: float, r0: float | None) -> dict[str, float]:
     """Where ``mfid fit`` starts: MFeval defaults with the folder's nominal conditions."""
     base = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
-    tyre = mset.manifest.tyre
-    base["FNOMIN"] = float(tyre.nominal_load_N)
-    base["NOMPRES"] = base["INFLPRES"] = float(tyre.nominal_pressure_Pa)
-    if tyre.unloaded_radius_m:
-        base["UNLOADED_RADIUS"] = float(tyre.unloaded_radius_m)
+    base["FNOMIN"] = float(fnomin)
+    base["NOMPRES"] = base["INFLPRES"] = float(nompres)
+    if r0:
+        base["UNLOADED_RADIUS"] = float(r0)
     return base
 
 
@@ -70,18 +88,50 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--folder", type=Path, default=FOLDER)
     ap.add_argument("--json", type=Path, help="write the numbers to this file")
+    ap.add_argument("--trailer", type=Path, help="a pickled trailer table instead of --folder")
+    ap.add_argument("--fnomin", type=float, help="--trailer: nominal load [N]")
+    ap.add_argument("--nompres", type=float, help="--trailer: nominal pressure [Pa]")
+    ap.add_argument("--r0", type=float, help="--trailer: unloaded radius [m]")
+    ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
+    ap.add_argument("--bin", action="store_true",
+                    help="segment logged runs and bin dense sweeps first, as mfid fit does")
+    ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
+                    help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
-    mset = load_folder(args.folder)
+    if args.jacobian:
+        os.environ["MFID_JACOBIAN"] = args.jacobian
+    if args.trailer:
+        trailer = pd.read_pickle(args.trailer)
+        base = start_values(args.fnomin, args.nompres, args.r0)
+        name = args.trailer.name
+    else:
+        mset = load_folder(args.folder)
+        tyre = mset.manifest.tyre
+        trailer = mset.trailer
+        base = start_values(tyre.nominal_load_N, tyre.nominal_pressure_Pa,
+                            tyre.unloaded_radius_m)
+        name = args.folder.name
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         t0 = time.perf_counter()
-        mf = fit_mf(mset.trailer, start_values(mset))
+        table = trailer
+        if args.bin:
+            from identify.fit.run import FitSettings  # not in versions before binning
+            from identify.workflows.sweep_bins import mf_table
+
+            s = FitSettings()
+            table, _ = mf_table(trailer, base["FNOMIN"], segment=s.segment,
+                                alpha_deg=s.bin_alpha_deg, kappa=s.bin_kappa)
+        mf = fit_mf(table, base)
         total_fit = time.perf_counter() - t0
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
-    print(f"{args.folder.name} at {commit}: {len(mset.trailer)} trailer samples; "
+    commit = args.label or commit
+    print(f"{name} at {commit} (MFID_JACOBIAN={os.environ.get('MFID_JACOBIAN', 'auto')}): "
+          f"{len(trailer)} trailer samples{f', binned to {len(table)}' if args.bin else ''}; "
           f"yardstick: numpy evaluate(), all outputs, useMode 211, best of {REPEATS}")
-    print(f"{'stage':9} {'points':>7} {'fit s':>8} {'eval ms':>8} {'fit/eval':>9} {'nfev':>7}")
+    print(f"{'stage':9} {'points':>7} {'fit s':>8} {'eval ms':>8} {'fit/eval':>9} {'nfev':>7} "
+          f"{'conv':>4}  message")
     rows, all_eval = [], 0.0
     for r in mf.results:
         pts = mf.points[r.form]
@@ -89,16 +139,24 @@ def main() -> None:
         all_eval += t_eval
         nfev = int(getattr(r, "nfev", 0))
         rows.append({"stage": r.form, "points": int(len(pts)), "fit_s": r.seconds,
-                     "eval_s": t_eval, "ratio": r.seconds / t_eval, "nfev": nfev})
+                     "eval_s": t_eval, "ratio": r.seconds / t_eval, "nfev": nfev,
+                     "converged": bool(r.converged), "message": r.message})
         print(f"{r.form:9} {len(pts):7d} {r.seconds:8.2f} {1e3 * t_eval:8.2f} "
-              f"{r.seconds / t_eval:9.0f} {nfev or '':>7}")
+              f"{r.seconds / t_eval:9.0f} {nfev or '':>7} {'yes' if r.converged else 'NO':>4}  "
+              f"{r.message[:60]}")
     print(f"{'total':9} {sum(x['points'] for x in rows):7d} {total_fit:8.2f} "
           f"{1e3 * all_eval:8.2f} {total_fit / all_eval:9.0f}")
+    every = evaluation_seconds(mf.params, trailer)
+    print(f"{'samples':9} {len(trailer):7d} {total_fit:8.2f} {1e3 * every:8.2f} "
+          f"{total_fit / every:9.0f}  (MF wall time / one evaluation of every trailer sample)")
     if args.json:
-        args.json.write_text(json.dumps({"folder": str(args.folder), "commit": commit,
+        args.json.write_text(json.dumps({"folder": name, "commit": commit,
                                          "stages": rows, "total_fit_s": total_fit,
                                          "total_eval_s": all_eval,
-                                         "total_ratio": total_fit / all_eval}, indent=1))
+                                         "total_ratio": total_fit / all_eval,
+                                         "samples": len(trailer), "binned": bool(args.bin),
+                                         "samples_eval_s": every,
+                                         "samples_ratio": total_fit / every}, indent=1))
 
 
 if __name__ == "__main__":

@@ -9,7 +9,7 @@ import scipy.io
 from identify.io.tir import read_tir
 from identify.io.ttc import TTC_CHANNELS
 from identify.simulate.default_tyre import default_tir_path
-from identify.simulate.ttc import TtcSession, simulate_ttc
+from identify.simulate.ttc import TtcSession, _write_dat, _write_mat, simulate_ttc
 
 
 def session(path: Path, **settings) -> TtcSession:
@@ -60,3 +60,21 @@ UNUSABLE = [
      ("{p}:3: short header: a TTC .dat file has a title line, a line of channel names and a "
       "line of units before the data (found line 3 holds numbers)")),
 ]
+
+
+def decimated(source: TtcSession, path: Path, factor: int) -> list[Path]:
+    """Every ``factor``-th sample of a session's runs, written as .mat and .dat in the TTC
+    layout to ``path`` with the generator's own writers (a shorter session of the same
+    programme, for the default suite)."""
+    path.mkdir(parents=True, exist_ok=True)
+    out = []
+    for mat in (f for f in source.files if f.suffix == ".mat"):
+        raw = scipy.io.loadmat(mat, squeeze_me=True)
+        names = [str(n) for n in raw["channel"]["name"].item()]
+        units = dict(zip(names, (str(u) for u in raw["channel"]["units"].item())))
+        ch = {n: np.asarray(raw[n], dtype=float)[::factor] for n in names}
+        strings = {k: str(raw[k]) for k in ("source", "testid", "tireid")}
+        _write_mat(path / mat.name, ch, units, strings)
+        _write_dat(path / f"{mat.stem}.dat", f"{mat.stem} decimated x{factor}", ch, units)
+        out += [path / mat.name, path / f"{mat.stem}.dat"]
+    return out

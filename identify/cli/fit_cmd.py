@@ -97,7 +97,8 @@ def summary_table(run: FitRun) -> Table:
 
 def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                   no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None, forms=(),
-                  hold=()) -> str:
+                  hold=(), bin_alpha=None, bin_kappa=None, no_bin=False,
+                  no_segment=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -123,6 +124,14 @@ def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nomi
         args += ["--form", f]
     for h in hold:
         args += ["--hold", h]
+    if no_segment:
+        args.append("--no-segment")
+    if no_bin:
+        args.append("--no-bin")
+    if bin_alpha is not None:
+        args += ["--bin-alpha", f"{bin_alpha:g}"]
+    if bin_kappa is not None:
+        args += ["--bin-kappa", f"{bin_kappa:g}"]
     if no_report:
         args.append("--no-report")
     return shlex.join(args)
@@ -166,6 +175,20 @@ def fit_command(
                                    help="Hold this coefficient at its default in every "
                                         "relation fit (repeatable), e.g. one the summary "
                                         "reports poorly identified."),
+    bin_alpha: float | None = typer.Option(
+        None, "--bin-alpha", metavar="DEG",
+        help="Bin width [deg] of dense slip-angle sweeps of trailer data: every sweep with at "
+             "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
+             "docs/procedures.md, 'Sweep binning', states the effect)."),
+    bin_kappa: float | None = typer.Option(
+        None, "--bin-kappa", metavar="K",
+        help="Bin width [-] of dense slip-ratio sweeps (default 0.0025)."),
+    no_bin: bool = typer.Option(False, "--no-bin",
+                                help="Fit every trailer sample: no sweep binning."),
+    no_segment: bool = typer.Option(
+        False, "--no-segment",
+        help="Fit trailer runs with a warm-up (logged test programmes such as a TTC session) "
+             "on all their samples, not on their quasi-steady sweeps only."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -180,7 +203,7 @@ def fit_command(
 
     command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps, form,
-                            hold)
+                            hold, bin_alpha, bin_kappa, no_bin, no_segment)
     try:
         if fittyp not in (61, 62):
             raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
@@ -191,10 +214,20 @@ def fit_command(
         if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
             raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
                                    f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+        if no_bin and (bin_alpha is not None or bin_kappa is not None):
+            raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
+                             key="--no-bin")
+        for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
+            if width is not None and not width > 0:
+                raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
+        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
+            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
+            if v is not None}
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
                                mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               forms=only_names(form), hold=only_names(hold))
+                               forms=only_names(form), hold=only_names(hold),
+                               segment=not no_segment, **bins)
         with warnings.catch_warnings(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -224,6 +257,24 @@ def fit_command(
         raise typer.Exit(failure.exit_code)
 
 
+def data_lines(run: FitRun) -> list[str]:
+    """What the data could not support: each skipped MF stage with why, and the loading
+    warnings counted (the report's data-quality pages list them one by one)."""
+    lines = []
+    if run.skipped:
+        lines.append("MF stages skipped (their coefficients keep their default values):")
+        lines += [f"  {stage}: {why}" for stage, why in run.skipped.items()]
+    found = (run.data_quality or {}).get("warnings") or []
+    if found:
+        kinds: dict[str, int] = {}
+        for w in found:
+            kinds[w["kind"]] = kinds.get(w["kind"], 0) + int(w["count"])
+        lines.append(f"data quality: {len(found)} loading warning(s), fitted all the same "
+                     "(counts: " + ", ".join(f"{k} {n}" for k, n in kinds.items())
+                     + "); listed on the report's data-quality pages and in fit.json")
+    return lines
+
+
 def _print_outputs(run: FitRun, report: Report | None) -> None:
 
     if out_console.is_terminal:
@@ -234,6 +285,8 @@ def _print_outputs(run: FitRun, report: Report | None) -> None:
         out_console.print(line, markup=False, highlight=False)
     for line in mcmc_warnings(run):
         err_console.print(f"warning: {line}", markup=False, highlight=False)
+    for line in data_lines(run):
+        out_console.print(line, markup=False, highlight=False)
     fit_dir = run.fit_dir
     out_console.print("outputs:", markup=False)
     for path in (run.tir_path, run.json_path, run.csv_path, fit_dir / EXTRACTION_NAME,

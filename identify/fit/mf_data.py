@@ -71,7 +71,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     frame : DataFrame
         The trailer table.
     selection : str
-        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"`` or ``"all"``
+        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``
+        or ``"all"``
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, see quantity_values).
@@ -94,6 +95,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
         ok &= (k <= PURE_KAPPA) & lateral_sweep
     elif selection == "combined":
         ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
+    elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
+        ok &= (k > PURE_KAPPA) & bool(np.any(ok & (a > PURE_ALPHA) & (k > PURE_KAPPA)))
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)
@@ -123,6 +126,17 @@ def levels(x: np.ndarray, resolution: float) -> int:
     """Number of distinct levels of ``x`` (values closer than ``resolution`` merge)."""
     x = np.sort(np.asarray(x, dtype=float)[np.isfinite(x)])
     return 0 if x.size == 0 else int(1 + np.sum(np.diff(x) > resolution))
+
+
+def level_values(x: np.ndarray, resolution: float) -> np.ndarray:
+    """The distinct levels of ``x`` (values closer than ``resolution`` merge), each the median
+    of its values, ascending (e.g. the pressures of a test whose pressure channel is measured
+    continuously: a few levels, not one value per sample)."""
+    x = np.sort(np.asarray(x, dtype=float)[np.isfinite(x)])
+    if x.size == 0:
+        return x
+    group = np.r_[0, np.cumsum(np.diff(x) > resolution)]
+    return np.array([np.median(x[group == g]) for g in range(group[-1] + 1)])
 
 
 @dataclass(frozen=True)

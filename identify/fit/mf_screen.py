@@ -5,7 +5,8 @@ reported with the reason) instead of being "recovered" by luck or wandering to a
 
 1. Coverage (``identify.fit.mf_data.Coverage``): a coefficient of a load-, pressure-, speed-,
    camber- or slip-sign-dependent term needs data that vary in that variable.
-2. Sensitivity: the central-difference Jacobian of the weighted residuals at the start values.
+2. Sensitivity: the Jacobian of the weighted residuals at the start values (the problem's exact
+   one when it has one, identify.fit.mf_jacobian; central differences otherwise).
    A coefficient with an exactly zero column (it multiplies a term that is zero at the start,
    e.g. QSX5..QSX9 while QSX4 = 0) is held; so is one whose unit-normalised column lies within
    ``DEPENDENCE_TOL`` of the span of the coefficients accepted before it (priority order of the
@@ -126,7 +127,9 @@ def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL
     """
     free = problem.free
     x0 = problem.x0()
-    J = jacobian(problem, x0)
+    J = problem.residual_jacobian(x0)
+    if J is None:
+        J = jacobian(problem, x0)
     delta = np.array([max(abs(x), abs(float(spec(n).default)), DELTA_FLOOR)
                       for n, x in zip(free, x0)])
     return dependence(J, free, delta, tol)

@@ -4,32 +4,74 @@ Start points (n_starts chosen deliberately: a stage has up to 29 free coefficien
 engine's 8 x free parameters Latin-hypercube starts over the full bounds would cost minutes and
 mostly land in flat, meaningless regions): the carried-forward values, the parameter table's
 defaults, and N_LHS Latin-hypercube points in a box of +/-BOX x max(|start|, |default|) around
-the carried-forward values (+/-0.05 where both are 0), each solved within MAX_NFEV
-evaluations.
+the carried-forward values (+/-0.05 where both are 0).
+
+Search, then solve (:func:`search`): every start is solved by least squares (SEARCH
+tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUBSAMPLE points
+(all points when there are fewer), where a start costs SUBSAMPLE/points of what it would on
+all of them; only the distinct end points whose subsample objective is within CANDIDATE_RTOL
+of the best (at most MAX_CANDIDATES) go on. On large data each candidate is carried up a
+ladder of subsamples LADDER times larger each (:func:`ladder_sizes`; the optimum of 4096 of 93074
+noisy points can lie 15 % away in a flat direction, where the solver on all points crawls for
+over 100 evaluations; from the optimum of 16384 it took 14), and is then solved on every point
+(identify.fit.optimize.fit: MF_SOLVE tolerances, MAX_NFEV evaluations, the constrained polish
+where a constraint is violated); the best of those is the stage's optimum.
 """
 from __future__ import annotations
 
 import dataclasses
+from dataclasses import dataclass
 from typing import Mapping
 
 import numpy as np
 from scipy.stats import qmc
 
+from identify.fit import engine
+from identify.fit.engine import SEARCH
 from identify.fit.metric import thesis_error_by_group
+from identify.fit.mf_jacobian import CHUNK
 from identify.fit.mf_stage_defs import stage_model
+from identify.fit.optimize import BEST_ATOL, BEST_RTOL
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import spec
 from identify.model.state import OperatingState
 
-__all__ = ["N_LHS", "MAX_NFEV", "BOX", "start_points", "canonical_br", "final_predictions"]
+__all__ = ["N_LHS", "MAX_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER", "CANDIDATE_RTOL",
+           "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample", "ladder_sizes",
+           "search", "refine_on", "prune", "canonical_br", "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
 MAX_NFEV = 100
-"""Budget of model evaluations per start's least-squares solve (Jacobian evaluations not
-counted). Starts near the optimum converge in 15-60; a start that crawls through a flat
-region for longer is reported as not converged instead of costing minutes."""
+"""Budget of model evaluations of each candidate's least-squares solve on all points
+(Jacobian evaluations not counted). A candidate from the subsample search starts near the
+optimum and converges in a few tens; one that crawls for longer is reported as not converged
+instead of costing minutes."""
+SEARCH_NFEV = 200
+"""Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
+SUBSAMPLE = CHUNK
+"""Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
+order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
+Equal to the exact Jacobian's chunk (identify.fit.mf_jacobian.CHUNK): one call per Jacobian."""
+LADDER = 4
+"""Each rung of the ladder from the search's subsample to all points has this many times the
+points of the one below."""
+CANDIDATE_RTOL = 0.05
+"""A search end point is a candidate for the solve on all points when its subsample objective
+is within this fraction of the best one's (the subsample may rank close optima wrongly)."""
+MAX_CANDIDATES = 2
+"""At most this many candidates (the best ones) are solved on all points."""
+CHI2_GAP = 25.0
+"""After each rung of the ladder, a candidate whose objective exceeds the best one's by more
+than CHI2_GAP in chi^2 = r^T r / s^2 (s^2 the best one's residual variance on that rung) is
+dropped: on thousands of points such an optimum is worse beyond doubt (5 standard deviations
+of a chi^2 difference of one parameter), and its constrained polish on all points would cost
+as much as the best one's."""
+DISTINCT_RTOL = 1e-4
+"""Two end points are the same candidate when their subsample objectives agree to
+identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
+max(|value|, 1e-3)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
 
@@ -54,6 +96,100 @@ def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:
         u = qmc.LatinHypercube(d=x0.size, seed=np.random.default_rng(seed)).random(n_lhs)
         rows.extend(a + u * (b - a))
     return np.vstack(rows)
+
+
+def subsample(n: int, size: int = SUBSAMPLE) -> np.ndarray | None:
+    """Positions of an evenly spaced subsample of ``size`` of ``n`` points, or None when
+    ``n <= size`` (all points are used)."""
+    if n <= size:
+        return None
+    return np.unique(np.round(np.linspace(0, n - 1, size)).astype(int))
+
+
+def ladder_sizes(n: int) -> list[int]:
+    """Subsample sizes between the search's and all ``n`` points: SUBSAMPLE x LADDER^i < n
+    for i >= 1 (none when n <= LADDER x SUBSAMPLE)."""
+    sizes, size = [], SUBSAMPLE * LADDER
+    while size < n:
+        sizes.append(size)
+        size *= LADDER
+    return sizes
+
+
+def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
+    """The candidates within CHI2_GAP of the best on ``problem`` (a rung), best first."""
+    costs = np.array([problem.objective_value(x) for x in candidates])  # 0.5 r^T r
+    costs = np.where(np.isfinite(costs), costs, np.inf)
+    order = np.argsort(costs, kind="stable")
+    best = costs[order[0]]
+    s2 = 2.0 * best / max(problem.measured.size - len(problem.free), 1)
+    return [candidates[i] for i in order if 2.0 * (costs[i] - best) <= CHI2_GAP * s2]
+
+
+def refine_on(problem: FitProblem, x0: np.ndarray) -> tuple[np.ndarray, int]:
+    """Least squares on ``problem`` (a rung of the ladder) from ``x0`` with the SEARCH
+    tolerances within SEARCH_NFEV evaluations: (end point, model evaluations)."""
+    problem, counter = engine.counted(problem)
+    jac = problem.residual_jacobian if problem.jacobian is not None else None
+    end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
+                               max_nfev=SEARCH_NFEV)
+    return end.x, counter.calls
+
+
+@dataclass(frozen=True)
+class Search:
+    """The outcome of a stage's search on the subsample.
+
+    Attributes
+    ----------
+    candidates : ndarray       distinct end points to solve on all points, best first (c, k)
+    n_starts : int             starts searched
+    starts_at_best : int       starts whose end point reached the best subsample objective
+                               (identify.fit.optimize.BEST_RTOL)
+    points : int               points of the subsample
+    nfev : int                 model evaluations of the search (on the subsample)
+    converged : bool           the best end point's solve converged (within SEARCH_NFEV)
+    """
+
+    candidates: np.ndarray
+    n_starts: int
+    starts_at_best: int
+    points: int
+    nfev: int
+    converged: bool = True
+
+
+def search(problem: FitProblem, starts: np.ndarray) -> Search:
+    """Solve every start by least squares on ``problem`` (the stage's subsample) with the
+    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module)."""
+    problem, counter = engine.counted(problem)
+    jac = problem.residual_jacobian if problem.jacobian is not None else None
+    ends = [engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
+                                 max_nfev=SEARCH_NFEV) for x0 in np.atleast_2d(starts)]
+    objs = np.array([problem.objective_value(e.x) for e in ends])
+    objs = np.where(np.isfinite(objs), objs, np.inf)
+    order = np.argsort(objs, kind="stable")
+    best = objs[order[0]]
+    at_best = int(np.sum(np.abs(objs - best) <= BEST_RTOL * abs(best) + BEST_ATOL))
+    chosen: list[np.ndarray] = []
+    kept: list[float] = []
+    for i in order:
+        x = ends[i].x
+        if chosen and not objs[i] <= best + CANDIDATE_RTOL * abs(best):
+            break
+        # the same optimum: the same objective (the search's loose tolerance leaves flat
+        # directions unconverged, so the points may differ) or the same point
+        scale = np.maximum(np.abs(x), 1e-3)
+        if any(abs(objs[i] - o) <= BEST_RTOL * abs(o) + BEST_ATOL for o in kept) or \
+                any(np.all(np.abs(x - c) <= DISTINCT_RTOL * scale) for c in chosen):
+            continue
+        chosen.append(x)
+        kept.append(float(objs[i]))
+        if len(chosen) == MAX_CANDIDATES:
+            break
+    return Search(candidates=np.vstack(chosen), n_starts=len(ends), starts_at_best=at_best,
+                  points=int(problem.measured.size), nfev=counter.calls,
+                  converged=bool(ends[order[0]].success))
 
 
 def canonical_br(result: FitResult, start: Mapping[str, float]) -> FitResult:

@@ -43,8 +43,11 @@ class StageDef:
                            identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
                            in runs with a kappa sweep),
                            ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
-                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA)
-                           or ``"all"``
+                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA),
+                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle, when
+                           there are combined points at all: the Fy
+                           stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
+                           a slip-ratio sweep at zero slip angle pins it) or ``"all"``
     coefficients : tuple of str   the stage's own coefficients, priority order
     """
 
@@ -73,7 +76,7 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
         "QDZ1 QBZ1 QCZ1 QEZ1 QDZ2 QBZ2 QEZ2 QHZ1 QHZ2 QDZ6 QDZ7 QBZ9 QBZ10 QBZ3 QEZ3 QEZ4 "
         "PPZ1 QDZ3 QDZ4 QBZ4 QBZ5 QHZ3 QHZ4 QDZ8 QDZ9 QDZ10 QDZ11 QEZ5 PPZ2")),
     StageDef("Fx", "Fx", "N", "combined", _names("RBX1 RBX2 RCX1 REX1 REX2 RHX1 RBX3")),
-    StageDef("Fy", "Fy", "N", "combined", _names(
+    StageDef("Fy", "Fy", "N", "kappa_slip", _names(
         "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
     StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
     StageDef("Mx", "Mx", "N m", "all", _names(
@@ -119,16 +122,109 @@ Values = Mapping[str, float]
 Model = Callable[[Values], np.ndarray]
 
 
-def _subset(s: OperatingState, idx: np.ndarray) -> OperatingState:
+def subset_state(s: OperatingState, idx: np.ndarray) -> OperatingState:
     """The operating points ``idx`` of ``s``."""
     return dataclasses.replace(s, **{
         f.name: getattr(s, f.name)[idx] for f in dataclasses.fields(s)
         if isinstance(getattr(s, f.name), np.ndarray)})
 
 
+def stage_inputs(stage: str, base: Values, s: OperatingState,
+                 omega: np.ndarray | None = None) -> dict[str, object]:
+    """What ``stage``'s prediction needs besides its own coefficients, computed once from the
+    carried-forward values ``base`` at the points ``s`` (numpy).
+
+    Returns
+    -------
+    dict
+        Arrays [unit of each] and model pieces (PureLateral, CombinedLateral) by name; see
+        :func:`stage_predict`.
+
+    Raises
+    ------
+    ValueError
+        An unknown stage, or the geometry stage without ``omega``.
+    """
+    if stage == "geometry":
+        if omega is None:
+            raise ValueError("the geometry stage needs the measured wheel speed omega")
+        # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (docs/model.md, 10.1)
+        return {"omega": np.asarray(omega, dtype=float) + np.finfo(float).eps}
+    if stage == "Fx0":
+        return {"gxa": longitudinal.gx_alpha(base, s)}
+    if stage == "Fx":
+        return {"fx0": longitudinal.fx0(base, s).fx0}
+    if stage == "Fy0":
+        return {}
+    pure = lateral.fy0(base, s)
+    if stage == "Fy":
+        return {"pure": pure}
+    fy = lateral.fy_combined(base, s, pure)
+    lon = longitudinal.fx0(base, s)
+    fx = longitudinal.gx_alpha(base, s) * lon.fx0
+    if stage in ("Mz0", "Mz"):
+        return {"pure": pure, "pure0": lateral.fy0(base, s, zero_camber=True), "fy": fy,
+                "fx": fx, "kxk": lon.kxk}
+    if stage == "Mx":
+        return {"fy": fy.fy}
+    if stage == "My":
+        return {"fx": fx}
+    raise ValueError(f"unknown MF stage {stage!r}")
+
+
+def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str, object],
+                  xp=np) -> np.ndarray:
+    """The prediction of ``stage``'s quantity at the points ``s`` [N, N m or m].
+
+    Parameters
+    ----------
+    stage : str
+    P : mapping
+        Every .tir value (the stage's own coefficients as fitted).
+    s : OperatingState
+        The points, prepared with useMode 211.
+    inputs : mapping
+        :func:`stage_inputs` of the same points.
+    xp : module
+        The array module of the equations: numpy, or jax.numpy for exact derivatives
+        (identify.fit.mf_jacobian). The Fy0 stage evaluates its combined-slip expression on
+        the points with kappa != 0 only under numpy (``inputs["slip"]``, see
+        :func:`stage_model`) and selects it with ``where`` otherwise; at kappa == 0 both give
+        Fy0 exactly.
+    """
+    if stage == "geometry":
+        return vertical._effective_radius(P, s, inputs["omega"], xp)
+    if stage == "Fx0":
+        return inputs["gxa"] * longitudinal.fx0(P, s, xp).fx0
+    if stage == "Fx":
+        return longitudinal.gx_alpha(P, s, xp) * inputs["fx0"]
+    if stage == "Fy0":
+        # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (docs/model.md,
+        # section 6); the combined expression is evaluated only where kappa != 0
+        fy = lateral.fy0(P, s, xp=xp).fy0
+        if xp is not np:
+            return xp.where(s.kappa != 0, lateral.fy_combined(
+                P, s, lateral.fy0(P, s, xp=xp), xp).fy, fy)
+        slip, s_slip = inputs["slip"], inputs["s_slip"]
+        if slip.size:
+            fy = np.array(fy, copy=True)
+            fy[..., slip] = lateral.fy_combined(P, s_slip, lateral.fy0(P, s_slip)).fy
+        return fy
+    if stage == "Fy":
+        return lateral.fy_combined(P, s, inputs["pure"], xp).fy
+    if stage in ("Mz0", "Mz"):
+        return aligning.mz(P, s, inputs["pure"], inputs["pure0"], inputs["fy"], inputs["fx"],
+                           inputs["kxk"], xp).mz
+    if stage == "Mx":
+        return moments.mx(P, s, inputs["fy"], xp)
+    if stage == "My":
+        return moments.my(P, s, inputs["fx"], xp)
+    raise ValueError(f"unknown MF stage {stage!r}")
+
+
 def stage_model(stage: str, base: Values, s: OperatingState,
                 omega: np.ndarray | None = None) -> Model:
-    """The vectorised model of ``stage`` at the operating points ``s``.
+    """The vectorised model of ``stage`` at the operating points ``s`` (numpy).
 
     Parameters
     ----------
@@ -147,48 +243,11 @@ def stage_model(stage: str, base: Values, s: OperatingState,
         values -> prediction of the stage's quantity at every point [N or N m]. ``values`` may
         hold floats or arrays of shape (walkers, 1) (then the result is (walkers, points)).
     """
-    def merged(values: Values) -> dict:
-        return {**base, **values}
-
-    if stage == "geometry":
-        if omega is None:
-            raise ValueError("the geometry stage needs the measured wheel speed omega")
-        # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (docs/model.md, 10.1)
-        w = np.asarray(omega, dtype=float) + np.finfo(float).eps
-        return lambda v: vertical._effective_radius(merged(v), s, w)
-    if stage == "Fx0":
-        gxa = longitudinal.gx_alpha(base, s)
-        return lambda v: gxa * longitudinal.fx0(merged(v), s).fx0
-    if stage == "Fx":
-        fx0 = longitudinal.fx0(base, s).fx0
-        return lambda v: longitudinal.gx_alpha(merged(v), s) * fx0
-
+    inputs = stage_inputs(stage, base, s, omega)
     if stage == "Fy0":
-        # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (docs/model.md,
-        # section 6); the combined expression is evaluated only where kappa != 0
         slip = np.flatnonzero(s.kappa != 0)
-        s_slip = _subset(s, slip)
+        inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
 
-        def fy0_model(v):
-            P = merged(v)
-            fy = lateral.fy0(P, s).fy0
-            if slip.size:
-                fy = np.array(fy, copy=True)
-                fy[..., slip] = lateral.fy_combined(P, s_slip, lateral.fy0(P, s_slip)).fy
-            return fy
-        return fy0_model
-    pure = lateral.fy0(base, s)
-    if stage == "Fy":
-        return lambda v: lateral.fy_combined(merged(v), s, pure).fy
-
-    fy = lateral.fy_combined(base, s, pure)
-    lon = longitudinal.fx0(base, s)
-    fx = longitudinal.gx_alpha(base, s) * lon.fx0
-    if stage in ("Mz0", "Mz"):
-        pure0 = lateral.fy0(base, s, zero_camber=True)
-        return lambda v: aligning.mz(merged(v), s, pure, pure0, fy, fx, lon.kxk).mz
-    if stage == "Mx":
-        return lambda v: moments.mx(merged(v), s, fy.fy)
-    if stage == "My":
-        return lambda v: moments.my(merged(v), s, fx)
-    raise ValueError(f"unknown MF stage {stage!r}")
+    def model(values: Values) -> np.ndarray:
+        return stage_predict(stage, {**base, **values}, s, inputs)
+    return model

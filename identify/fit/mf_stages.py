@@ -21,11 +21,20 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
 up to 29 free coefficients): the carried-forward values, the parameter table's defaults, and
 ``n_lhs`` (2) Latin-hypercube points in a box of +/-50 % of max(|start|, |default|) around the
-carried-forward values (+/-0.05 where both are 0), each solved by the engine's local solver
-(identify.fit.optimize.fit) within MAX_NFEV evaluations; ``starts_at_best`` says how many
-reached the best value. The full bounds are far too wide for a few starts in 20-30 dimensions;
-the box is where the optimum of a carried-forward stage lies. The Mz0 stage's mirror solutions
-(QBZ9, QBZ10) -> (-QBZ9, -QBZ10) predict identically; the one nearer the start is reported.
+carried-forward values (+/-0.05 where both are 0), each solved by least squares on an evenly
+spaced subsample of the stage's points; the distinct end points near the best are then solved
+on all points by the engine's local solver (identify.fit.optimize.fit) within MAX_NFEV
+evaluations (identify.fit.mf_search.search); ``starts_at_best`` says how many starts reached
+the best value on the subsample. The full bounds are far too wide for a few starts in 20-30
+dimensions; the box is where the optimum of a carried-forward stage lies. The Mz0 stage's
+mirror solutions (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) predict identically; the one nearer the start
+is reported.
+
+Derivatives: exact (JAX forward mode, identify.fit.mf_jacobian) when JAX is installed, else
+finite differences; the same optimum either way.
+
+Progress: ``fit_mf(progress=...)`` is called with one line per stage and sub-step (screen,
+search, solve, re-fit) and a last line per stage with its time; the fit layer prints nothing.
 
 Coupling: SSZ1..4 (stage Mz) act on the Mz0 points through s*Fx; ``passes`` > 1 runs the
 sequence again from its result. Each FitResult's predictions (and errors) are those of the
@@ -36,19 +45,40 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Collection, Mapping, Sequence
+from typing import Callable, Collection, Mapping, Sequence
 
 import lmfit
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from identify.fit import mf_data
+from identify.fit.engine import MF_SOLVE
 from identify.fit.mf_constraints import FIT_MODE, stage_constraints
+from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import MFFit, point_columns
-from identify.fit.mf_search import MAX_NFEV, N_LHS, canonical_br, final_predictions, start_points
+from identify.fit.mf_search import (
+    MAX_NFEV,
+    N_LHS,
+    canonical_br,
+    final_predictions,
+    ladder_sizes,
+    prune,
+    refine_on,
+    search,
+    start_points,
+    subsample,
+)
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_screen import screen as sensitivity_screen
-from identify.fit.mf_stage_defs import DEFAULT_STAGES, NEEDS, STAGES, StageDef, stage_model
+from identify.fit.mf_stage_defs import (
+    DEFAULT_STAGES,
+    NEEDS,
+    STAGES,
+    StageDef,
+    stage_model,
+    subset_state,
+)
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
@@ -61,6 +91,9 @@ __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "st
 
 MAX_ROUNDS = 2
 """Refinement re-fits per stage after the global fit (see _refine)."""
+
+Progress = Callable[[str], None]
+"""progress(text): one line per MF stage and sub-step (the workflow shows it; see module)."""
 
 
 @dataclass(frozen=True)
@@ -81,6 +114,7 @@ class StageProblem:
     held: Mapping[str, str]
     state: OperatingState
     omega: np.ndarray | None = None
+    params: Mapping[str, float] | None = None
 
 
 def _candidates(sd: StageDef, free) -> list[str]:
@@ -130,6 +164,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                 p=col["p"], mode=FIT_MODE)
     omega = pts["omega"].to_numpy(float) if sd.quantity == "Re" else None
     model = stage_model(stage, params, s, omega)
+    jacobian = stage_jacobian(stage, params, s, omega)
     measured = mf_data.quantity_values(pts, sd.quantity)
     held: dict[str, str] = {}
     names = _candidates(sd, free)
@@ -157,7 +192,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                           mf_data.pressure_groups(pts), objective="wls", sigma=None,
                           constraints=tuple(constraints),
                           sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
-                          extra=extra, noise="sweep")
+                          extra=extra, noise="sweep", jacobian=jacobian)
 
     if screen and hold is None:
         more, _ = sensitivity_screen(build([n for n in names if n not in held]))
@@ -167,15 +202,68 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     def merge(values):
         return {**params, **values}
 
-    cons = stage_constraints(stage, params, merge, np.unique(pts["p"].to_numpy(float)))
-    return StageProblem(build(vary, cons), rows, held, s, omega)
+    # the validity grid at the data's pressure levels (a continuously measured pressure
+    # channel has as many distinct values as samples)
+    cons = stage_constraints(stage, params, merge, mf_data.level_values(
+        pts["p"].to_numpy(float), mf_data.PRESSURE_RESOLUTION))
+    return StageProblem(build(vary, cons), rows, held, s, omega, dict(params))
+
+
+def _subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:
+    """``sp``'s problem on its points ``index`` (the search's subsample): the same parameters,
+    free set and constraints."""
+    p = sp.problem
+    s = subset_state(sp.state, index)
+    omega = None if sp.omega is None else sp.omega[index]
+    return dataclasses.replace(
+        p, model=stage_model(p.form, sp.params, s, omega), measured=p.measured[index],
+        pressure_bar=p.pressure_bar[index],
+        sweeps=None if p.sweeps is None else p.sweeps[index], extra={},
+        jacobian=stage_jacobian(p.form, sp.params, s, omega, exact=p.jacobian is not None))
+
+
+def _say(progress: Progress | None, text: str) -> None:
+    if progress is not None:
+        progress(text)
+
+
+def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
+                give_up: bool = False) -> FitResult | int:
+    """Search on the subsample, then solve the candidates on all points (see module).
+    ``give_up``: when the search on the subsample did not converge, return its number of
+    model evaluations instead (a re-fit whose added coefficients run off along a flat valley,
+    e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC session: the re-fit would not be taken, and
+    solving it on all points cost minutes)."""
+    t0 = time.perf_counter()
+    stage, n = sp.problem.form, sp.problem.measured.size
+    index = subsample(n)
+    sub = sp.problem if index is None else _subproblem(sp, index)
+    _say(progress, f"MF {stage}: search, {len(starts)} starts on "
+                   f"{sub.measured.size if index is not None else 'all'} of {n} points")
+    found = search(sub, starts)
+    if give_up and not found.converged:
+        return found.nfev
+    candidates, nfev = list(found.candidates), found.nfev
+    for size in ladder_sizes(n):
+        _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
+        rung = _subproblem(sp, subsample(n, size))
+        moved = [refine_on(rung, x) for x in candidates]
+        nfev += sum(k for _, k in moved) + len(moved)
+        candidates = prune(rung, [x for x, _ in moved])
+    _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
+    result = fit(sp.problem, starts=np.vstack(candidates), max_nfev=MAX_NFEV, tol=MF_SOLVE)
+    return dataclasses.replace(result, n_starts=found.n_starts,
+                               starts_at_best=found.starts_at_best,
+                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev)
 
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
-            params: Mapping[str, float], free) -> tuple[FitResult, StageProblem]:
+            params: Mapping[str, float], free,
+            progress: Progress | None = None) -> tuple[FitResult, StageProblem]:
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
-    significant moves have given an effect, and re-fit locally from the optimum (the new ones
-    start at their carried-forward values, so the objective can only fall). At most
+    significant moves have given an effect, and re-fit from the optimum (the new ones start at
+    their carried-forward values; on the search's subsample first, then on all points, as
+    the global fit; a re-fit that does not lower the objective is not taken). At most
     MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best, adds
     the re-fits' seconds and model evaluations to the search's, and its message says what was
     added."""
@@ -190,8 +278,13 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         held = {n: why for n, why in gates.held.items() if n not in result.free}
         values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
         trial = stage_problem(stage, trailer, values, free=free, hold=held)
-        refit = fit(trial.problem, starts=trial.problem.x0()[None, :], max_nfev=MAX_NFEV)
-        if not refit.converged or refit.wls > result.wls:
+        _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
+        # from the optimum as the global search does: on the subsample first (the added
+        # coefficients can move the optimum far), then on all points
+        refit = _global_fit(trial, trial.problem.x0()[None, :], None, give_up=True)
+        spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
+        if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
+            result = dataclasses.replace(result, nfev=result.nfev + spent)
             # e.g. a product of two weakly determined coefficients: keep the global optimum
             sp = dataclasses.replace(sp, held={**sp.held, **{
                 n: "sensitivity: effective only after the fit, and the re-fit with it did not "
@@ -224,7 +317,8 @@ def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
 def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
            stages: Sequence[str] = DEFAULT_STAGES, seed: int = 0, fittyp: int = 61,
            free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
-           n_lhs: int = N_LHS, screen: bool = True, passes: int = 1) -> MFFit:
+           n_lhs: int = N_LHS, screen: bool = True, passes: int = 1,
+           progress: Progress | None = None) -> MFFit:
     """Fit the MF slip coefficients stage by stage.
 
     Parameters
@@ -253,11 +347,24 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         s*Fx, so Mz0 sees the Mz stage's arm); each further pass starts every stage from the
         previous pass (carried-forward values only: the global search is pass 1's) and
         converges the blocks together. The results are the last pass's.
+    progress : callable, optional
+        progress(text) per stage and sub-step, and a line with each stage's time (see
+        module).
 
     Returns
     -------
     MFFit
     """
+    # one BLAS thread: the solver's SVDs are small, and on a busy machine a second thread
+    # made each of them 30-100x slower (measured: 12087 x 15, 0.49 s with 2 threads, 0.014 s
+    # with 1, on the 2-core machine under load)
+    with threadpool_limits(limits=1, user_api="blas"):
+        return _fit_mf(trailer, base, stages=stages, seed=seed, fittyp=fittyp, free=free,
+                       n_lhs=n_lhs, screen=screen, passes=passes, progress=progress)
+
+
+def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
+            progress) -> MFFit:
     t0 = time.perf_counter()
     unknown = [s for s in stages if s not in STAGES]
     if unknown:
@@ -273,17 +380,26 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
     for pass_no in range(passes):
         results, held, skipped, points, problems = [], {}, {}, {}, []
         for i, stage in enumerate(stages):
+            t_stage = time.perf_counter()
+            label = f"MF {stage}" + (f" (pass {pass_no + 1})" if passes > 1 else "")
+            _say(progress, f"{label}: points and identifiability screen")
             sp = stage_problem(stage, trailer, params, free=free, screen=screen)
             if sp is None:
                 skipped[stage] = _skip_reason(stage, trailer)
+                _say(progress, f"{label}: skipped, {skipped[stage]}")
                 continue
-            starts = (start_points(sp.problem, n_lhs, seed + i) if pass_no == 0
-                      else sp.problem.x0()[None, :])
-            result = fit(sp.problem, starts=starts, max_nfev=MAX_NFEV)
+            if pass_no == 0:
+                result = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i), progress)
+            else:
+                _say(progress, f"{label}: solve on all {sp.problem.measured.size} points")
+                result = fit(sp.problem, starts=sp.problem.x0()[None, :], max_nfev=MAX_NFEV,
+                             tol=MF_SOLVE)
             if screen:
-                result, sp = _refine(result, sp, stage, trailer, params, free)
+                result, sp = _refine(result, sp, stage, trailer, params, free, progress)
             if stage == "Mz0":
                 result = canonical_br(result, params)
+            # the stage's whole wall time: screen (and the Jacobian's compile), search, solves
+            result = dataclasses.replace(result, seconds=time.perf_counter() - t_stage)
             params.update({n: float(result.parameters[n]) for n in result.free})
             results.append(result)
             problems.append(sp)
@@ -291,6 +407,10 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
             points[stage] = trailer.iloc[sp.rows][
                 ["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
                 + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+            _say(progress, f"{label}: {time.perf_counter() - t_stage:.1f} s, "
+                           f"{result.n_points} points, {len(result.free)} free, "
+                           f"{result.nfev} evaluations, "
+                           f"{'converged' if result.converged else 'NOT converged'}")
     results = [final_predictions(r, sp.problem, sp.state, params, sp.omega)
                for r, sp in zip(results, problems)]
     settings = {"seed": seed, "fittyp": fittyp, "use_mode": FIT_MODE, "n_lhs": n_lhs,

@@ -22,16 +22,23 @@ from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
+from identify.fit.coverage import StageCoverage
 from identify.fit.forms import FormChoice
 from identify.fit.mcmc import MAX_STEPS
 from identify.fit.result import FitResult
 from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
-__all__ = ["SCHEMA", "FitRun", "FitSettings", "InputFile", "Provenance", "failures"]
+__all__ = ["BIN_ALPHA_DEG", "BIN_KAPPA", "SCHEMA", "FitRun", "FitSettings", "InputFile",
+           "Provenance", "failures"]
 
 SCHEMA = "mfid.fit/1"
 """The schema string of fit.json (its ``"schema"`` key)."""
+
+BIN_ALPHA_DEG = 0.25
+"""[deg] default bin width of dense slip-angle sweeps (docs/procedures.md, "Sweep binning")."""
+BIN_KAPPA = 0.0025
+"""[-] default bin width of dense slip-ratio sweeps."""
 
 JSON_NAME = "fit.json"
 CSV_NAME = "measured_vs_model.csv"
@@ -54,6 +61,12 @@ class FitSettings:
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
     hold : tuple of str    coefficients held at their default in every relation fit
                            (``--hold``)
+    bin_alpha_deg : float or None   bin width [deg] of dense slip-angle sweeps of trailer data
+                           before the MF stages (identify.workflows.sweep_bins); None: every
+                           sample is fitted
+    bin_kappa : float or None       the same for slip-ratio sweeps [-]
+    segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
+                           their quasi-steady sweeps only (identify.workflows.sweep_bins)
     """
 
     seed: int = 0
@@ -65,6 +78,9 @@ class FitSettings:
     mcmc_max_steps: int = MAX_STEPS
     forms: tuple[str, ...] = ()
     hold: tuple[str, ...] = ()
+    bin_alpha_deg: float | None = BIN_ALPHA_DEG
+    bin_kappa: float | None = BIN_KAPPA
+    segment: bool = True
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
@@ -183,6 +199,14 @@ class FitRun:
                                       extraction
     failed : tuple of str             fits that did not converge (``relation[form]: why``);
                                       empty when every fit succeeded
+    coverage : tuple of StageCoverage  what the trailer data held for each MF stage, which
+                                      coefficients they can identify, and why a stage was
+                                      skipped (identify.fit.coverage); empty without trailer
+                                      data
+    data_quality : Mapping            the loading warnings (``warnings``: DataWarning dicts,
+                                      each with its count), the trailer runs segmented, their
+                                      segmentation and the channels the fit could not use
+                                      (``trailer``); empty when there is nothing to say
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
@@ -197,6 +221,8 @@ class FitRun:
     flags: tuple[Mapping[str, Any], ...] = ()
     failed: tuple[str, ...] = ()
     form_choices: tuple[FormChoice, ...] = ()
+    coverage: tuple[StageCoverage, ...] = ()
+    data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
 
@@ -213,6 +239,11 @@ class FitRun:
     def ok(self) -> bool:
         """Every fit converged."""
         return not self.failed
+
+    @property
+    def skipped(self) -> dict[str, str]:
+        """MF stage -> why it was skipped (the data lack what it needs)."""
+        return {c.stage: c.skipped for c in self.coverage if c.skipped}
 
     @property
     def poorly_identified(self) -> tuple[str, ...]:
@@ -307,15 +338,18 @@ class FitRun:
             "tir": {"path": self.tir_name, "fittyp": self.fittyp,
                     "key_sources": {k: s.to_dict() for k, s in self.key_sources.items()},
                     "forms": [c.to_dict() for c in self.form_choices]},
-            "flags": [dict(f) for f in self.flags], "failed": list(self.failed)})
+            "flags": [dict(f) for f in self.flags], "failed": list(self.failed),
+            "coverage": [c.to_dict() for c in self.coverage],
+            "data_quality": dict(self.data_quality)})
 
     @classmethod
     def from_dict(cls, doc: Any) -> FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        Documents from before ``failed``, ``key_sources`` or ``forms`` were recorded read as
-        empty; a key source written as a plain string (before typed sources) reads as fitted.
+        Documents from before ``failed``, ``key_sources``, ``forms``, ``coverage`` or
+        ``data_quality`` were recorded read as empty; a key source written as a plain string
+        (before typed sources) reads as fitted.
 
         Raises
         ------
@@ -345,9 +379,14 @@ class FitRun:
             tir_name = str(tir.get("path") or f"{tyre.id}.tir")
         with _entry("flags"):
             flags = tuple(dict(f) for f in doc.get("flags") or ())
+        with _entry("coverage"):
+            coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
+        with _entry("data_quality"):
+            quality = dict(doc.get("data_quality") or {})
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
-                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms)
+                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
+                   coverage=coverage, data_quality=quality)
 
 
 class _entry:

@@ -1,7 +1,8 @@
 """Aligning moment Mz (docs/model.md, section 7: 4.E31-4.E47, 4.E71-4.E78, paper A54-A60).
 
 MFeval exports only the combined form: Mz = -t*F'y + Mzr + s*Fx, even at kappa = 0.
-Pure vectorised functions; no I/O.
+Pure vectorised functions; no I/O. ``xp`` is the array module
+(numpy by default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf_jacobian).
 """
 from __future__ import annotations
 
@@ -32,7 +33,7 @@ class AligningMoment:
 
 def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
        fy_pure_zero_camber: PureLateral, fy: CombinedLateral, fx: np.ndarray,
-       kxk: np.ndarray) -> AligningMoment:
+       kxk: np.ndarray, xp=np) -> AligningMoment:
     """Combined aligning moment Mz [N m].
 
     Parameters
@@ -46,11 +47,11 @@ def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
     dfz, dpi, g, a, gamma = s.dfz, s.dpi, s.gamma_star, s.alpha_star, s.gamma
     r0, fz0p = P["UNLOADED_RADIUS"], s.fz0p
     if s.mode.limits:
-        fz_m = np.where(s.fz <= 0, 0.0, s.fz_low)
+        fz_m = xp.where(s.fz <= 0, 0.0, s.fz_low)
     else:
         fz_m = s.fz
     kya = fy_pure.kya
-    kya_p = kya + EPS * sgn1(kya)
+    kya_p = kya + EPS * sgn1(kya, xp)
     sht = P["QHZ1"] + P["QHZ2"] * dfz + (P["QHZ3"] + P["QHZ4"] * dfz) * g
     alpha_r = a + fy_pure.shy + fy_pure.svy / kya_p
     alpha_t = a + sht
@@ -58,26 +59,26 @@ def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
           * (1 + P["QDZ3"] * gamma + P["QDZ4"] * gamma ** 2)
           * fz_m * (r0 / fz0p) * P["LTR"])
     bt = ((P["QBZ1"] + P["QBZ2"] * dfz + P["QBZ3"] * dfz ** 2)
-          * (1 + P["QBZ4"] * gamma + P["QBZ5"] * np.abs(gamma)) * P["LKY"] / P["LMUY"])
+          * (1 + P["QBZ4"] * gamma + P["QBZ5"] * xp.abs(gamma)) * P["LKY"] / P["LMUY"])
     ct = P["QCZ1"]
     et = ((P["QEZ1"] + P["QEZ2"] * dfz + P["QEZ3"] * dfz ** 2)
-          * (1 + (P["QEZ4"] + P["QEZ5"] * g) * (2 / np.pi) * np.arctan(bt * ct * alpha_t)))
+          * (1 + (P["QEZ4"] + P["QEZ5"] * g) * (2 / np.pi) * xp.arctan(bt * ct * alpha_t)))
     if s.mode.limits:
-        et = np.minimum(et, 1.0)
+        et = xp.minimum(et, 1.0)
     dr = (fz_m * r0 * ((P["QDZ6"] + P["QDZ7"] * dfz) * P["LRES"]
                        + ((P["QDZ8"] + P["QDZ9"] * dfz) * (1 + P["PPZ2"] * dpi)
-                          + (P["QDZ10"] + P["QDZ11"] * dfz) * np.abs(g)) * g * P["LKZC"])
-          * P["LMUY"] * np.sign(s.vx_u) * np.cos(a))
+                          + (P["QDZ10"] + P["QDZ11"] * dfz) * xp.abs(g)) * g * P["LKZC"])
+          * P["LMUY"] * xp.sign(s.vx_u) * xp.cos(a))
     br = P["QBZ9"] * P["LKY"] / P["LMUY"] + P["QBZ10"] * fy_pure.by * fy_pure.cy
 
     r2 = (kxk / kya_p) ** 2 * s.kappa ** 2
-    alpha_r_eq = np.arctan(np.sqrt(np.tan(alpha_r) ** 2 + r2)) * np.sign(alpha_r)
-    alpha_t_eq = np.arctan(np.sqrt(np.tan(alpha_t) ** 2 + r2)) * np.sign(alpha_t)
+    alpha_r_eq = xp.arctan(xp.sqrt(xp.tan(alpha_r) ** 2 + r2)) * xp.sign(alpha_r)
+    alpha_t_eq = xp.arctan(xp.sqrt(xp.tan(alpha_t) ** 2 + r2)) * xp.sign(alpha_t)
     arm = r0 * (P["SSZ1"] + P["SSZ2"] * (fy.fy / P["FNOMIN"])
                 + (P["SSZ3"] + P["SSZ4"] * dfz) * gamma) * P["LS"]
-    mzr = dr * np.cos(np.arctan(br * alpha_r_eq)) * s.ws
+    mzr = dr * xp.cos(xp.arctan(br * alpha_r_eq)) * s.ws
     fy_prime = fy.gyk * fy_pure_zero_camber.fy0
     bta = bt * alpha_t_eq
-    t = (dt * np.cos(ct * np.arctan(bta - et * (bta - np.arctan(bta)))) * s.cos_alpha_p
+    t = (dt * xp.cos(ct * xp.arctan(bta - et * (bta - xp.arctan(bta)))) * s.cos_alpha_p
          * P["LFZO"] * s.ws)
     return AligningMoment(mz=-t * fy_prime + mzr + arm * fx, t=t, mzr=mzr)

@@ -1,6 +1,7 @@
 """Lateral force: pure slip Fy0 (MF 6.1, 4.E19-4.E30) and combined Fy (4.E58-4.E67).
 
-Pure vectorised functions; no I/O.
+Pure vectorised functions; no I/O. ``xp`` is the array module (numpy by default; jax.numpy
+for the exact derivatives of the MF stage fits, identify.fit.mf_jacobian).
 """
 from __future__ import annotations
 
@@ -35,7 +36,8 @@ class PureLateral:
     cy: float
 
 
-def fy0(P: Mapping[str, float], s: OperatingState, zero_camber: bool = False) -> PureLateral:
+def fy0(P: Mapping[str, float], s: OperatingState, zero_camber: bool = False,
+        xp=np) -> PureLateral:
     """Pure side-slip force Fy0 [N] (docs/model.md, section 5).
 
     Parameters
@@ -46,15 +48,15 @@ def fy0(P: Mapping[str, float], s: OperatingState, zero_camber: bool = False) ->
     """
     dfz, dpi, fz, fz0p = s.dfz, s.dpi, s.fz, s.fz0p
     g = 0.0 if zero_camber else s.gamma_star
-    kya = (P["PKY1"] * fz0p * (1 + P["PPY1"] * dpi) * (1 - P["PKY3"] * np.abs(g))
-           * np.sin(P["PKY4"] * np.arctan((fz / fz0p)
+    kya = (P["PKY1"] * fz0p * (1 + P["PPY1"] * dpi) * (1 - P["PKY3"] * xp.abs(g))
+           * xp.sin(P["PKY4"] * xp.arctan((fz / fz0p)
                                           / ((P["PKY2"] + P["PKY5"] * g ** 2)
                                              * (1 + P["PPY2"] * dpi))))
            * P["LKY"])
     svyg = fz * (P["PVY3"] + P["PVY4"] * dfz) * g * P["LKYC"] * P["LMUY"]
     kyg0 = fz * (P["PKY6"] + P["PKY7"] * dfz) * (1 + P["PPY5"] * dpi) * P["LKYC"]
     shy = ((P["PHY1"] + P["PHY2"] * dfz) * P["LHY"]
-           + (kyg0 * g - svyg) / (kya + EPS * sgn1(kya)))
+           + (kyg0 * g - svyg) / (kya + EPS * sgn1(kya, xp)))
     svy = fz * (P["PVY1"] + P["PVY2"] * dfz) * P["LVY"] * P["LMUY"] + svyg
     shy = shy * s.ws
     svy = svy * s.ws
@@ -64,14 +66,14 @@ def fy0(P: Mapping[str, float], s: OperatingState, zero_camber: bool = False) ->
            * (1 - P["PDY3"] * g ** 2) * P["LMUY"])
     dy = muy * fz
     ey = ((P["PEY1"] + P["PEY2"] * dfz)
-          * (1 + P["PEY5"] * g ** 2 - (P["PEY3"] + P["PEY4"] * g) * sgn1(alpha_y)) * P["LEY"])
+          * (1 + P["PEY5"] * g ** 2 - (P["PEY3"] + P["PEY4"] * g) * sgn1(alpha_y, xp)) * P["LEY"])
     if s.mode.limits:
-        ey = np.minimum(ey, 1.0)
-    by = kya / (cy * dy + EPS * sgn1(dy))
-    f = magic_sine(by, cy, dy, ey, alpha_y) + svy
+        ey = xp.minimum(ey, 1.0)
+    by = kya / (cy * dy + EPS * sgn1(dy, xp))
+    f = magic_sine(by, cy, dy, ey, alpha_y, xp) + svy
     if s.mode.alpha_star:
-        f = np.where(s.vx_u < 0, -f, f)
-    muy = np.where(fz == 0, 0.0, muy)
+        f = xp.where(s.vx_u < 0, -f, f)
+    muy = xp.where(fz == 0, 0.0, muy)
     return PureLateral(fy0=f, muy=muy, kya=kya, shy=shy, svy=svy, by=by, cy=cy)
 
 
@@ -89,18 +91,19 @@ class CombinedLateral:
     gyk: np.ndarray
 
 
-def fy_combined(P: Mapping[str, float], s: OperatingState, pure: PureLateral) -> CombinedLateral:
+def fy_combined(P: Mapping[str, float], s: OperatingState, pure: PureLateral,
+                xp=np) -> CombinedLateral:
     """Combined-slip lateral force Fy [N] (docs/model.md, section 6)."""
     dfz, g, a = s.dfz, s.gamma_star, s.alpha_star
     dvyk = (pure.muy * s.fz * (P["RVY1"] + P["RVY2"] * dfz + P["RVY3"] * g)
-            * np.cos(np.arctan(P["RVY4"] * a)))
-    svyk = dvyk * np.sin(P["RVY5"] * np.arctan(P["RVY6"] * s.kappa)) * P["LVYKA"] * s.ws
+            * xp.cos(xp.arctan(P["RVY4"] * a)))
+    svyk = dvyk * xp.sin(P["RVY5"] * xp.arctan(P["RVY6"] * s.kappa)) * P["LVYKA"] * s.ws
     shyk = P["RHY1"] + P["RHY2"] * dfz
     eyk = P["REY1"] + P["REY2"] * dfz
     if s.mode.limits:
-        eyk = np.minimum(eyk, 1.0)
+        eyk = xp.minimum(eyk, 1.0)
     cyk = P["RCY1"]
-    byk = ((P["RBY1"] + P["RBY4"] * g ** 2) * np.cos(np.arctan(P["RBY2"] * (a - P["RBY3"])))
+    byk = ((P["RBY1"] + P["RBY4"] * g ** 2) * xp.cos(xp.arctan(P["RBY2"] * (a - P["RBY3"])))
            * P["LYKA"])
-    gyk = magic_cosine(byk, cyk, eyk, s.kappa + shyk) / magic_cosine(byk, cyk, eyk, shyk)
+    gyk = magic_cosine(byk, cyk, eyk, s.kappa + shyk, xp) / magic_cosine(byk, cyk, eyk, shyk, xp)
     return CombinedLateral(fy=gyk * pure.fy0 + svyk, gyk=gyk)

@@ -17,9 +17,9 @@ EPS = 1e-6
 """MFeval's epsilon in denominators (docs/model.md, section 1, Notation)."""
 
 
-def sgn1(x: np.ndarray) -> np.ndarray:
+def sgn1(x: np.ndarray, xp=np) -> np.ndarray:
     """Sign with sgn1(0) = +1 (MFeval's 'epsilon with the sign of its neighbour')."""
-    return np.where(x < 0, -1.0, 1.0)
+    return xp.where(x < 0, -1.0, 1.0)
 
 
 @dataclass(frozen=True)

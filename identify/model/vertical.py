@@ -21,17 +21,17 @@ EXACT_TOLERANCE = 1e-12
 EXACT_MAX_UPDATES = 60
 
 
-def free_radius(P: Mapping[str, float], omega: np.ndarray) -> np.ndarray:
+def free_radius(P: Mapping[str, float], omega: np.ndarray, xp=np) -> np.ndarray:
     """Free (centrifugally grown) radius R_omega [m] at spin rate ``omega`` [rad/s]."""
     r0 = P["UNLOADED_RADIUS"]
     return r0 * (P["Q_RE0"] + P["Q_V1"] * (omega * r0 / P["LONGVL"]) ** 2)
 
 
-def _effective_radius(P, s: OperatingState, omega: np.ndarray) -> np.ndarray:
+def _effective_radius(P, s: OperatingState, omega: np.ndarray, xp=np) -> np.ndarray:
     fz0 = P["FNOMIN"]
     cz = P["VERTICAL_STIFFNESS"] * (1 + P["PFZ1"] * s.dpi)
-    return free_radius(P, omega) - (fz0 / cz) * (P["DREFF"] * np.arctan(P["BREFF"] * s.fz_u / fz0)
-                                                 + P["FREFF"] * s.fz_u / fz0)
+    return free_radius(P, omega, xp) - (fz0 / cz) * (
+        P["DREFF"] * xp.arctan(P["BREFF"] * s.fz_u / fz0) + P["FREFF"] * s.fz_u / fz0)
 
 
 def rolling_radius(P: Mapping[str, float], s: OperatingState, omega: np.ndarray | None = None,

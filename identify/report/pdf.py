@@ -32,6 +32,7 @@ from identify.report.cover import cover, inputs_appendix
 from identify.report.fit_pages import fit_pages
 from identify.report.mcmc_pages import mcmc_pages
 from identify.report.quality_pages import quality_pages
+from identify.report.trailer_pages import trailer_pages
 from identify.report.slip_pages import mf_slip_pages, slip_pages
 
 Progress = Callable[[str], None]
@@ -97,6 +98,7 @@ def build_pages(fd: FitDir, progress: Progress | None = None):
                 notes.append(note)
             yield from mpages
     yield from quality_pages(fd, notes)
+    yield from trailer_pages(fd)
     yield from inputs_appendix(fd)
     return notes
 

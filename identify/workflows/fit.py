@@ -19,17 +19,23 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.extract import extract_folder
 from identify.fit.mcmc import run_mcmc
+from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
+from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
-from identify.fit.sources import FITTED, KeySource
+from identify.fit.sources import DEFAULT, FITTED, KeySource
 from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
 from identify.model.parameters import defaults
+from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
+from identify.segment import SegmentSettings
+from identify.workflows.sweep_bins import mf_table
+from identify.workflows.trailer_prep import prepare_trailer
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
@@ -43,6 +49,19 @@ stages."""
 def _say(progress: Progress | None, text: str) -> None:
     if progress is not None:
         progress(text)
+
+
+def _mf_trailer(td, fnomin: float, settings: FitSettings,
+                progress: Progress | None) -> pd.DataFrame:
+    """The trailer table the MF stages fit: the session logs segmented (and binned) by
+    identify.workflows.trailer_prep as they are; the other runs segmented when they hold a
+    warm-up, their dense sweeps binned (identify.workflows.sweep_bins)."""
+    done = td.table["run"].astype(str).isin(td.segmented_runs).to_numpy()
+    table, notes = mf_table(td.table[~done], fnomin, segment=settings.segment,
+                            alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa)
+    for note in notes:
+        _say(progress, note)
+    return pd.concat([td.table[done], table], ignore_index=True) if done.any() else table
 
 
 def _chain_file(settings: FitSettings, out_root, tyre_id: str, name: str) -> Path | None:
@@ -89,6 +108,16 @@ def _characteristics(mset, progress) -> tuple[pd.DataFrame, tuple, dict | None]:
     if "p_Pa" not in chars or chars["p_Pa"].isna().any():
         chars["p_Pa"] = chars["pi_bar"] * 1e5
     return chars, flags, extraction
+
+
+def _skipped_sources(coverage) -> dict[str, KeySource]:
+    """The coefficients of every skipped MF stage: kept at their start value, and why."""
+    out = {}
+    for c in coverage:
+        if c.skipped:
+            for n in (n for n in STAGES[c.stage].coefficients if spec(n).fit_default_vary):
+                out[n] = KeySource(DEFAULT, f"MF/{c.stage} skipped: {c.skipped}")
+    return out
 
 
 def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
@@ -159,21 +188,38 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                 tir.update({k: ef.result.parameters[k] for k in entry.writes
                             if k in ef.result.parameters})
 
+    coverage: tuple = ()
+    quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        _say(progress, "fit: Magic Formula stages on trailer data")
-        mf = fit_mf(mset.trailer, _numeric(tir), seed=settings.seed,
-                    fittyp=settings.fittyp)
-        for r in mf.results:
-            if settings.mcmc:
-                _say(progress, f"mcmc: MF [{r.form}]")
-                chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
-                r = stage_mcmc(mset.trailer, mf, r.form, seed=settings.seed,
-                               ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
-                               chain_file=chain)
-            results.append(assess(r))
-        key_sources.update(TA.mf_sources(mf.results, mf.held))
-        tir.update(mf.params)
-        rows.append(mf.measured_vs_model())
+        td = prepare_trailer(mset, SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg,
+                                                   bin_kappa=settings.bin_kappa),
+                             segment=settings.segment)
+        if td.segmentation is not None:
+            sg = td.segmentation
+            _say(progress, f"segment: {', '.join(td.segmented_runs)}: {sg.kept} of "
+                           f"{sg.samples} samples kept in {sg.counts().get('sweep', 0)} sweeps")
+        quality["trailer"] = td.to_dict()
+        trailer = _mf_trailer(td, float(tyre.nominal_load_N), settings, progress)
+        coverage = mf_coverage(trailer, float(tyre.nominal_load_N), unavailable=td.unavailable)
+        for line in coverage_text(coverage):
+            _say(progress, f"coverage: {line}")
+        key_sources.update(_skipped_sources(coverage))
+        stages = [c.stage for c in coverage if c.fitted]
+        if stages:
+            _say(progress, "fit: Magic Formula stages on trailer data")
+            mf = fit_mf(trailer, _numeric(tir), seed=settings.seed, fittyp=settings.fittyp,
+                        stages=stages, progress=progress)
+            for r in mf.results:
+                if settings.mcmc:
+                    _say(progress, f"mcmc: MF [{r.form}]")
+                    chain = _chain_file(settings, out_root, tyre.id, f"MF_{r.form}")
+                    r = stage_mcmc(trailer, mf, r.form, seed=settings.seed,
+                                   ar1=settings.mcmc_ar1, max_steps=settings.mcmc_max_steps,
+                                   chain_file=chain)
+                results.append(assess(r))
+            key_sources.update(TA.mf_sources(mf.results, mf.held))
+            tir.update(mf.params)
+            rows.append(mf.measured_vs_model())
 
     ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
                   tir=_numeric(tir),
@@ -220,7 +266,9 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                  key_sources=TA.complete(key_sources, settings.fittyp),
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results),
-                 tir_values=tir, form_choices=tuple(choices))
+                 tir_values=tir, form_choices=tuple(choices), coverage=coverage,
+                 data_quality=quality)
+    _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
 
 

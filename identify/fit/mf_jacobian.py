@@ -1,0 +1,185 @@
+"""Exact derivatives of the MF stage models by forward-mode automatic differentiation (JAX).
+
+The stage equations are the model's own (identify.model, written for any array module ``xp``)
+evaluated by :func:`identify.fit.mf_stage_defs.stage_predict` with ``xp = jax.numpy``; JAX's
+``jacfwd`` differentiates them with respect to every coefficient of the stage at once and XLA
+compiles the result (``jit``). The Jacobian is the FitProblem's ``jacobian`` hook
+(identify.fit.problem.JacobianFn), so the least-squares solver, the covariance, the polish
+gradient, the identifiability screen and discovery all use it.
+
+JAX is an optional extra (``pip install mfid[fast]``). Without it, or with the environment
+variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits use finite
+differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
+points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
+compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
+Compiled functions are kept in a persistent cache (``MFID_JAX_CACHE``, default
+``~/.cache/mfid/jax``; empty: none), which cuts the first call of a stage in a later run from
+~1.7 s to ~0.5 s.
+
+Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
+CHUNK (the last one padded), so that one compiled function per stage serves every data size
+(the subsample search and the full-data polish, every refit, every pass): one compile of
+~1-3 s per stage and process, then ~2-5 evaluations' time per Jacobian of up to 29 columns,
+where two-point finite differences cost 1 + free coefficients evaluations.
+"""
+from __future__ import annotations
+
+import dataclasses
+import functools
+import os
+from typing import Callable, Mapping
+
+import numpy as np
+
+from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
+from identify.model.lateral import CombinedLateral, PureLateral
+from identify.model.state import OperatingState
+
+__all__ = ["CHUNK", "ENV", "MIN_WORK", "available", "use_exact", "stage_jacobian"]
+
+CHUNK = 4096
+"""Points per compiled Jacobian call (and the size of the MF search's subsample,
+identify.fit.mf_search.SUBSAMPLE, so that the search needs one call per Jacobian)."""
+ENV = "MFID_JACOBIAN"
+"""Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
+exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
+MIN_WORK = 100_000
+"""Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
+``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 25 ms and the ~1-2 s
+compile of the stage would not pay off within a fit's ~100-250 Jacobians (measured on the
+bundled sample: Fy0, 6426 points x 28, finite differences 8.3 s, exact 5.0 s including the
+compile; Fx, 2844 x 8, finite differences 0.9 s, exact 1.8 s)."""
+CACHE_ENV = "MFID_JAX_CACHE"
+
+
+@functools.cache
+def _jax():
+    """(jax, jax.numpy) with 64-bit floats, or None when JAX is not installed.
+
+    Imported on first use, not with this module: importing JAX takes ~2 s, which every
+    ``mfid`` command would pay otherwise (measured on the 2-core machine).
+    """
+    # one XLA thread (a chunk is small; a second thread contends with the BLAS and the other
+    # processes of a batch); a user's own XLA_FLAGS win
+    os.environ.setdefault("XLA_FLAGS", "--xla_cpu_multi_thread_eigen=false "
+                                       "intra_op_parallelism_threads=1")
+    try:
+        import jax
+        import jax.numpy as jnp
+    except ImportError:
+        return None
+    jax.config.update("jax_enable_x64", True)
+    cache = os.environ.get(CACHE_ENV, os.path.join(
+        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "mfid", "jax"))
+    if cache:
+        try:
+            os.makedirs(cache, exist_ok=True)
+            jax.config.update("jax_compilation_cache_dir", cache)
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+        except OSError:  # no writable cache: compile every run
+            pass
+    for cls, meta in ((OperatingState, ("mode",)), (PureLateral, ()), (CombinedLateral, ())):
+        names = [f.name for f in dataclasses.fields(cls)]
+        jax.tree_util.register_dataclass(
+            cls, data_fields=[n for n in names if n not in meta], meta_fields=list(meta))
+    return jax, jnp
+
+
+def available() -> bool:
+    """JAX is installed and not switched off (``MFID_JACOBIAN=fd``)."""
+    return os.environ.get(ENV, "").lower() != "fd" and _jax() is not None
+
+
+def use_exact(n_points: int, n_coefficients: int) -> bool:
+    """Whether a stage of ``n_points`` points and ``n_coefficients`` candidate coefficients
+    uses the exact Jacobian (see ENV and MIN_WORK)."""
+    if not available():
+        return False
+    return (os.environ.get(ENV, "").lower() == "jax"
+            or n_points * (n_coefficients + 1) >= MIN_WORK)
+
+
+@functools.cache
+def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
+    """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
+    parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
+    compiles it again only for a new chunk structure)."""
+    jax, jnp = _jax()
+
+    def predict(theta, fixed, s, inputs):
+        P = dict(zip(others, fixed))
+        P.update(zip(coefficients, theta))
+        return stage_predict(stage, P, s, inputs, xp=jnp)
+
+    return jax.jit(jax.jacfwd(predict))
+
+
+def _chunk(tree, index: np.ndarray, n: int):
+    """The points ``index`` of every length-``n`` array leaf of ``tree`` (scalars as they are)."""
+    jax, jnp = _jax()
+
+    def take(leaf):
+        a = np.asarray(leaf)
+        return jnp.asarray(a[..., index] if a.ndim and a.shape[-1] == n else leaf)
+    return jax.tree_util.tree_map(take, tree)
+
+
+def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
+                   omega: np.ndarray | None = None, *, exact: bool | None = None
+                   ) -> Callable[[Mapping[str, float], tuple[str, ...]], np.ndarray] | None:
+    """The exact Jacobian of the stage model (identify.fit.mf_stage_defs.stage_model) at the
+    points ``s``, or None for finite differences (see module).
+
+    Parameters
+    ----------
+    stage : str
+    base : mapping
+        Every .tir value (held values); the stage's own coefficients come from each call's
+        ``values``.
+    s : OperatingState
+        The stage's points (useMode 211).
+    omega : ndarray [rad/s], optional
+        Wheel speed (geometry stage).
+    exact : bool, optional
+        True: the exact Jacobian whenever JAX is available (a subsample of a stage that has
+        it); False: None; default :func:`use_exact` for the points and the stage's
+        coefficients.
+
+    Returns
+    -------
+    callable or None
+        jacobian(values, names) -> d prediction / d names, (points, len(names)) [unit of the
+        quantity per unit of each coefficient]; ``names`` must be coefficients of the stage.
+    """
+    coefficients = STAGES[stage].coefficients
+    n = int(s.fz.size)
+    if exact is None:
+        exact = use_exact(n, len(coefficients))
+    if not exact or not available():
+        return None
+    others = tuple(k for k in base if k not in set(coefficients))
+    fn = _compiled(stage, coefficients, others)
+    inputs = stage_inputs(stage, base, s, omega)
+    starts = range(0, n, CHUNK)
+    # device copies of each chunk's points, made once (the last chunk padded with its first
+    # point, whose rows are dropped)
+    chunks = []
+    for a in starts:
+        index = np.arange(a, min(a + CHUNK, n))
+        pad = np.concatenate([index, np.full(CHUNK - index.size, a)])
+        chunks.append((index.size, _chunk(s, pad, n), _chunk(inputs, pad, n)))
+    position = {c: j for j, c in enumerate(coefficients)}
+    fixed = np.array([float(base[k]) for k in others])
+
+    def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
+        unknown = [m for m in names if m not in position]
+        if unknown:
+            raise ValueError(f"{', '.join(unknown)}: not coefficients of the MF {stage} stage")
+        theta = np.array([float(values.get(c, base[c])) for c in coefficients])
+        cols = [position[m] for m in names]
+        out = np.empty((n, len(names)))
+        for a, (size, sc, ic) in zip(starts, chunks):
+            J = np.asarray(fn(theta, fixed, sc, ic))
+            out[a:a + size] = J[:size, cols]
+        return out
+    return jacobian

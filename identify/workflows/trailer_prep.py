@@ -1,0 +1,101 @@
+"""The trailer table the MF stages see: segmented where it is a continuous log, with the channels
+that cannot be used named, and the data-quality record that goes into fit.json and the report.
+
+Continuous session logs (the runs read from TTC ``.mat``/``.dat`` files: sweeps, warm-ups and
+transitions in one stream) are segmented first (identify.segment.segment_trailer with its
+default settings): only the sweep segments at their condition levels are kept, after the named
+filters (revolution average, set slip angle, cold tread, low speed). Runs in the other formats
+are test-by-test files whose every sample is a measurement, and are used as loaded.
+
+A channel is unavailable to the fit when it is absent from every run or was dropped as
+implausible while loading (identify.io.quirks); :func:`prepare_trailer` says why, per tidy
+column, so that the stages needing it are skipped with that reason
+(identify.fit.coverage.mf_coverage) instead of being fitted to placeholder data.
+"""
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import pandas as pd
+
+from identify.segment import LEVEL_COLUMNS, Segmentation, SegmentSettings, segment_trailer
+
+__all__ = ["SEGMENTED_SUFFIXES", "TrailerData", "prepare_trailer", "unavailable_channels"]
+
+SEGMENTED_SUFFIXES = (".mat", ".dat")
+"""Run files whose runs are continuous logs and are segmented before fitting (TTC)."""
+
+#: implausible-warning detail (identify.io.quirk_checks) -> the tidy column it dropped
+_IMPLAUSIBLE = (("wheel speed", "omega"), ("slip ratio pinned", "kappa"),
+                ("effective rolling radius", "re"), ("loaded radius", "rl"))
+_USED = ("omega", "kappa", "Fx", "Fy", "Mz", "Mx", "My")
+
+
+@dataclass(frozen=True, eq=False)
+class TrailerData:
+    """The trailer table to fit and what happened to it.
+
+    Attributes
+    ----------
+    table : DataFrame            the rows the MF stages may use
+    segmentation : Segmentation or None   the segmentation of the continuous runs (None when
+                                 there were none)
+    segmented_runs : tuple of str   the runs that were segmented
+    unavailable : mapping        tidy column -> why it cannot be used
+    """
+
+    table: pd.DataFrame
+    segmentation: Segmentation | None
+    segmented_runs: tuple[str, ...] = ()
+    unavailable: Mapping[str, str] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The trailer part of fit.json's ``data_quality``."""
+        return {"segmented_runs": list(self.segmented_runs),
+                "segmentation": None if self.segmentation is None
+                else self.segmentation.to_dict(),
+                "unavailable": dict(self.unavailable), "rows_fitted": len(self.table)}
+
+
+def unavailable_channels(trailer: pd.DataFrame, warnings) -> dict[str, str]:
+    """Tidy column -> why the fit cannot use it: dropped as implausible in every run that has
+    it, or absent (all NaN). Only the columns a stage fits or selects by are listed."""
+    dropped: dict[str, str] = {}
+    for w in warnings:
+        if w.kind != "implausible":
+            continue
+        col = next((c for text, c in _IMPLAUSIBLE if w.detail.startswith(text)), None)
+        if col is not None and "not used" not in w.detail:
+            dropped.setdefault(col, f"{', '.join(w.channels)} in {w.run}: {w.detail}")
+    out = {}
+    for col in _USED:
+        if col in trailer.columns and trailer[col].notna().any():
+            continue
+        if col in dropped:
+            out[col] = f"dropped as implausible ({dropped[col]})"
+        else:
+            out[col] = "absent"
+    return out
+
+
+def prepare_trailer(mset, settings: SegmentSettings = SegmentSettings(), *,
+                    segment: bool = True) -> TrailerData:
+    """The trailer table of a MeasurementSet ready for the MF stages (see the module notes);
+    ``settings`` go to the segmentation (bin widths: FitSettings), ``segment=False`` keeps
+    every run as loaded (``mfid fit --no-segment``)."""
+    trailer = mset.trailer
+    continuous = {r.id for r in mset.manifest.runs if r.kind == "trailer"
+                  and Path(r.file).suffix.lower() in SEGMENTED_SUFFIXES}
+    unavailable = unavailable_channels(trailer, mset.warnings)
+    if not segment or not continuous or trailer is None or trailer.empty:
+        return TrailerData(trailer, None, (), unavailable)
+    is_cont = trailer["run"].astype(str).isin(continuous)
+    seg = segment_trailer(trailer[is_cont], settings)
+    kept = seg.table.drop(columns=["segment", "sweep", *LEVEL_COLUMNS.values()],
+                          errors="ignore")
+    table = pd.concat([kept, trailer[~is_cont]], ignore_index=True)
+    runs = tuple(sorted(set(trailer.loc[is_cont, "run"].astype(str))))
+    return TrailerData(table, seg.segmentation, runs, unavailable)
