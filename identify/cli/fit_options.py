@@ -1,0 +1,42 @@
+"""The fit options ``mfid batch`` shares with ``mfid fit``, checked and turned into settings.
+
+The checks are those ``mfid fit`` makes (identify/cli/fit_cmd.py, which keeps its own copy
+inline for now): FITTYP 61 or 62, ``--mcmc-ar1`` and ``--mcmc-max-steps`` only with
+``--mcmc``, a cap of at least one chunk of the chain.
+"""
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from identify.core.errors import InputError
+from identify.fit.mcmc import CHUNK, MAX_STEPS
+from identify.fit.run import FitSettings
+from identify.workflows.fit import only_names
+
+__all__ = ["fit_settings"]
+
+
+def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
+                 mcmc_max_steps: int | None = None, only: Sequence[str] = (),
+                 fittyp: int = 61, form: Sequence[str] = (),
+                 hold: Sequence[str] = ()) -> FitSettings:
+    """The FitSettings of these command-line options (as ``mfid fit`` builds them).
+
+    Raises
+    ------
+    InputError
+        An option out of range or given without the one it needs (the key names it).
+    """
+    if fittyp not in (61, 62):
+        raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
+    if mcmc_ar1 and not mcmc:
+        raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
+    if mcmc_max_steps is not None and not mcmc:
+        raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
+    if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
+        raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
+                               f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+    return FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
+                       only=only_names(only), fittyp=fittyp,
+                       mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
+                       forms=only_names(form), hold=only_names(hold))
