@@ -22,6 +22,7 @@ from rich.progress import (
 
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import _command_line
+from identify.cli.entry import Interrupted
 from identify.cli.fit_options import fit_settings
 from identify.core.errors import MfidError
 from identify.workflows.batch import run_batch
@@ -153,7 +154,8 @@ def batch_command(
     def command(folder: str) -> str:
         """The `mfid fit` command of one folder, recorded in its fit.json."""
         return _command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
-                             fittyp, mcmc_ar1, mcmc_max_steps, form, hold)
+                             fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
+                             forms=form, hold=hold)
 
     events = RichBatchEvents()
     try:
@@ -164,11 +166,11 @@ def batch_command(
                         reports=None if no_report else reports, settings=settings,
                         workers=workers, scheduler=scheduler, retries=retries, force=force,
                         command=command, events=events)
-    except KeyboardInterrupt:
+    except (KeyboardInterrupt, Interrupted) as exc:  # Ctrl-C, SIGTERM (identify.cli.entry)
         events.close()
         err_console.print("interrupted: the running fits were stopped and their temporary "
                           "files removed; finished folders keep their outputs", markup=False)
-        raise typer.Exit(130) from None
+        raise typer.Exit(128 + getattr(exc, "signum", 2)) from None
     except MfidError as exc:
         events.close()
         fail(exc)
