@@ -13,10 +13,10 @@ from pathlib import Path
 
 __all__ = ["NAME_RULE", "name_problem", "safe_name", "inside"]
 
-_SAFE = re.compile(r"[A-Za-z0-9._-]+")
+_SAFE = re.compile(r"[\w.-]+")  # \w: any script's letters and digits, and _
 #: How a safe name is described in messages.
 NAME_RULE = "letters, digits, '-', '_' and '.' only; not empty, '.' or '..'"
-#: Longest safe name [characters] (file systems allow 255 bytes; the .tir adds 4).
+#: Longest safe name [bytes of UTF-8] (file systems allow 255 bytes; the .tir adds 4).
 MAX_LENGTH = 200
 
 
@@ -28,10 +28,11 @@ def name_problem(text: str) -> str | None:
     >>> name_problem("../x").startswith("'../x' is not a safe file name")
     True
     """
-    if text in ("", ".", "..") or not _SAFE.fullmatch(text) or len(text) > MAX_LENGTH:
+    long = len(text.encode("utf-8", "surrogatepass")) > MAX_LENGTH
+    if text in ("", ".", "..") or not _SAFE.fullmatch(text) or long:
         shown = text if len(text) <= 40 else text[:37] + "..."
         return f"{shown!r} is not a safe file name ({NAME_RULE}" + (
-            f"; at most {MAX_LENGTH} characters)" if len(text) > MAX_LENGTH else ")")
+            f"; at most {MAX_LENGTH} bytes)" if long else ")")
     return None
 
 
@@ -40,7 +41,10 @@ def safe_name(text: str) -> str:
     and trailing ``-``/``.`` are stripped (``"Hoosier 18.0x6.0-10 R25B"`` ->
     ``"Hoosier-18.0x6.0-10-R25B"``, ``"../a//b c"`` -> ``"a-b-c"``); ``""`` when nothing
     is left."""
-    return re.sub(r"[^A-Za-z0-9._-]+", "-", text).strip("-.")[:MAX_LENGTH]
+    name = re.sub(r"[^\w.-]+", "-", text).strip("-.")
+    while len(name.encode("utf-8", "surrogatepass")) > MAX_LENGTH:
+        name = name[:-1]
+    return name
 
 
 def inside(folder: Path, relative: str) -> tuple[Path | None, str | None]:
