@@ -166,3 +166,16 @@ def write_good_folder(root: Path) -> Path:
     shutil.copy(TIR, root / "extra" / "tyre.tir")
     (root / "extra" / "points.csv").write_text(POINTS)
     return root
+
+
+def set_cell(rel: str, line: int, column: str, value: str):
+    """A folder edit for the bad-input tests: cell ``column`` of 1-based ``line`` of the CSV
+    ``rel`` (relative to the folder) set to ``value`` as text."""
+    def apply(root: Path) -> None:
+        lines = (root / rel).read_text().splitlines()
+        col = lines[0].split(",").index(column)
+        cells = lines[line - 1].split(",")
+        cells[col] = value
+        lines[line - 1] = ",".join(cells)
+        (root / rel).write_text("\n".join(lines) + "\n")
+    return apply

@@ -22,7 +22,7 @@ from identify.core.errors import InputError
 from identify.io.folder import load_folder
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
-from tests.measurement_cases import trailer_channels, write_good_folder
+from tests.measurement_cases import set_cell, trailer_channels, write_good_folder
 
 runner = CliRunner()
 TR = "trailer/cornering_p250.csv"
@@ -45,17 +45,6 @@ def edit_line(rel: str, line: int, fn):
     def apply(root: Path) -> None:
         lines = (root / rel).read_text().splitlines()
         lines[line - 1] = fn(lines[line - 1])
-        (root / rel).write_text("\n".join(lines) + "\n")
-    return apply
-
-
-def set_cell(rel: str, line: int, column: str, value: str):
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
-        col = lines[0].split(",").index(column)
-        cells = lines[line - 1].split(",")
-        cells[col] = value
-        lines[line - 1] = ",".join(cells)
         (root / rel).write_text("\n".join(lines) + "\n")
     return apply
 

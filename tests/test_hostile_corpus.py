@@ -20,6 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from tests.measurement_cases import set_cell as cell
 from tests.measurement_cases import write_good_folder
 
 runner = CliRunner()
@@ -39,17 +40,6 @@ def edit(rel: str, old: str, new: str, count: int = 1):
         text = (root / rel).read_text()
         assert old in text, (rel, old)
         (root / rel).write_text(text.replace(old, new, count))
-    return apply
-
-
-def cell(rel: str, line: int, column: str, value: str):
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
-        col = lines[0].split(",").index(column)
-        cells = lines[line - 1].split(",")
-        cells[col] = value
-        lines[line - 1] = ",".join(cells)
-        (root / rel).write_text("\n".join(lines) + "\n")
     return apply
 
 

@@ -27,9 +27,10 @@ from rich.text import Text
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
+from identify.cli.fit_options import check_fit_options
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import CHUNK, MAX_STEPS, ChainProgress
+from identify.fit.mcmc import MAX_STEPS, ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import FitSettings, fit_folder, only_names
 from identify.fit.summary import notes_lines  # lazy: see fit_command
@@ -288,15 +289,8 @@ def fit_command(
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                             mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin, no_segment)
     try:
-        if fittyp not in (61, 62):
-            raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
-        if mcmc_ar1 and not mcmc:
-            raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
-        if mcmc_max_steps is not None and not mcmc:
-            raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
-        if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
-            raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
-                                   f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+        check_fit_options(fittyp=fittyp, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
+                          mcmc_max_steps=mcmc_max_steps)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not (math.isfinite(mcmc_budget) and mcmc_budget > 0):

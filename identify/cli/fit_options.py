@@ -1,8 +1,8 @@
 """The fit options ``mfid batch`` shares with ``mfid fit``, checked and turned into settings.
 
-The checks are those ``mfid fit`` makes (identify/cli/fit_cmd.py, which keeps its own copy
-inline for now): FITTYP 61 or 62, ``--mcmc-ar1`` and ``--mcmc-max-steps`` only with
-``--mcmc``, a cap of at least one chunk of the chain.
+The checks (:func:`check_fit_options`, also made by ``mfid fit``): FITTYP 61 or 62,
+``--mcmc-ar1`` and ``--mcmc-max-steps`` only with ``--mcmc``, a cap of at least one chunk of
+the chain.
 """
 from __future__ import annotations
 
@@ -13,7 +13,22 @@ from identify.fit.mcmc import CHUNK, MAX_STEPS
 from identify.fit.run import FitSettings
 from identify.workflows.fit import only_names
 
-__all__ = ["fit_settings"]
+__all__ = ["check_fit_options", "fit_settings"]
+
+
+def check_fit_options(*, fittyp: int, mcmc: bool, mcmc_ar1: bool,
+                      mcmc_max_steps: int | None) -> None:
+    """Raise InputError (naming the option) for a FITTYP other than 61/62, an MCMC option
+    without ``--mcmc``, or a step cap below one chunk of the chain."""
+    if fittyp not in (61, 62):
+        raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
+    if mcmc_ar1 and not mcmc:
+        raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
+    if mcmc_max_steps is not None and not mcmc:
+        raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
+    if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
+        raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
+                               f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
 
 
 def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
@@ -27,15 +42,8 @@ def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
     InputError
         An option out of range or given without the one it needs (the key names it).
     """
-    if fittyp not in (61, 62):
-        raise InputError(None, f"FITTYP must be 61 or 62, not {fittyp}", key="--fittyp")
-    if mcmc_ar1 and not mcmc:
-        raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
-    if mcmc_max_steps is not None and not mcmc:
-        raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
-    if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
-        raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
-                               f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+    check_fit_options(fittyp=fittyp, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
+                      mcmc_max_steps=mcmc_max_steps)
     return FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                        only=only_names(only), fittyp=fittyp,
                        mcmc_max_steps=mcmc_max_steps or MAX_STEPS,

@@ -28,8 +28,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import signal
+import threading
 import time
 from collections.abc import Callable
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -205,6 +208,43 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     return p0
 
 
+@contextmanager
+def _signals_between_steps():
+    """Hold SIGINT/SIGTERM while the walkers evaluate, deliver them between steps.
+
+    emcee prints a traceback for any exception raised inside the log-probability (Ctrl-C
+    included) before passing it on; a signal that arrives during a step is recorded and, when
+    the block ends, handed to the handler that was in place (the CLI's: one line, exit 130 or
+    143, temporary chain files removed). Yields the list of pending signals; outside the main
+    thread signals cannot be handled and nothing changes.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield []
+        return
+    pending: list[int] = []
+    watched = (signal.SIGINT, signal.SIGTERM)
+    previous = {s: signal.getsignal(s) for s in watched}
+
+    def hold(signum, frame):
+        pending.append(signum)
+
+    for s in watched:
+        signal.signal(s, hold)
+    try:
+        yield pending
+    finally:
+        for s in watched:
+            signal.signal(s, previous[s])
+    if pending:
+        handler = previous[pending[0]]
+        if callable(handler):
+            handler(pending[0], None)
+        elif pending[0] == signal.SIGINT and handler == signal.SIG_DFL:
+            raise KeyboardInterrupt
+        else:
+            signal.raise_signal(pending[0])
+
+
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
          tau_fn: Callable[[], np.ndarray]):
     """Run in CHUNKs until 50 tau, the cap or the budget (checked every step); return the
@@ -219,22 +259,27 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
         progress(ChainProgress(steps, max_steps, tmax, target, time.perf_counter() - t0,
                                budget, stop_now))
 
-    while not stop:
-        for new in sampler.sample(state, iterations=min(CHUNK, max_steps - steps)):
-            state = new
-            steps += 1
-            now = time.perf_counter()
-            if budget is not None and now - t0 >= budget:
-                stop = "budget"
+    with _signals_between_steps() as pending:
+        while not stop and not pending:
+            for new in sampler.sample(state, iterations=min(CHUNK, max_steps - steps)):
+                state = new
+                steps += 1
+                now = time.perf_counter()
+                if pending:
+                    break
+                if budget is not None and now - t0 >= budget:
+                    stop = "budget"
+                    break
+                if progress is not None and now - last >= PROGRESS_EVERY:
+                    last = now
+                    report()
+            if pending:
                 break
-            if progress is not None and now - last >= PROGRESS_EVERY:
-                last = now
-                report()
-        tau = tau_fn() if steps >= 2 else tau
-        if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
-            stop = "converged"
-        elif steps >= max_steps and not stop:
-            stop = "max_steps"
+            tau = tau_fn() if steps >= 2 else tau
+            if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
+                stop = "converged"
+            elif steps >= max_steps and not stop:
+                stop = "max_steps"
     if progress is not None:
         report(stop)
     return state, steps, tau, stop
