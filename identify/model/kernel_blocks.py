@@ -110,6 +110,28 @@ def _vertical_pass(c, inp, m, has_omega, blk):
             blk[RL_CONVERGED * BLOCK + i] = 1.0
 
 
+@numba.njit(inline="always")
+def _load_slip_inputs(inp, lo, m, fz, kappa, alpha, gamma, vx, p):
+    """Copy points ``lo .. lo + m`` of the six slip inputs to rows 0-5 of the flat block
+    ``inp`` (see :func:`full_block` for why the block is flat)."""
+    for i in range(m):
+        inp[i] = fz[lo + i]
+        inp[BLOCK + i] = kappa[lo + i]
+        inp[2 * BLOCK + i] = alpha[lo + i]
+        inp[3 * BLOCK + i] = gamma[lo + i]
+        inp[4 * BLOCK + i] = vx[lo + i]
+        inp[5 * BLOCK + i] = p[lo + i]
+
+
+@numba.njit(inline="always")
+def _store_rows(blk, rows, lo, m, out):
+    """Copy the first ``rows`` rows of the flat block ``blk`` to columns ``lo .. lo + m`` of
+    ``out``."""
+    for r in range(rows):
+        for i in range(m):
+            out[r, lo + i] = blk[r * BLOCK + i]
+
+
 @numba.njit(**LOOP_JIT)
 def full_block(c, fz, kappa, alpha, gamma, vx, p, phit, omega, has_omega, limits, alpha_star,
                out):
@@ -125,20 +147,13 @@ def full_block(c, fz, kappa, alpha, gamma, vx, p, phit, omega, has_omega, limits
     blk = np.empty(NROWS * BLOCK)
     for lo in range(0, n, BLOCK):
         m = min(BLOCK, n - lo)
+        _load_slip_inputs(inp, lo, m, fz, kappa, alpha, gamma, vx, p)
         for i in range(m):
-            inp[i] = fz[lo + i]
-            inp[BLOCK + i] = kappa[lo + i]
-            inp[2 * BLOCK + i] = alpha[lo + i]
-            inp[3 * BLOCK + i] = gamma[lo + i]
-            inp[4 * BLOCK + i] = vx[lo + i]
-            inp[5 * BLOCK + i] = p[lo + i]
             inp[6 * BLOCK + i] = phit[lo + i]
             inp[7 * BLOCK + i] = omega[lo + i]
         _slip_pass(c, inp, m, limits, alpha_star, blk)
         _vertical_pass(c, inp, m, has_omega, blk)
-        for r in range(NOUT):
-            for i in range(m):
-                out[r, lo + i] = blk[r * BLOCK + i]
+        _store_rows(blk, NOUT, lo, m, out)
 
 
 @numba.njit(**LOOP_JIT)
@@ -169,13 +184,7 @@ def _forces_with_mz(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, out):
     blk = np.empty(9 * BLOCK)
     for lo in range(0, n, BLOCK):
         m = min(BLOCK, n - lo)
-        for i in range(m):
-            inp[i] = fz[lo + i]
-            inp[BLOCK + i] = kappa[lo + i]
-            inp[2 * BLOCK + i] = alpha[lo + i]
-            inp[3 * BLOCK + i] = gamma[lo + i]
-            inp[4 * BLOCK + i] = vx[lo + i]
-            inp[5 * BLOCK + i] = p[lo + i]
+        _load_slip_inputs(inp, lo, m, fz, kappa, alpha, gamma, vx, p)
         for i in range(m):
             s = prepare(c, inp[i], inp[BLOCK + i], inp[2 * BLOCK + i], inp[3 * BLOCK + i],
                         inp[4 * BLOCK + i], inp[5 * BLOCK + i], 0.0, limits, alpha_star)
@@ -194,6 +203,4 @@ def _forces_with_mz(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, out):
             blk[6 * BLOCK + i] = lon.kxk
             blk[7 * BLOCK + i] = lon.mux
             blk[8 * BLOCK + i] = abs(lat.muy) if limits else lat.muy
-        for r in range(9):
-            for i in range(m):
-                out[r, lo + i] = blk[r * BLOCK + i]
+        _store_rows(blk, 9, lo, m, out)
