@@ -226,7 +226,8 @@ def _signals_between_steps():
     previous = {s: signal.getsignal(s) for s in watched}
 
     def hold(signum, frame):
-        pending.append(signum)
+        if previous[signum] is not signal.SIG_IGN:  # an ignored signal must not end the chain
+            pending.append(signum)
 
     for s in watched:
         signal.signal(s, hold)
