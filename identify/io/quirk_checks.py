@@ -159,7 +159,7 @@ def dropouts(frame: pd.DataFrame, cols: list[str], report: WarningReport) -> Non
         mask = np.zeros(x.size, dtype=bool)
         for a, b in zip(starts, stops):  # a handful of events, not a loop over samples
             mask[a:b] = True
-        frame.loc[mask, c] = np.nan
+        frame[c] = np.where(mask, np.nan, x)  # a new array: the caller's is not written
         counts[c] = int(mask.sum())
         events = max(events, int(starts.size))
         first = int(starts[0]) if first is None else min(first, int(starts[0]))
@@ -204,7 +204,9 @@ def spikes(frame: pd.DataFrame, cols: list[str], report: WarningReport) -> None:
         for a, b in zip(starts[short], stops[short]):  # a handful of events
             mask[a:b] = True
         if mask.any():
-            frame.loc[frame.index[idx[mask]], c] = np.nan
+            x = x.copy()  # a new array: the caller's is not written
+            x[idx[mask]] = np.nan
+            frame[c] = x
             counts[c] = int(mask.sum())
             i = int(idx[mask][0])
             first = i if first is None else min(first, i)

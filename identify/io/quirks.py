@@ -67,12 +67,6 @@ _RADII = ("rl", "re")
 _TEMPERATURES = ("T_tread_in", "T_tread_centre", "T_tread_out", "T_road", "T_ambient")
 
 
-def _own(values: np.ndarray, copy: bool) -> np.ndarray:
-    """``values`` itself when it may be changed in place, else a copy (a read-only array, from
-    scipy.io or a memory map, is always copied)."""
-    return values if not copy and values.flags.writeable else values.copy()
-
-
 @dataclass(frozen=True, eq=False)
 class CleanResult:
     """The cleaned table, the warnings, and the errors.
@@ -89,7 +83,7 @@ class CleanResult:
 
 def clean_run(frame: pd.DataFrame, *, file: str, run: str,
               names: Mapping[str, str] | None = None,
-              first_line: int | None = None, copy: bool = True) -> CleanResult:
+              first_line: int | None = None) -> CleanResult:
     """Find, clean and report the quirks of one run's tidy table (SI, ISO-W).
 
     Parameters
@@ -104,9 +98,6 @@ def clean_run(frame: pd.DataFrame, *, file: str, run: str,
         Tidy column -> channel name in the file (for the messages).
     first_line : int, optional
         Line of the first sample in a text file.
-    copy : bool
-        Work on a copy (default). False: the caller's arrays may be changed in place (a
-        spike set NaN), which saves a copy of the whole run (0.5 GB at 5e6 samples).
 
     Returns
     -------
@@ -119,11 +110,9 @@ def clean_run(frame: pd.DataFrame, *, file: str, run: str,
     frame = frame.reset_index(drop=True)
     frame = time_order(frame, report, errors)
     report.rows = frame.index.to_numpy()  # file row of each remaining sample
+    # no copy of the run (0.5 GB at 5e6 samples): a check that sets samples NaN replaces that
+    # channel with a new array, so the caller's arrays are never written
     frame = frame.reset_index(drop=True)
-    # column by column: DataFrame.copy() first merges the blocks into one 2-D array (5 s and
-    # twice the memory at 1e6 x 20 while other work shares the machine)
-    frame = pd.DataFrame({c: _own(frame[c].to_numpy(), copy) for c in frame.columns},
-                         index=frame.index, copy=False)
     if errors:
         return CleanResult(None, tuple(report.items), tuple(errors))
     present = [c for c in frame.columns if c not in ("run", "t") and
@@ -138,12 +127,15 @@ def clean_run(frame: pd.DataFrame, *, file: str, run: str,
     dropouts(frame, [c for c in _DROPOUT if c in live], report)
     spikes(frame, [c for c in _DATA + _RADII + _TEMPERATURES if c in live], report)
     keep_cols = [c for c in REQUIRED_COLUMNS if c in live]
-    missing = np.column_stack([~np.isfinite(frame[c].to_numpy(float)) for c in keep_cols]) \
-        if keep_cols else np.zeros((len(frame), 0), dtype=bool)
-    bad = missing.any(axis=1)
+    bad, missing = np.zeros(len(frame), dtype=bool), []
+    for c in keep_cols:  # column by column: no n x channels mask
+        gone = ~np.isfinite(frame[c].to_numpy(float))
+        if gone.any():
+            bad |= gone
+            missing.append(c)
     if bad.any():
         starts, _ = runs_of(bad)
-        report.add("rows", [c for c, m in zip(keep_cols, missing.T) if m.any()],
+        report.add("rows", missing,
                    int(bad.sum()), f"rows with a missing value in a required channel "
                    f"({starts.size} stretch(es))", "rows dropped", int(np.flatnonzero(bad)[0]))
         frame = frame[~bad].reset_index(drop=True)

@@ -64,8 +64,7 @@ __all__ = [
 def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                      conditions: Mapping[str, float] | None = None,
                      problems: Problems | None = None,
-                     warnings: list[DataWarning] | None = None,
-                     copy: bool = True) -> pd.DataFrame | None:
+                     warnings: list[DataWarning] | None = None) -> pd.DataFrame | None:
     """The tidy table (:data:`TRAILER_COLUMNS` + present :data:`OPTIONAL_COLUMNS`, SI, ISO-W)
     of one run, with its quirks cleaned (:func:`identify.io.quirks.clean_run`).
 
@@ -83,9 +82,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         Collector; strict by default.
     warnings : list, optional
         Receives a :class:`~identify.io.quirks.DataWarning` per quirk found and cleaned.
-    copy : bool
-        False: the cleaning may change ``ch``'s arrays in place (a caller that drops ``ch``
-        saves a copy of the run).
+        ``ch``'s arrays are never changed; the table shares those the cleaning leaves as read.
     """
     problems = problems if problems is not None else Problems(strict=True)
     conditions = conditions or {}
@@ -138,7 +135,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     frame.insert(0, "run", ch.run)
     frame = to_iso_w(frame, axes, loaded_radius=rl)
     cleaned = clean_run(frame, file=ch.file, run=ch.run, names=names,
-                        first_line=ch.first_line, copy=copy)
+                        first_line=ch.first_line)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
