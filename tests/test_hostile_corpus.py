@@ -5,8 +5,9 @@ Each case mutates a copy of the good folder (tests/measurement_cases.py), runs o
 (and the line or channel where there is one) and says what is wrong; no traceback. The classes:
 unsafe names and paths, what the libraries raise (csv field limit, h5py, symlink loops, huge
 numbers, undecodable bytes, multi-line quoted cells), values that are only wrong after the unit
-conversion or a channel factor, implausible values, .tir keys the model divides by, files that
-are not regular files (FIFOs, devices). A case accepted with exit 0 fails the test.
+conversion or a channel factor, implausible values, .tir keys the model divides by, a .tir
+section header lost (its keys read as part of the section above), files that are not regular
+files (FIFOs, devices). A case accepted with exit 0 fails the test.
 """
 from __future__ import annotations
 
@@ -17,11 +18,13 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+import scipy.io
 from typer.testing import CliRunner
 
 from identify.cli.app import app
 from tests.measurement_cases import set_cell as cell
 from tests.measurement_cases import write_good_folder
+from tests.ttc_cases import small_mat
 
 runner = CliRunner()
 TR = "trailer/cornering_p250.csv"
@@ -122,6 +125,34 @@ def h5_dangling(grp) -> None:
 def h5_overflow(grp) -> None:
     grp["INFLPRES"].attrs["units"] = "kPa"
     grp["INFLPRES"][4] = 1e308
+
+
+def raw_edit(rel: str, old: bytes, new: bytes):
+    def apply(root: Path) -> None:
+        data = (root / rel).read_bytes()
+        assert old in data, (rel, old)
+        (root / rel).write_bytes(data.replace(old, new, 1))
+    return apply
+
+
+def overwrite(rel: str, offset: int, size: int = 64):
+    """Bytes of a file overwritten in place (HDF5 metadata that h5py opens, then fails on)."""
+    def apply(root: Path) -> None:
+        data = bytearray((root / rel).read_bytes())
+        data[offset:offset + size] = b"\xa5" * size
+        (root / rel).write_bytes(bytes(data))
+        with h5py.File(root / rel, "r") as fh:  # still opens: the damage is further in
+            assert list(fh)
+    return apply
+
+
+def ttc_mat_overflow(root: Path) -> None:
+    """A TTC .mat file whose pressure in psi is finite as stored, infinite in Pa."""
+    path = small_mat(root / "extra" / "session.mat", units={"P": "psi"})
+    raw = scipy.io.loadmat(path)
+    raw["P"][4, 0] = 1e308
+    scipy.io.savemat(path, {k: v for k, v in raw.items() if not k.startswith("__")},
+                     format="5")
 
 
 def truncate(rel: str, keep: int):
@@ -242,6 +273,7 @@ CASES = [
      ["INFLPRES: ", "not finite in SI"]),
     ("hdf5-truncated", truncate(H5, 3000), ROOT_CMD, H5, ["HDF5"]),
     ("hdf5-signature-only", truncate(H5, 8), ROOT_CMD, H5, ["HDF5"]),
+    ("hdf5-corrupt-metadata", overwrite(H5, 2000), ROOT_CMD, H5, ["corrupt HDF5 file"]),
     # TYDEX
     ("tdx-factor-overflow", edit(TDX, "bar       1 0 0", "bar       1e308 0 0"), ROOT_CMD,
      TDX, [":", "INFLPRES: ", "is not finite"]),
@@ -249,6 +281,12 @@ CASES = [
      ["INFLPRES: ", "constant 'nan' is not a finite number"]),
     ("tdx-overflow-after-unit", edit(TDX, "km/h      1 0 0", "km/h      1e307 0 0"), ROOT_CMD,
      TDX, ["LONGVEL: "]),
+    ("tdx-binary-in-data", raw_edit(TDX, b"**MEASURDATA\n", b"**MEASURDATA\n\xff"), ROOT_CMD,
+     TDX, [":21: ", "cannot parse the **MEASURDATA section"]),
+    # TTC files (convert reads one alone)
+    ("ttc-mat-overflow-after-psi", ttc_mat_overflow,
+     ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
+     ["P: ", "1e+308 psi", "not finite in SI"]),
     # characteristic tables
     ("table-cell-over-field-limit", edit(TAB, "251700.0", BIG), ROOT_CMD, TAB,
      [":2: ", "cannot parse CSV: field larger than field limit"]),
@@ -289,6 +327,12 @@ CASES = [
     ("tir-radius-100", tir_key("UNLOADED_RADIUS", "100"), EVAL, TIR,
      ["UNLOADED_RADIUS: ", "not physical"]),
     ("tir-fifo", fifo(TIR), EVAL, TIR, ["is a named pipe (FIFO)"]),
+    ("tir-no-model-header", edit(TIR, "[MODEL]\n", ""), EVAL, TIR,
+     [":18: FITTYP: ", "no [MODEL] section header"]),
+    ("tir-no-vertical-header", edit(TIR, "[VERTICAL]\n", ""), EVAL, TIR,
+     [":52: FNOMIN: ", "no [VERTICAL] section header"]),
+    ("tir-not-utf8", raw_line(TIR, 53, b"FNOMIN = 50\xff00"), EVAL, TIR,
+     [":53: FNOMIN: ", "non-UTF-8 byte 0xFF"]),
     ("tir-dev-null", nothing, ["eval", "/dev/null", "-i", "{root}/" + PTS, "-o", "{out}/e.csv"],
      "/dev/null", ["is a device"]),
     # operating points
@@ -307,6 +351,8 @@ CASES = [
      [":2: Vx: ", "not physical"]),
     ("points-not-utf8", raw_line(PTS, 3, b"4000,0.02,0.0,0.0,16.7,\xff"), EVAL, PTS,
      [":3: ", "not UTF-8 text"]),
+    ("points-multiline-quoted", edit(PTS, "16.7,250000\n4000", '16.7,"25\n0000"\n4000'), EVAL,
+     PTS, [":2: p: ", "not a number: '25\\n0000'"]),
     ("points-huge-number", edit(PTS, "16.7,250000\n", "16.7,1" + "0" * 400 + "\n"), EVAL, PTS,
      [":2: p: "]),
     # convert: the file alone (units from its header)

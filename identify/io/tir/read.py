@@ -219,6 +219,7 @@ def read_tir(path: str | Path) -> TirFile:
     ------
     InputError
         For an unreadable, empty or malformed file, an unsupported or missing FITTYP, a key
+        of a section that has no header (read in the section above: a lost header line), a key
         given twice with different values, a non-number where a number is required, a
         non-finite number or an unknown unit.
     """
@@ -233,6 +234,8 @@ def read_tir(path: str | Path) -> TirFile:
     warnings: list[str] = []
     section: str | None = None
     kind: str | None = None  # 'kv', 'table' or 'auto' for the current section
+    headers: set[str] = set()
+    misplaced: list[tuple[int, str, str]] = []  # (line, key, section read in) of a table key
     for lineno, line in enumerate(text.split("\n"), start=1):
         s = line.strip()
         if not s or s[0] in "$!":
@@ -248,6 +251,7 @@ def read_tir(path: str | Path) -> TirFile:
             if m is None:
                 raise InputError(path, f"cannot parse line: '{s}'", line=lineno)
             section = m.group(1).upper()
+            headers.add(section)
             kind = ("kv" if section in _KV_SECTIONS else
                     "table" if section in _TABLE_SECTIONS else "auto")
             if kind == "table":
@@ -269,6 +273,8 @@ def read_tir(path: str | Path) -> TirFile:
         if not eq or not _KEY.fullmatch(key):
             raise InputError(path, f"cannot parse line: '{s}'", line=lineno)
         what, name = _classify(section, key.upper())
+        if what == "known" and spec(name).section != section:
+            misplaced.append((lineno, name, section))
         if not raw:
             if what == "unknown":
                 entries.setdefault(name, _Entry(lineno, raw, ""))
@@ -301,6 +307,11 @@ def read_tir(path: str | Path) -> TirFile:
             continue
         entries[name] = _Entry(lineno, raw, value)
 
+    for lineno, name, found_in in misplaced:  # a header line lost: keys join the section above
+        own = spec(name).section
+        if own not in headers:
+            raise InputError(path, f"no [{own}] section header: the [{own}] key is read as part "
+                             f"of [{found_in}]", line=lineno, key=name)
     if "FITTYP" not in entries:
         raise InputError(path, "no FITTYP found: a Magic Formula .tir file needs "
                          "FITTYP = 61 or 62 in [MODEL]")
