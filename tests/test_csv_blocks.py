@@ -1,0 +1,85 @@
+"""The numeric CSV fast path in blocks (issue 15, large files): the same table and the same lines
+in messages whatever the block size, plain or gzip, with or without spaces after the commas;
+the quirk cleaning never writes into the arrays it was given."""
+from __future__ import annotations
+
+import gzip
+
+import numpy as np
+import pytest
+
+from identify.io import common
+from identify.io.common import Problems, read_numeric_csv
+from identify.io.trailer import channels_to_tidy, read_channels
+from tests.measurement_cases import trailer_channels
+
+N = 61
+
+
+def _text(sep: str = ",", nan_row: int | None = None, blank_after: int | None = None) -> str:
+    ch = trailer_channels(n=N)
+    names = list(ch)
+    lines = [sep.join(names)]
+    for i in range(N):
+        cells = [repr(float(ch[n][i])) for n in names]
+        if i == nan_row:
+            cells[names.index("FYW")] = "nan" if sep == "," else " nan"
+        lines.append(sep.join(cells))
+        if i == blank_after:
+            lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+@pytest.mark.parametrize("compress", [False, True])
+@pytest.mark.parametrize("sep", [",", ", "])
+def test_blocks_give_the_whole_table(tmp_path, monkeypatch, compress, sep):
+    text = _text(sep, nan_row=30, blank_after=10)
+    path = tmp_path / "run.csv"
+    path.write_bytes(gzip.compress(text.encode()) if compress else text.encode())
+    whole, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    monkeypatch.setattr(common, "BLOCK_ROWS", 7)  # blocks end inside the blank line, the NaN
+    blocks, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    assert len(blocks) == N and list(blocks.columns) == list(whole.columns)
+    for c in whole.columns:
+        np.testing.assert_array_equal(blocks[c].to_numpy(), whole[c].to_numpy(), err_msg=c)
+    assert np.isnan(blocks["FYW"].to_numpy()[30])
+    ref = trailer_channels(n=N)
+    np.testing.assert_array_equal(blocks["FX"].to_numpy(), ref["FX"])
+
+
+def test_lines_in_messages_across_blocks(tmp_path, monkeypatch):
+    monkeypatch.setattr(common, "BLOCK_ROWS", 5)
+    path = tmp_path / "run.csv"
+    path.write_text(_text(nan_row=30))  # data row 30 (from 0) is line 32
+    warnings: list = []
+    (ch,) = read_channels(path)
+    channels_to_tidy(ch, warnings=warnings)
+    assert {w.kind: w.line for w in warnings} == {"nan": 32, "rows": 32}
+    lines = path.read_text().splitlines()
+    lines[50] = lines[50].replace(",", ",x", 1)  # line 51: a cell that is not a number
+    path.write_text("\n".join(lines) + "\n")
+    problems = Problems()
+    assert read_numeric_csv(path, problems, allow_nan=True) is None
+    (problem,) = problems.finish()
+    assert problem.line == 51 and problem.key == "LONGVEL" and "not a number: 'x" in \
+        problem.message
+
+
+def test_cleaning_does_not_write_the_channels(tmp_path):
+    ch = trailer_channels(n=200)
+    ch["FYW"] = ch["FYW"].copy()
+    ch["FYW"][100] += 5e4  # a spike
+    ch["FZW"] = ch["FZW"].copy()
+    ch["FZW"][50:53] = 0.0  # a dropout
+    path = tmp_path / "run.csv"
+    names = list(ch)
+    rows = [",".join(repr(float(ch[n][i])) for n in names) for i in range(200)]
+    path.write_text("\n".join([",".join(names), *rows]) + "\n")
+    (run,) = read_channels(path)
+    before = {k: v.copy() for k, v in run.data.items()}
+    warnings: list = []
+    frame = channels_to_tidy(run, warnings=warnings)
+    assert {"spike", "dropout", "rows"} <= {w.kind for w in warnings}
+    assert len(frame) == 200 - 4
+    for k, v in run.data.items():
+        np.testing.assert_array_equal(v, before[k], err_msg=k)
