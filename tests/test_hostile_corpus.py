@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import struct
 from pathlib import Path
 
 import h5py
@@ -155,6 +156,17 @@ def ttc_mat_overflow(root: Path) -> None:
                      format="5")
 
 
+def ttc_mat_bad_type(root: Path) -> None:
+    """A TTC .mat file whose first data element has a type code scipy.io has no reader for
+    (scipy.io dies with a segmentation fault on it)."""
+    path = small_mat(root / "extra" / "session.mat")
+    data = bytearray(path.read_bytes())
+    at = data.find(struct.pack("<II", 9, 200 * 8))  # miDOUBLE, 200 samples: the ET vector
+    assert at > 128
+    data[at] = 200
+    path.write_bytes(bytes(data))
+
+
 def truncate(rel: str, keep: int):
     def apply(root: Path) -> None:
         data = (root / rel).read_bytes()
@@ -287,6 +299,9 @@ CASES = [
     ("ttc-mat-overflow-after-psi", ttc_mat_overflow,
      ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
      ["P: ", "1e+308 psi", "not finite in SI"]),
+    ("ttc-mat-unknown-type-code", ttc_mat_bad_type,
+     ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
+     ["truncated or corrupt .mat file", "array data of type 200"]),
     # characteristic tables
     ("table-cell-over-field-limit", edit(TAB, "251700.0", BIG), ROOT_CMD, TAB,
      [":2: ", "cannot parse CSV: field larger than field limit"]),

@@ -22,6 +22,7 @@ channel without a unit.
 """
 from __future__ import annotations
 
+import io
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -32,6 +33,7 @@ import scipy.io
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
+from identify.io.mat_guard import mat_problem
 
 __all__ = [
     "TTC_CHANNELS",
@@ -161,7 +163,17 @@ def _text(value) -> str:
 
 def _read_mat(path: Path, problems: Problems):
     try:
-        mat = scipy.io.loadmat(path, simplify_cells=True)
+        data = path.read_bytes()
+    except OSError as exc:
+        problems.add(path, f"cannot read file: {exc.strerror or exc}")
+        return None
+    why = mat_problem(data) if data[126:128] in (b"IM", b"MI") and data[124:126] != b"\x00\x02" \
+        else None  # v7.3 (HDF5) files are refused by scipy below
+    if why is not None:  # scipy.io would crash on some (a segmentation fault)
+        problems.add(path, f"truncated or corrupt .mat file ({why})")
+        return None
+    try:
+        mat = scipy.io.loadmat(io.BytesIO(data), simplify_cells=True)
     except NotImplementedError:
         problems.add(path, "a MATLAB v7.3 (HDF5) .mat file: save it as MATLAB v5 (-v7)")
         return None
