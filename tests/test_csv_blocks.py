@@ -83,3 +83,32 @@ def test_cleaning_does_not_write_the_channels(tmp_path):
     assert len(frame) == 200 - 4
     for k, v in run.data.items():
         np.testing.assert_array_equal(v, before[k], err_msg=k)
+
+
+@pytest.mark.parametrize("allow_nan", [True, False])
+def test_suspect_rows_report_what_the_full_walk_reports(tmp_path, monkeypatch, allow_nan):
+    lines = _text(nan_row=3, blank_after=20).splitlines()
+
+    def cell(i: int, text: str) -> None:
+        cells = lines[i].split(",")
+        cells[1] = text
+        lines[i] = ",".join(cells)
+
+    cell(8, "NA")  # pandas: NaN; float(): not a number
+    lines[12] = ",".join(lines[12].split(",")[:-2])  # a short row
+    cell(30, "")  # an empty cell
+    cell(40, "9" * 140_000)  # over the csv module's field limit (pandas: inf)
+    path = tmp_path / "run.csv"
+    path.write_text("\n".join(lines) + "\n")
+
+    def listed():
+        problems = Problems()
+        read_numeric_csv(path, problems, allow_nan=allow_nan)
+        return [str(p) for p in problems.finish()]
+
+    fast = listed()
+    monkeypatch.setattr(common, "walk_suspects", lambda *args: False)
+    assert fast == listed()
+    assert any(":9: " in p and "not a number: 'NA'" in p for p in fast)
+    assert any(":13: " in p and "ragged row" in p for p in fast)
+    assert fast[-1].endswith(":41: cannot parse CSV: field larger than field limit (131072)")

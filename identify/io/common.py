@@ -22,7 +22,8 @@ from typing import Any, Iterable
 import numpy as np
 import pandas as pd
 
-from identify.core.errors import InputError, one_line
+from identify.core.errors import InputError
+from identify.io.csv_rows import RowError, walk_rows, walk_suspects
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
@@ -271,7 +272,7 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
             problems.add(path, "no data rows below the header", line=1)
             return None
         if not finite:  # NaN cells, or short rows pandas filled with NaN: walk to tell
-            _diagnose(path, len(names), names, problems, allow_nan)
+            _diagnose(path, len(names), names, problems, allow_nan, frame)
             for c in frame.columns:  # inf -> NaN in place, one column at a time
                 x = frame[c].to_numpy()
                 if not np.isfinite(x).all():
@@ -332,74 +333,32 @@ def _parse_floats(path: Path, skip_spaces: bool) -> pd.DataFrame:
 
 
 def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
-              allow_nan: bool = False) -> None:
-    """Walk the rows and report ragged rows, empty, non-numeric and non-finite cells."""
+              allow_nan: bool = False, frame: pd.DataFrame | None = None) -> None:
+    """Report ragged rows, empty, non-numeric and non-finite cells with their lines.
+
+    With ``frame`` (what the fast path parsed) only its rows with a non-finite value are
+    looked at when the file's lines allow it (:func:`identify.io.csv_rows.walk_suspects`),
+    else every row is walked with the csv module."""
+    def add(line: int, key: str | None, message: str, kind: str) -> None:
+        problems.add(path, message, line=line, key=key, kind=kind)
+
     try:
-        _walk_rows(path, width, names, problems, allow_nan)
+        if frame is not None:
+            suspect = np.zeros(len(frame), dtype=bool)
+            for c in frame.columns:  # column by column: no rows x columns mask
+                suspect |= ~np.isfinite(frame[c].to_numpy())
+            with _open_binary(path) as fh:
+                if walk_suspects(fh, names, allow_nan, np.flatnonzero(suspect).tolist(),
+                                 len(frame), add):
+                    return
+        with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
+            rows = walk_rows(fh, names[:width], allow_nan, add)
+        if rows == 0:
+            problems.add(path, "no data rows below the header", line=1)
     except (OSError, EOFError) as exc:  # truncated or corrupt gzip data
         problems.add(path, f"corrupt compressed data: {exc}")
-    except _RowError as exc:
+    except RowError as exc:
         problems.add(path, exc.message, line=exc.line)
-
-
-class _RowError(Exception):
-    """A row the csv module cannot parse (a field over its limit, a NUL byte)."""
-
-    def __init__(self, message: str, line: int) -> None:
-        super().__init__(message)
-        self.message, self.line = message, line
-
-
-def _rows(reader):
-    """(first line of the row, row) of a csv reader; a multi-line quoted cell counts from
-    the line it starts on."""
-    end = reader.line_num
-    while True:
-        try:
-            row = next(reader)
-        except StopIteration:
-            return
-        except csv.Error as exc:
-            raise _RowError(f"cannot parse CSV: {exc}", end + 1) from None
-        start, end = end + 1, reader.line_num
-        yield start, row
-
-
-def _cell(text: str) -> str:
-    """A cell for a message: escaped and cut (a quoted cell may hold line breaks)."""
-    return one_line(text, 60)
-
-
-def _walk_rows(path: Path, width: int, names: list[str], problems: Problems,
-               allow_nan: bool = False) -> None:
-    rows = 0
-    with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
-        reader = csv.reader(fh)
-        next(_rows(reader), None)
-        for line, row in _rows(reader):
-            if not row:
-                continue
-            rows += 1
-            if len(row) != width:
-                problems.add(path, f"ragged row: {len(row)} fields, the header has {width}",
-                             line=line, kind="ragged-row")
-            for name, cell in zip(names, row, strict=False):
-                text = cell.strip()
-                if allow_nan and text == "":
-                    continue
-                try:
-                    value = float(text)
-                except ValueError:
-                    why = ("empty cell" if text == "" else "not UTF-8 text: a byte cannot be "
-                           "decoded" if "\ufffd" in text else f"not a number: '{_cell(text)}'")
-                    problems.add(path, why, line=line, key=name, kind="bad-cell")
-                    continue
-                if not (allow_nan or np.isfinite(value)):
-                    problems.add(path, f"{_cell(text)} is not allowed (NaN/inf)", line=line,
-                                 key=name,
-                                 kind="bad-cell")
-    if rows == 0:
-        problems.add(path, "no data rows below the header", line=1)
 
 
 def check_increasing(problems: Problems, file: str | Path, name: str, t: np.ndarray,
