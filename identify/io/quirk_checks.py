@@ -42,9 +42,11 @@ def time_order(frame: pd.DataFrame, report: WarningReport, errors: list) -> pd.D
     if t.size == 0:
         errors.append(("t", "no finite time stamp", None))
         return frame
-    before = np.concatenate(([-np.inf], np.maximum.accumulate(t)[:-1]))
-    bad = t <= before
+    top = np.maximum.accumulate(t)  # the latest time stamp so far; before[i] = top[i - 1]
+    bad = np.zeros(t.size, dtype=bool)
+    np.less_equal(t[1:], top[:-1], out=bad[1:])
     if bad.any():
+        before = np.concatenate(([-np.inf], top[:-1]))
         i = int(np.flatnonzero(bad)[0])
         n = int(bad.sum())
         if n > MAX_BAD_TIME * t.size:
@@ -58,11 +60,16 @@ def time_order(frame: pd.DataFrame, report: WarningReport, errors: list) -> pd.D
                    f"time stamp(s), first at sample {int(frame.index[i])}: {float(t[i])!r} "
                    f"after {float(before[i])!r}", "samples dropped", int(frame.index[i]))
         frame, t = frame[~bad], t[~bad]
+    del top
     if t.size > 2:
         dt = np.diff(t)
-        step = float(np.median(dt))
-        # a step over a dropped time stamp is that sample's, not a gap in the logging
-        gaps = (dt > 1.5 * step) & (np.diff(frame.index.to_numpy()) == 1)
+        step = _median_in_place(dt)
+        dt = np.diff(t)  # again, in order (the median partitioned it): no second array held
+        gaps = dt > 1.5 * step
+        index = frame.index
+        if not (isinstance(index, pd.RangeIndex) and index.step == 1):
+            # a step over a dropped time stamp is that sample's, not a gap in the logging
+            gaps &= np.diff(index.to_numpy()) == 1
         if gaps.any():
             missing = float(np.sum(dt[gaps]) - step * gaps.sum())
             report.add("time-gap", ["t"], int(gaps.sum()),
@@ -180,8 +187,22 @@ def _noise_scale(x: np.ndarray) -> float:
 def _curvature_scale(v: np.ndarray) -> float:
     """Robust sigma of the second difference: noise in dense data, the curve's own bending in
     sparse smooth data (so that a sparsely sampled peak is not taken for a spike)."""
-    d2 = v[1:-1] - 0.5 * (v[:-2] + v[2:])
-    return 1.4826 * float(np.median(np.abs(d2))) if d2.size else 0.0
+    if v.size < 3:
+        return 0.0
+    d2 = np.add(v[:-2], v[2:])  # v[1:-1] - 0.5 (v[:-2] + v[2:]), in one array
+    d2 *= 0.5
+    np.abs(np.subtract(v[1:-1], d2, out=d2), out=d2)
+    return 1.4826 * _median_in_place(d2)
+
+
+def _median_in_place(a: np.ndarray) -> float:
+    """``np.median(a)`` of a finite array without its copy (``a`` is left partitioned)."""
+    k = a.size // 2
+    if a.size % 2:
+        a.partition(k)
+        return float(a[k])
+    a.partition([k - 1, k])
+    return float((a[k - 1] + a[k]) / 2)
 
 
 def _outliers(v: np.ndarray) -> np.ndarray | None:
@@ -195,7 +216,8 @@ def _outliers(v: np.ndarray) -> np.ndarray | None:
     """
     if v.min() == v.max():
         return None  # constant: its running median is itself
-    resid = np.abs(v - median_filter(v, size=7, mode="nearest"))
+    resid = median_filter(v, size=7, mode="nearest")
+    np.abs(np.subtract(v, resid, out=resid), out=resid)  # in place: one array of transient
     largest = float(resid.max())
     sigma = 1.4826 * float(np.median(resid))
     if largest <= SPIKE_SIGMAS * sigma:
