@@ -375,11 +375,13 @@ def check_increasing(problems: Problems, file: str | Path, name: str, t: np.ndar
 
 
 def check_declared(problems: Problems, file: str | Path, key: str, values: np.ndarray,
-                   declared: float | None, what: str, unit: str) -> None:
-    """Report a channel whose median is more than :data:`TOLERANCE` from the declared value."""
+                   declared: float | None, what: str, unit: str, *,
+                   median: float | None = None) -> None:
+    """Report a channel whose median is more than :data:`TOLERANCE` from the declared value
+    (``median``: the median of ``values``, when the caller has it)."""
     if declared is None or values.size == 0:
         return
-    median = float(np.median(values))
+    median = float(np.median(values)) if median is None else median
     if abs(median - declared) > TOLERANCE * abs(declared):
         problems.add(file, f"median {what} {median:.6g} {unit} is more than "
                            f"{TOLERANCE:.0%} from the declared {declared:.6g} {unit}", key=key)

@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
-from identify.core.plausible import judge_channel
+from identify.core.plausible import judge, judge_channel
 from identify.core.units import SI_UNITS
 from identify.io.atomic import atomic_write_text
 from identify.io.axes import AXES, to_iso_w
@@ -148,16 +148,19 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if cleaned.frame is None:
         return None
     frame = cleaned.frame
-    _plausible(frame, ch, names, problems, warnings)
+    # one median per channel (0.15 s each at 5e6 samples): the cleaned required channels are
+    # finite, so the median is that of the finite samples the checks want
+    medians = {c: float(np.median(frame[c].to_numpy())) for c in ("p", "Fz", "Vx")}
+    _plausible(frame, ch, names, problems, warnings, medians)
     check_declared(problems, ch.file, names.get("p", "INFLPRES"), frame["p"].to_numpy(),
-                   conditions.get("pressure_Pa"), "pressure", "Pa")
-    fz = frame["Fz"].to_numpy()
-    check_declared(problems, ch.file, names.get("Fz", "FZW"), fz, conditions.get("load_N"),
-                   "load Fz", "N")
-    if "load_N" not in conditions and np.median(fz) < 0:
-        problems.add(ch.file, f"median Fz is negative ({np.median(fz):.6g} N): in ISO-W Fz is "
+                   conditions.get("pressure_Pa"), "pressure", "Pa", median=medians["p"])
+    fz = medians["Fz"]
+    check_declared(problems, ch.file, names.get("Fz", "FZW"), frame["Fz"].to_numpy(),
+                   conditions.get("load_N"), "load Fz", "N", median=fz)
+    if "load_N" not in conditions and fz < 0:
+        problems.add(ch.file, f"median Fz is negative ({fz:.6g} N): in ISO-W Fz is "
                               "positive up (are the axes right?)", key=names.get("Fz", "FZW"))
-    elif "load_N" not in conditions and np.median(fz) == 0:
+    elif "load_N" not in conditions and fz == 0:
         problems.add(ch.file, "median Fz is 0 N: the tyre carries no load",
                      key=names.get("Fz", "FZW"))
     return frame if problems.total == start else None
@@ -169,12 +172,18 @@ _PLAUSIBLE = (("p", "pressure"), ("Fz", "load"), ("Vx", "speed"), ("alpha", "ang
 
 
 def _plausible(frame: pd.DataFrame, ch: Channels, names: Mapping[str, str],
-               problems: Problems, warnings: list[DataWarning] | None) -> None:
-    """The plausibility checks of one run, after the unit and axis conversion (SI, ISO-W)."""
+               problems: Problems, warnings: list[DataWarning] | None,
+               medians: Mapping[str, float]) -> None:
+    """The plausibility checks of one run, after the unit and axis conversion (SI, ISO-W);
+    ``medians`` [SI] of the channels judged on their median, when known."""
     for col, quantity in _PLAUSIBLE:
-        if col not in frame.columns or (col == "Fz" and np.nanmedian(frame[col]) <= 0):
+        if col not in frame.columns or (col == "Fz" and medians["Fz"] <= 0):
             continue  # a load <= 0 has its own message below (the axes, or no load)
-        found = judge_channel(quantity, frame[col].to_numpy())
+        if col in medians:  # = judge_channel's verdict on the median
+            finding = judge(quantity, medians[col], what=f"median {quantity}")
+            found = None if finding is None else (finding, None)
+        else:
+            found = judge_channel(quantity, frame[col].to_numpy())
         if found is None:
             continue
         finding, row = found
