@@ -23,8 +23,12 @@ import scipy.io
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.io import hdf5_probe
+from identify.io.common import Problems
+from identify.io.hdf5 import RawRun, write_hdf5
+from identify.io.trailer import read_channels
 from tests.measurement_cases import set_cell as cell
-from tests.measurement_cases import write_good_folder
+from tests.measurement_cases import trailer_channels, write_good_folder
 from tests.ttc_cases import small_mat
 
 runner = CliRunner()
@@ -420,3 +424,21 @@ def test_hostile_input(good, tmp_path, name, mutate, args, file, fragments):
     assert len(line) < 600
     assert sorted(os.listdir(tmp_path)) == before  # nothing written next to the folder
     assert not any(out.iterdir())  # and no output
+
+
+def test_hdf5_that_makes_the_library_loop(tmp_path, monkeypatch):
+    """One byte changed in an HDF5 trailer file (found by the hypothesis
+    trials of the HDF5 reader) makes the HDF5 library loop for good on reading it: the
+    metadata is read in a child first, which is stopped after PROBE_SECONDS."""
+    monkeypatch.setattr(hdf5_probe, "PROBE_SECONDS", 2.0)
+    path = write_hdf5(tmp_path / "run.h5", [RawRun("r", trailer_channels(),
+                                                   {"SLIPANGL": "rad"})])
+    data = bytearray(path.read_bytes())
+    assert data[2952] == 8  # the byte the trial changed (h5py writes these bytes every time)
+    data[2952] = 9
+    path.write_bytes(bytes(data))
+    problems = Problems()
+    assert read_channels(path, problems=problems) is None
+    assert [str(p) for p in problems.finish()] == [
+        f"{path}: corrupt HDF5 file (reading its metadata did not finish in 2 s (the HDF5 "
+        "library loops on it))"]

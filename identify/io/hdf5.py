@@ -15,6 +15,7 @@ import numpy as np
 
 from identify.io.common import Problems, starts_with
 from identify.io.atomic import atomic_path
+from identify.io.hdf5_probe import metadata_problem
 import h5py
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
@@ -63,6 +64,10 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
 
     path = Path(path)
     start = problems.total
+    why = metadata_problem(path)  # in a child: a corrupt file can make HDF5 loop for good
+    if why is not None:
+        problems.add(path, f"corrupt HDF5 file ({why})")
+        return None
     try:
         fh = h5py.File(path, "r")
     except (OSError, ValueError) as exc:
