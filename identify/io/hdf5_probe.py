@@ -1,14 +1,17 @@
 """Read an HDF5 file's metadata in a forked child first: a corrupt file cannot hang or crash mfid.
 
-The HDF5 library trusts a file's metadata. One corrupted byte in the heap entry of a
-variable-length string attribute (a channel's ``units``) made it loop for good inside the C
-library, found by tests/test_hostile_hypothesis.py; a Python timer cannot stop a loop that
-never returns to Python. :func:`metadata_problem` therefore reads every group's and dataset's
-attributes, names, shapes and types in a child process (``os.fork``: no new interpreter, the
-parent's imports are shared) and waits at most :data:`PROBE_SECONDS`; a child that does not
-finish, or dies of a signal, is a corrupt file. Exceptions in the child are left to the
-parent's own reading, which turns them into its one-line errors. Without ``os.fork`` (Windows)
-there is no probe.
+The HDF5 library trusts a file's metadata. One changed byte in an HDF5 trailer file made it
+loop for good inside the C library reading a channel's ``units`` attribute (found by
+tests/test_hostile_hypothesis.py); a Python timer cannot stop a loop that never returns to
+Python. :func:`metadata_problem` therefore makes, in a child process (``os.fork``: no new
+interpreter, the parent's imports are shared), the reads that identify.io.hdf5 makes: the
+groups, their attributes, each member's link and dataset, its attributes by name and all of
+them, and the values of datasets up to :data:`SMALL_DATASET` values; each read on its own, so
+that one that raises does not hide a later one that loops. It waits at most
+:data:`PROBE_SECONDS`; a child that does not finish, or dies of a signal, is a corrupt file.
+Exceptions in the child are left to the parent's own reading, which turns them into its
+one-line errors. Without ``os.fork`` (Windows) there is no probe; a larger dataset's values
+are read by the parent alone.
 """
 from __future__ import annotations
 
@@ -27,16 +30,40 @@ __all__ = ["PROBE_SECONDS", "metadata_problem"]
 PROBE_SECONDS = 20.0
 
 
-def _read_metadata(path: Path) -> list:
-    seen = []
+#: Datasets up to this many values are read in the child as well (a larger one is read once,
+#: by the parent).
+SMALL_DATASET = 1_000_000
+
+
+def _attempt(fn, *args):
+    """``fn(*args)``, or None when it raises: every read is tried, whatever failed before."""
+    try:
+        return fn(*args)
+    except Exception:  # noqa: BLE001 - the parent's reading reports it
+        return None
+
+
+def _read_dataset(ds) -> None:
+    _attempt(lambda: (ds.ndim, ds.dtype, ds.size))
+    for name in ("units", "long_name"):  # as the reader asks for them: by name
+        _attempt(lambda n: ds.attrs[n] if n in ds.attrs else None, name)
+    _attempt(lambda: [ds.attrs[k] for k in ds.attrs])
+    if (_attempt(lambda: ds.size) or 0) <= SMALL_DATASET:
+        _attempt(lambda: ds[()])
+
+
+def _read_metadata(path: Path) -> None:
+    """What :func:`identify.io.hdf5.read_hdf5` reads, in its order, each read on its own."""
     with h5py.File(path, "r") as fh:
-        objects = [fh]
-        fh.visititems(lambda name, obj: objects.append(obj))
-        for obj in objects:
-            seen += [obj.attrs[key] for key in obj.attrs]
-            if isinstance(obj, h5py.Dataset):
-                seen += [obj.shape, obj.dtype]
-    return seen
+        members = _attempt(lambda: list(fh.values())) or []
+        groups = [fh] + [v for v in members if isinstance(v, h5py.Group)]
+        for grp in groups:
+            _attempt(lambda g: dict(g.attrs.items()), grp)
+            for key in _attempt(list, grp) or []:
+                _attempt(lambda g, k: g.get(k, getlink=True), grp, key)
+                ds = _attempt(lambda g, k: g.get(k), grp, key)
+                if isinstance(ds, h5py.Dataset):
+                    _read_dataset(ds)
 
 
 #: The last file probed and its verdict: (path, size, mtime [ns], inode, digest of a file
