@@ -15,6 +15,7 @@ are read by the parent alone.
 """
 from __future__ import annotations
 
+import faulthandler
 import hashlib
 import os
 import select
@@ -109,6 +110,9 @@ def _probe(path: str | Path, timeout: float) -> str | None:
         code = 0
         try:
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the parent's
+            faulthandler.disable()  # a crash here is the parent's one-line error, silently
+            null = os.open(os.devnull, os.O_WRONLY)
+            os.dup2(null, 2)  # nor does the HDF5 library print from the child
             os.close(read)
             try:
                 _read_metadata(Path(path))
