@@ -37,9 +37,13 @@ from identify.model.state import OperatingState
 
 __all__ = ["CHUNK", "ENV", "MIN_WORK", "available", "use_exact", "stage_jacobian"]
 
-CHUNK = 4096
-"""Points per compiled Jacobian call (and the size of the MF search's subsample,
-identify.fit.mf_search.SUBSAMPLE, so that the search needs one call per Jacobian)."""
+CHUNK = 2048
+"""Points per compiled Jacobian call (the MF search's subsample, identify.fit.mf_search.SUBSAMPLE,
+is two chunks). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
+8192 with chunks of 4096, 6144 + 2048 with 2048), larger ones make fewer calls (each call has
+a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
+(/tmp scratch script, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 / 3.6 / 3.8 ms, Fy (4549
+x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""

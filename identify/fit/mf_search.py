@@ -50,10 +50,10 @@ optimum and converges in a few tens; one that crawls for longer is reported as n
 instead of costing minutes."""
 SEARCH_NFEV = 200
 """Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
-SUBSAMPLE = CHUNK
+SUBSAMPLE = 2 * CHUNK
 """Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
 order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
-Equal to the exact Jacobian's chunk (identify.fit.mf_jacobian.CHUNK): one call per Jacobian."""
+Two of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding."""
 LADDER = 4
 """Each rung of the ladder from the search's subsample to all points has this many times the
 points of the one below."""
