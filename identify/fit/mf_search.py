@@ -37,9 +37,9 @@ from identify.fit.result import FitResult
 from identify.model.parameters import spec
 from identify.model.state import OperatingState
 
-__all__ = ["N_LHS", "MAX_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER", "CANDIDATE_RTOL",
-           "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample", "ladder_sizes",
-           "search", "refine_on", "prune", "canonical_br", "final_predictions"]
+__all__ = ["N_LHS", "MAX_NFEV", "REFIT_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER",
+           "CANDIDATE_RTOL", "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample",
+           "ladder_sizes", "search", "refine_on", "prune", "canonical_br", "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
@@ -48,6 +48,13 @@ MAX_NFEV = 100
 (Jacobian evaluations not counted). A candidate from the subsample search starts near the
 optimum and converges in a few tens; one that crawls for longer is reported as not converged
 instead of costing minutes."""
+REFIT_NFEV = 40
+"""Budget of a re-fit's least-squares solve on all points (identify.fit.mf_stages._refine): it
+starts at the re-fit's optimum on the search's subsample, where the re-fits the data support
+converge within 4-18 evaluations (the bundled sample and a generated TTC session); the ones
+that ran into MAX_NFEV (QSX4, QSX5, QSX9 on the sample's Mx; RVY4..6 on the TTC session's Fy)
+were products of weakly determined coefficients running off along a flat valley, not taken
+in the end, and cost a second per stage on all points."""
 SEARCH_NFEV = 200
 """Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
 SUBSAMPLE = 2 * CHUNK
