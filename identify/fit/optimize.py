@@ -89,12 +89,18 @@ def _solve(problem: FitProblem, x0: np.ndarray, max_nfev: int | None,
 
 def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
     """SLSQP on the true objective with bounds and constraints, from the least-squares x."""
+    # weighted least squares: SLSQP in the metric of the solver's own Jacobian at lsq.x
+    # (J^T J, the Gauss-Newton Hessian of 0.5 r^T r; see engine.polish)
+    metric = (lsq.jac.T @ lsq.jac if problem.objective == "wls" and lsq.jac is not None
+              and lsq.jac.shape[1] == lsq.x.size else None)
+
     def run(x1):
         return engine.polish(problem.objective_value, x1, problem.bounds(), tol,
                              constraints=(problem.constraint_values if problem.constraints
                                           else None),
                              gradient=(problem.objective_gradient
-                                       if problem.jacobian is not None else None))
+                                       if problem.jacobian is not None else None),
+                             metric=metric)
 
     pol = run(lsq.x)
     if pol.status == 0:
