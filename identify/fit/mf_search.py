@@ -57,13 +57,10 @@ were products of weakly determined coefficients running off along a flat valley,
 in the end, and cost a second per stage on all points."""
 SEARCH_NFEV = 200
 """Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
-SUBSAMPLE = CHUNK
+SUBSAMPLE = 2 * CHUNK
 """Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
 order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
-One chunk of the exact Jacobian (identify.fit.mf_jacobian.CHUNK): one call per Jacobian, no
-padding. 2048 rather than 4096 points: the same stage errors on the sample and a generated TTC
-session, TTC MF stages 4.4 s of CPU instead of 5.2 s (sample 4.2 s either way; two runs each
-under load)."""
+Two of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding."""
 LADDER = 4
 """Each rung of the ladder from the search's subsample to all points has this many times the
 points of the one below."""
