@@ -47,12 +47,14 @@ x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
-MIN_WORK = 100_000
+MIN_WORK = 50_000
 """Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
-``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 25 ms and the ~1-2 s
-compile of the stage would not pay off within a fit's ~100-250 Jacobians (measured on the
-bundled sample: Fy0, 6426 points x 28, finite differences 8.3 s, exact 5.0 s including the
-compile; Fx, 2844 x 8, finite differences 0.9 s, exact 1.8 s)."""
+``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 4 ms and the tracing of
+the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit's ~100-250
+Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 7) then fitted
+Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
+(3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
+generated 135k-sample TTC session cost the same CPU time either way (loaded machine)."""
 CACHE_ENV = "MFID_JAX_CACHE"
 
 
