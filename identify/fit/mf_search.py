@@ -60,7 +60,10 @@ SEARCH_NFEV = 200
 SUBSAMPLE = 2 * CHUNK
 """Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
 order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
-Two of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding."""
+Two of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding. One chunk
+(2048) was tried and reverted: on the decimated TTC session of tests/test_ttc_fit.py (seed 7)
+the Fy stage, searched on 2048 of its 3643 points instead of all, then ran into MAX_NFEV on
+all points and was reported not converged."""
 LADDER = 4
 """Each rung of the ladder from the search's subsample to all points has this many times the
 points of the one below."""
