@@ -37,6 +37,15 @@ session (``mfid simulate default DIR --format ttc --seed 0``, ``mfid import DIR/
 ``--bin``: MF stages 92.8 s, 68 evaluations of every trailer sample; ddb9f71 did not finish
 on it (over 13 GB resident in its validity grid, then under 10 % of a core for 9 minutes).
 
+Measured 2026-11-24 02:35-02:52 UTC, load average 12-15, back to back in one round each (the
+``cpu`` ratios; wall ratios at that load moved by up to 2x between runs of the same code). The
+bundled sample: 379 at ddb9f71; main before the fit-cost branch (0008732) 194 and 191 in two
+rounds; the branch 152 and 152 (4537c6e, d4067b7): 2.5x ddb9f71, 1.26x main. The generated TTC
+session, seed 0, its binned table (14642 points, ``--ttc 0 --save-table``, then ``--trailer``
+in each checkout; ddb9f71 with main's validity grid at the data's pressure levels patched in,
+as it otherwise builds one grid column per sample): 612 at ddb9f71; main 209 and 239; the
+branch 214 and 209: 2.9x ddb9f71, 1.0-1.14x main.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
