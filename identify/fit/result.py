@@ -150,6 +150,11 @@ class FitResult:
     reasons : tuple of str                  why it is poorly identified, and what was held
     held : Mapping[str, str]                coefficients the fit would free but held at their
                                             default (``--hold`` or not identifiable) -> why
+    covariance : str                        the covariance ``stderr`` comes from
+                                            (docs/intervals.md): "iid" (s^2 (J^T J)^-1),
+                                            "iid-known-sigma" ((J^T J)^-1, weights 1/sigma) or
+                                            "sweep-jackknife" (delete-one-sweep jackknife)
+    clusters : int                          sweeps of the jackknife (0 for iid)
     """
 
     relation: str
@@ -180,6 +185,8 @@ class FitResult:
     identification: str = "ok"
     reasons: tuple[str, ...] = ()
     held: Mapping[str, str] = field(default_factory=dict)
+    covariance: str = "iid"
+    clusters: int = 0
 
     @property
     def status_text(self) -> str:
@@ -206,6 +213,7 @@ class FitResult:
             "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
             "identification": self.identification, "reasons": list(self.reasons),
             "held": dict(self.held),
+            "covariance": self.covariance, "clusters": self.clusters,
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -218,7 +226,8 @@ class FitResult:
         per-point arrays are empty: they live in measured_vs_model.csv (see
         :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
         documents written before they were recorded, ``identification`` to "ok" and
-        ``reasons``/``held`` to empty. Raises KeyError or TypeError/ValueError
+        ``reasons``/``held`` to empty, ``covariance`` to "iid" (every standard error
+        was iid before it was recorded). Raises KeyError or TypeError/ValueError
         on a malformed entry.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
@@ -245,7 +254,9 @@ class FitResult:
                    nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0),
                    identification=str(d.get("identification") or "ok"),
                    reasons=tuple(str(x) for x in d.get("reasons") or ()),
-                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()})
+                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()},
+                   covariance=str(d.get("covariance") or "iid"),
+                   clusters=int(d.get("clusters") or 0))
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -268,7 +279,9 @@ class FitResult:
         lines = [f"{self.relation} [{self.form}], objective {self.objective}: "
                  f"total thesis error {self.error_total_pct:.3f} %"
                  f" ({'converged' if self.converged else 'NOT converged: ' + self.message})",
-                 f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value"]
+                 f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value",
+                 f"  standard errors: {self.covariance}"
+                 + (f" over {self.clusters} sweeps" if self.clusters else "")]
         for p, e in self.error_by_pressure_pct.items():
             lines.append(f"  {p:5.2f} bar: {e:.3f} %")
         for n in self.free:
