@@ -155,6 +155,10 @@ class FitResult:
                                             "iid-known-sigma" ((J^T J)^-1, weights 1/sigma) or
                                             "sweep-jackknife" (delete-one-sweep jackknife)
     clusters : int                          sweeps of the jackknife (0 for iid)
+    unidentified : Mapping[str, str]        free coefficients not identifiable on their own
+                                            -> why (at a bound, near-null direction, a
+                                            correlation above 0.99:
+                                            identify.fit.identifiability.unidentified)
     """
 
     relation: str
@@ -187,6 +191,7 @@ class FitResult:
     held: Mapping[str, str] = field(default_factory=dict)
     covariance: str = "iid"
     clusters: int = 0
+    unidentified: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def status_text(self) -> str:
@@ -214,6 +219,7 @@ class FitResult:
             "identification": self.identification, "reasons": list(self.reasons),
             "held": dict(self.held),
             "covariance": self.covariance, "clusters": self.clusters,
+            "unidentified": dict(self.unidentified),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -227,8 +233,8 @@ class FitResult:
         :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
         documents written before they were recorded, ``identification`` to "ok" and
         ``reasons``/``held`` to empty, ``covariance`` to "iid" (every standard error
-        was iid before it was recorded). Raises KeyError or TypeError/ValueError
-        on a malformed entry.
+        was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
+        TypeError/ValueError on a malformed entry.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -256,7 +262,9 @@ class FitResult:
                    reasons=tuple(str(x) for x in d.get("reasons") or ()),
                    held={str(k): str(v) for k, v in (d.get("held") or {}).items()},
                    covariance=str(d.get("covariance") or "iid"),
-                   clusters=int(d.get("clusters") or 0))
+                   clusters=int(d.get("clusters") or 0),
+                   unidentified={str(k): str(v)
+                                 for k, v in (d.get("unidentified") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -286,6 +294,8 @@ class FitResult:
             lines.append(f"  {p:5.2f} bar: {e:.3f} %")
         for n in self.free:
             flag = "  (at bound)" if n in self.at_bound else ""
+            if n in self.unidentified and n not in self.at_bound:
+                flag += f"  (not identifiable: {self.unidentified[n]})"
             lines.append(f"  {n:>10} = {self.parameters[n]: .6g} +/- {self.stderr[n]:.2g}{flag}")
         if self.active_constraints:
             lines.append("  active constraints: " + ", ".join(self.active_constraints))
