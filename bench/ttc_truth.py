@@ -32,6 +32,7 @@ import argparse  # noqa: E402
 import dataclasses  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
+import re  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
@@ -146,9 +147,9 @@ def coverage_tables(records: list[dict]) -> dict:
                 n[1] += _inside(c)
             else:
                 reason = c.get("why") or ("at a bound" if c["at_bound"] else "no standard error")
+                reason = re.sub(r"[+-]\d\.\d+ ", "", reason)  # "correlated with PEX1"
                 why.setdefault(key, {})
-                why[key][reason.split(" with ")[0]] = why[key].get(reason.split(" with ")[0],
-                                                                   0) + 1
+                why[key][reason] = why[key].get(reason, 0) + 1
     failing = {k: v for k, v in per.items() if v[0] and v[1] < 0.9 * v[0]}
     pooled_n = sum(v[0] for v in per.values())
     pooled_in = sum(v[1] for v in per.values())
@@ -165,6 +166,29 @@ def coverage_tables(records: list[dict]) -> dict:
             "p_seed_all_inside": 0.95 ** n_ident,
             "median_half_width": sorted(widths)[len(widths) // 2] if widths else math.nan,
             "a_met": not failing, "b_met": sum(r["all"] for r in rows) >= 0.9 * seeds}
+
+
+def compare_widths(before: list[dict], after: list[dict]) -> dict:
+    """The coefficient-seeds identifiable in ``after`` that ``before`` fitted too (same seed,
+    stage, name): median 95 % half-width relative to the coefficient before and after, the
+    median ratio of the standard errors, and how many intervals held the truth before and
+    after."""
+    old = {(rec["seed"], c["stage"], c["name"]): c for rec in before for c in rec["coefs"]}
+    pairs = [(old[(rec["seed"], c["stage"], c["name"])], c) for rec in after
+             for c in rec["coefs"] if _identifiable(c) and c["value"] != 0
+             and (rec["seed"], c["stage"], c["name"]) in old]
+    pairs = [(b, a) for b, a in pairs if b["se"] > 0 and b["value"] != 0]
+
+    def median(xs):
+        xs = sorted(xs)
+        return xs[len(xs) // 2] if xs else math.nan
+
+    return {"n": len(pairs),
+            "half_width_before": median([Z95 * b["se"] / abs(b["value"]) for b, _ in pairs]),
+            "half_width_after": median([Z95 * a["se"] / abs(a["value"]) for _, a in pairs]),
+            "se_ratio": median([a["se"] / b["se"] for b, a in pairs]),
+            "inside_before": sum(_inside(b) for b, _ in pairs),
+            "inside_after": sum(_inside(a) for _, a in pairs)}
 
 
 def print_tables(t: dict) -> None:
@@ -197,6 +221,15 @@ def print_tables(t: dict) -> None:
         print(f"   {k}: " + "; ".join(f"{n} x {w}" for w, n in reasons.items()))
 
 
+def _print_compare(before: list[dict], after: list[dict]) -> None:
+    c = compare_widths(before, after)
+    print(f"against the earlier run, on the {c['n']} coefficient-seeds identifiable now and "
+          f"fitted then: median 95 % half-width {100 * c['half_width_before']:.2f} % -> "
+          f"{100 * c['half_width_after']:.2f} % of the coefficient (median standard-error "
+          f"ratio {c['se_ratio']:.2f}); intervals holding the truth {c['inside_before']} -> "
+          f"{c['inside_after']}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
@@ -208,9 +241,14 @@ def main() -> None:
     ap.add_argument("--json", type=Path, help="write the records to this file")
     ap.add_argument("--from-json", type=Path,
                     help="print the tables of records written by --json (no fitting)")
+    ap.add_argument("--compare", type=Path,
+                    help="records of an earlier run (--json): interval widths before/after")
     args = ap.parse_args()
     if args.from_json:
-        print_tables(coverage_tables(json.loads(args.from_json.read_text())))
+        records = json.loads(args.from_json.read_text())
+        print_tables(coverage_tables(records))
+        if args.compare:
+            _print_compare(json.loads(args.compare.read_text()), records)
         return
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(args.keep or tmp)
@@ -237,6 +275,8 @@ def main() -> None:
     print("   covariance: " + ", ".join(f"{k} {v['covariance']} ({v['clusters']})"
                                          for k, v in records[0]["stages"].items()))
     print_tables(coverage_tables(records))
+    if args.compare:
+        _print_compare(json.loads(args.compare.read_text()), records)
     if args.json:
         args.json.write_text(json.dumps(records, indent=1))
 
