@@ -285,8 +285,36 @@ CLUSTER_KINDS = ("CR1", "jackknife")
 """Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
 
 
+def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
+                    upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The linearised change of each estimate when one cluster is left out, (C, k).
+
+    Row c is d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c), with G = J^T J, G_c = J_c^T J_c,
+    s_c = J_c^T r_c: the Gauss-Newton solution of the normal equations without cluster c
+    (exactly the refit's change for a linear model) when the coefficients an earlier fit fixed
+    move by u_c as that fit leaves the same cluster out. ``upstream`` = (K, U): K = d r / d
+    (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
+    earlier call, clusters in the same order; a cluster with no point here is an empty index
+    array and still moves the estimate through u_c). Computed on the column-scaled J.
+    """
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    scale = np.linalg.norm(J, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    Js = J / scale
+    G = Js.T @ Js
+    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), J.shape[1])
+    if upstream is not None:
+        K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
+        JK = Js.T @ K
+        rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
+                             ).reshape(rhs.shape)
+    steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
+    return steps.reshape(len(clusters), J.shape[1]) / scale
+
+
 def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: bool = False,
-               clusters: list[np.ndarray] | None = None, kind: str = "CR1") -> np.ndarray:
+               clusters: list[np.ndarray] | None = None, kind: str = "CR1",
+               upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Covariance of least-squares estimates from the Jacobian of the weighted residuals.
 
     Parameters
@@ -308,9 +336,13 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
         estimate to the one without cluster c. Larger than CR1 where one cluster pulls a
         coefficient: the small-cluster correction that keeps 95 % intervals near 95 % with
         tens of clusters (CR1 is too small there).
-        Computed on the column-scaled J (k x k solves only; no n_c x n_c matrices).
+        Computed on the column-scaled J (k x k solves only; no n_c x n_c matrices;
+        :func:`jackknife_steps`).
     kind : {"CR1", "jackknife"}
         See ``clusters``.
+    upstream : (K, U), optional
+        Jackknife only: the steps of coefficients an earlier fit fixed, so that their
+        uncertainty enters (see :func:`jackknife_steps`).
 
     Returns
     -------
@@ -323,14 +355,9 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     if clusters and kind not in CLUSTER_KINDS:
         raise ValueError(f"kind must be one of {CLUSTER_KINDS}, not {kind!r}")
     if clusters and kind == "jackknife":
-        scale = np.linalg.norm(J, axis=0)
-        scale = np.where(scale > 0, scale, 1.0)
-        Js = J / scale
-        G = Js.T @ Js
+        steps = jackknife_steps(J, fun, clusters, upstream)
         C = len(clusters)
-        steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], Js[i].T @ fun[i])
-                          for i in clusters])
-        return (C - 1) / C * (steps.T @ steps) / np.outer(scale, scale)
+        return (C - 1) / C * (steps.T @ steps)
     bread = pseudo_solve(J.T @ J, np.eye(k))
     if clusters:
         C = len(clusters)

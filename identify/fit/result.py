@@ -152,8 +152,11 @@ class FitResult:
                                             default (``--hold`` or not identifiable) -> why
     covariance : str                        the covariance ``stderr`` comes from
                                             (docs/intervals.md): "iid" (s^2 (J^T J)^-1),
-                                            "iid-known-sigma" ((J^T J)^-1, weights 1/sigma) or
-                                            "sweep-jackknife" (delete-one-sweep jackknife)
+                                            "iid-known-sigma" ((J^T J)^-1, weights 1/sigma),
+                                            "sweep-jackknife" (delete-one-sweep jackknife) or
+                                            "staged-sweep-jackknife" (the same with the
+                                            earlier MF stages' uncertainty:
+                                            identify.fit.mf_uncertainty)
     clusters : int                          sweeps of the jackknife (0 for iid)
     unidentified : Mapping[str, str]        free coefficients not identifiable on their own
                                             -> why (at a bound, near-null direction, a
