@@ -226,6 +226,41 @@ def test_cluster_jackknife_is_the_leave_one_cluster_out_refit_on_a_linear_model(
         engine.covariance(X, X @ b - y, clusters=clusters, kind="CR2")
 
 
+def test_staged_jackknife_is_the_leave_one_cluster_out_refit_of_both_stages():
+    """Two linear stages: (a, b) from y1 = a + b x1; then c from y2 = c x2 + a z with a held at
+    stage 1's value. Leaving cluster c out of both and refitting them in turn changes c by
+    exactly d_c = (G - G_c)^-1 (s_c - (J^T K - J_c^T K_c) u_c) (K = z, u_c = stage 1's step);
+    a cluster with no stage-2 point moves c through a alone. Without the upstream term the
+    stage-2 covariance is smaller: what a held coefficient does not know is missing."""
+    rng = np.random.default_rng(2)
+    n1, n2 = 48, 40
+    lab1, lab2 = np.repeat(np.arange(12), 4), np.repeat(np.arange(10), 4)  # 10, 11 stage 1 only
+    x1, x2, z = rng.standard_normal(n1), 1.0 + 0.5 * rng.standard_normal(n2), 1.0 + rng.random(n2)
+    y1 = 1.0 + 2.0 * x1 + 4.0 * rng.standard_normal(n1)  # a far less certain than c
+    y2 = 0.5 * x2 + 1.0 * z + rng.standard_normal(n2)
+    X1 = np.c_[np.ones(n1), x1]
+
+    def stages(keep1, keep2):
+        a, b = np.linalg.lstsq(X1[keep1], y1[keep1], rcond=None)[0]
+        c = np.linalg.lstsq(x2[keep2, None], (y2 - a * z)[keep2], rcond=None)[0][0]
+        return np.array([a, b]), c
+
+    (a, b), c = stages(np.arange(n1), np.arange(n2))
+    c1 = [np.flatnonzero(lab1 == k) for k in range(12)]
+    c2 = [np.flatnonzero(lab2 == k) for k in range(12)]
+    U = engine.jackknife_steps(X1, X1 @ [a, b] - y1, c1)
+    J2, r2 = x2[:, None], c * x2 + a * z - y2
+    d = engine.jackknife_steps(J2, r2, c2, (z[:, None], U[:, :1]))
+    exact = [stages(np.flatnonzero(lab1 != k), np.flatnonzero(lab2 != k)) for k in range(12)]
+    np.testing.assert_allclose(U, [e[0] - [a, b] for e in exact], rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(d[:, 0], [e[1] - c for e in exact], rtol=1e-9, atol=1e-12)
+    staged = engine.covariance(J2, r2, clusters=c2, kind="jackknife", upstream=(z[:, None],
+                                                                                 U[:, :1]))
+    np.testing.assert_allclose(staged, 11 / 12 * d.T @ d, rtol=1e-12)
+    alone = engine.covariance(J2, r2, clusters=c2[:10], kind="jackknife")
+    assert staged[0, 0] > 1.5 * alone[0, 0]
+
+
 def test_sweep_jackknife_intervals_hold_95_percent_under_ar1_noise_within_sweeps():
     """Calibration: a straight line fitted to 30 sweeps of 40 points whose noise is AR(1)
     (rho 0.9) within a sweep and of a different level per sweep. The iid s^2 (J^T J)^-1 is
