@@ -151,6 +151,24 @@ def coverage_tables(records: list[dict]) -> dict:
                 why.setdefault(key, {})
                 why[key][reason] = why[key].get(reason, 0) + 1
     failing = {k: v for k, v in per.items() if v[0] and v[1] < 0.9 * v[0]}
+    # for each failing coefficient: is it biased (mean error over the seeds large against the
+    # spread between seeds) or under-covered (spread between seeds larger than the standard
+    # errors say)?
+    errors: dict[str, list[tuple[float, float, float]]] = {}
+    for rec in records:
+        for c in rec["coefs"]:
+            key = f"{c['stage']}:{c['name']}"
+            if key in failing and _identifiable(c):
+                errors.setdefault(key, []).append((c["value"] - c["truth"], c["se"],
+                                                   c["truth"]))
+    diagnosis = {}
+    for key, rows_ in errors.items():
+        e = [d for d, _, _ in rows_]
+        se = sorted(s for _, s, _ in rows_)[len(rows_) // 2]
+        mean = sum(e) / len(e)
+        spread = math.sqrt(sum((d - mean) ** 2 for d in e) / max(len(e) - 1, 1))
+        diagnosis[key] = {"bias_se": mean / se, "spread_se": spread / se,
+                          "bias_pct": 100 * mean / (abs(rows_[0][2]) or 1.0)}
     pooled_n = sum(v[0] for v in per.values())
     pooled_in = sum(v[1] for v in per.values())
     p_fail = sum(math.comb(10, j) * 0.95 ** j * 0.05 ** (10 - j) for j in range(9))
@@ -159,6 +177,7 @@ def coverage_tables(records: list[dict]) -> dict:
               if _identifiable(c) and c["value"] != 0]
     n_ident = sorted(r["identifiable"] for r in rows)[len(rows) // 2] if rows else 0
     return {"seeds": seeds, "per_coefficient": per, "failing": failing, "why": why,
+            "diagnosis": diagnosis,
             "per_seed": rows, "seeds_all_inside": sum(r["all"] for r in rows),
             "pooled": (pooled_in, pooled_n),
             "pooled_every": (sum(_inside(c) for c in every), len(every)),
@@ -210,6 +229,13 @@ def print_tables(t: dict) -> None:
         line.append(f"{k} {n_in}/{n_id}{mark}")
     for i in range(0, len(line), 6):
         print("   " + ", ".join(line[i:i + 6]))
+    if t["diagnosis"]:
+        print("   below 90 %: mean error over the seeds (% of the truth; in median standard "
+              "errors), spread between seeds in median standard errors (1 = the intervals' "
+              "width is right; a large mean error with it = bias):")
+        for k, d in sorted(t["diagnosis"].items()):
+            print(f"     {k}: mean error {d['bias_pct']:+.2f} % = {d['bias_se']:+.1f} SE, "
+                  f"spread {d['spread_se']:.1f} SE")
     print(f"(b) per seed: all identifiable coefficients inside in {t['seeds_all_inside']} of "
           f"{t['seeds']} seeds (calibrated intervals: each seed with probability "
           f"{t['p_seed_all_inside']:.3f}) -> {'MET' if t['b_met'] else 'NOT MET'}")
