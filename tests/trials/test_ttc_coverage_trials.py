@@ -20,31 +20,21 @@ least 85 % (0.89 measured; the iid standard errors held 0.47).
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "ttc_truth.py"
+from tests.bench_modules import load_bench
+
 SEEDS = tuple(range(10))
 POOLED_MIN = 0.85
 """Pooled coverage the staged sweep jackknife reached on seeds 0-9 (812/910 = 0.89) less the
 binomial spread and a margin; the iid standard errors held 0.47."""
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("ttc_truth", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # the worker processes unpickle its functions by name
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.fixture(scope="module")
 def tables(tmp_path_factory):
-    bench = _bench()
+    bench = load_bench("ttc_truth")
     base = tmp_path_factory.mktemp("ttc-coverage")
     records = []
     for seed in SEEDS:
