@@ -11,7 +11,8 @@ presets, so the difference between a strict fit and a discovery refit is visible
 * :func:`polish` -- SLSQP on a scalar objective with bounds and inequality constraints (the
   thesis metric, or a least-squares point that violates a general constraint).
 * :func:`covariance` -- s^2 (J^T J)^+ from a given Jacobian of weighted residuals (sigma known:
-  s^2 = 1; otherwise s^2 = r^T r / (n - k)), or the cluster-robust sandwich.
+  s^2 = 1; otherwise s^2 = r^T r / (n - k)), or cluster-robust over sweeps (the sandwich or
+  the delete-one-cluster jackknife).
 * :func:`fd_jacobian` -- central differences, for where the solver's Jacobian is not available
   (a polish moved the point; derivatives with respect to coefficients that are not fitted).
 * :func:`residual_jacobian` -- d(weighted residuals)/d(free parameters) of a
@@ -328,8 +329,40 @@ def pseudo_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.linalg.pinv(a) @ b
 
 
+CLUSTER_KINDS = ("CR1", "jackknife")
+"""Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
+
+
+def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
+                    upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """The linearised change of each estimate when one cluster is left out, (C, k).
+
+    Row c is d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c), with G = J^T J, G_c = J_c^T J_c,
+    s_c = J_c^T r_c: the Gauss-Newton solution of the normal equations without cluster c
+    (exactly the refit's change for a linear model) when the coefficients an earlier fit fixed
+    move by u_c as that fit leaves the same cluster out. ``upstream`` = (K, U): K = d r / d
+    (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
+    earlier call, clusters in the same order; a cluster with no point here is an empty index
+    array and still moves the estimate through u_c). Computed on the column-scaled J.
+    """
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    scale = np.linalg.norm(J, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    Js = J / scale
+    G = Js.T @ Js
+    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), J.shape[1])
+    if upstream is not None:
+        K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
+        JK = Js.T @ K
+        rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
+                             ).reshape(rhs.shape)
+    steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
+    return steps.reshape(len(clusters), J.shape[1]) / scale
+
+
 def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: bool = False,
-               clusters: list[np.ndarray] | None = None) -> np.ndarray:
+               clusters: list[np.ndarray] | None = None, kind: str = "CR1",
+               upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """Covariance of least-squares estimates from the Jacobian of the weighted residuals.
 
     Parameters
@@ -341,9 +374,23 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     sigma_known : bool
         The weights are 1/sigma of each point: s^2 = 1. Otherwise s^2 = r^T r / max(n - k, 1).
     clusters : list of index arrays, optional
-        Cluster-robust sandwich instead: B M B with B = (J^T J)^+ and
-        M = C/(C - 1) sum_c (J_c^T r_c)(J_c^T r_c)^T over the C clusters (``sigma_known`` is
-        then ignored).
+        Cluster-robust instead (``sigma_known`` is then ignored): residuals may be correlated
+        and of any variance within a cluster (a sweep), independent between clusters. With
+        G = J^T J, G_c = J_c^T J_c and s_c = J_c^T r_c over the C clusters:
+
+        ``kind="CR1"``: the sandwich G^+ M G^+, M = C/(C - 1) sum_c s_c s_c^T;
+        ``kind="jackknife"``: the delete-one-cluster jackknife (MacKinnon's CV3),
+        (C - 1)/C sum_c d_c d_c^T with d_c = (G - G_c)^+ s_c, the Gauss-Newton step from the
+        estimate to the one without cluster c. Larger than CR1 where one cluster pulls a
+        coefficient: the small-cluster correction that keeps 95 % intervals near 95 % with
+        tens of clusters (CR1 is too small there).
+        Computed on the column-scaled J (k x k solves only; no n_c x n_c matrices;
+        :func:`jackknife_steps`).
+    kind : {"CR1", "jackknife"}
+        See ``clusters``.
+    upstream : (K, U), optional
+        Jackknife only: the steps of coefficients an earlier fit fixed, so that their
+        uncertainty enters (see :func:`jackknife_steps`).
 
     Returns
     -------
@@ -353,6 +400,12 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     n, k = J.shape
     if k == 0:
         return np.zeros((0, 0))
+    if clusters and kind not in CLUSTER_KINDS:
+        raise ValueError(f"kind must be one of {CLUSTER_KINDS}, not {kind!r}")
+    if clusters and kind == "jackknife":
+        steps = jackknife_steps(J, fun, clusters, upstream)
+        C = len(clusters)
+        return (C - 1) / C * (steps.T @ steps)
     bread = pseudo_solve(J.T @ J, np.eye(k))
     if clusters:
         C = len(clusters)
@@ -398,14 +451,21 @@ def residual_jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
     return fd_jacobian(problem.residuals, x, problem.bounds())
 
 
-def problem_covariance(problem: FitProblem, x: np.ndarray) -> np.ndarray:
-    """:func:`covariance` of ``problem``'s free parameters at ``x`` from
-    :func:`residual_jacobian` (exact or central differences): for a point the least-squares
-    solver did not return (a polish moved it; a start for MCMC). sigma is known when the
-    problem's weights are 1/sigma (``problem.sigma`` set), estimated from the residuals
-    otherwise."""
-    return covariance(residual_jacobian(problem, x), problem.residuals(x),
-                      sigma_known=problem.sigma is not None)
+def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
+                       fun: np.ndarray | None = None) -> np.ndarray:
+    """:func:`covariance` of ``problem``'s free parameters at ``x``, as the problem asks
+    (``FitProblem.covariance``): the delete-one-sweep jackknife over ``problem.clusters()``,
+    else iid with sigma known when the problem's weights are 1/sigma (``problem.sigma`` set),
+    estimated from the residuals otherwise.
+
+    ``jac``/``fun``: the Jacobian of the weighted residuals and the residuals at ``x`` when the
+    caller has them (the least-squares solver's); by default :func:`residual_jacobian` (exact or
+    central differences) and ``problem.residuals(x)`` -- for a point the solver did not return
+    (a polish moved it; a start for MCMC)."""
+    J = residual_jacobian(problem, x) if jac is None else jac
+    r = problem.residuals(x) if fun is None else fun
+    return covariance(J, r, sigma_known=problem.sigma is not None,
+                      clusters=problem.clusters(), kind="jackknife")
 
 
 class CountingModel:
