@@ -44,7 +44,9 @@ rounds; the branch 152 and 152 (4537c6e, d4067b7): 2.5x ddb9f71, 1.26x main. The
 session, seed 0, its binned table (14642 points, ``--ttc 0 --save-table``, then ``--trailer``
 in each checkout; ddb9f71 with main's validity grid at the data's pressure levels patched in,
 as it otherwise builds one grid column per sample): 612 at ddb9f71; main 209 and 239; the
-branch 214 and 209: 2.9x ddb9f71, 1.0-1.14x main.
+branch 214 and 209: 2.9x ddb9f71, 1.0-1.14x main. After merging main (787ab4d, load average
+9.4): the sample 138 (wall 196), ``--ttc 0`` 207 (wall 303; 75 evaluations of every one of
+the 135111 samples, binning included).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
