@@ -10,10 +10,11 @@ import pytest
 from identify.discover.design import folds, pressure_is_crossed, condition_cells
 from identify.discover.floor import replicate_sigma
 from identify.discover.library import load_library
-from identify.discover.noise import (Sweeps, group_variogram, lag1, sweep_index, variogram,
-                                     whiten)
+from identify.discover.noise import (PHI_MIN, Sweeps, group_variogram, lag1, sweep_index,
+                                     variogram, whiten)
 from identify.discover.scenarios import make_confounded
 from identify.discover.search import Settings, discover
+from identify.discover.working import noise_scale
 from identify.fit.problem import FitProblem
 
 PRESSURES = (1.9, 2.2, 2.5, 2.7, 3.0)
@@ -70,6 +71,25 @@ def test_group_variogram_per_noise_group():
     gam, _ = group_variogram(np.ones(5), Sweeps(lone), lone)
     assert np.isnan(gam).all()
 
+
+
+def test_noise_scale_survives_a_one_sample_sweep():
+    """A sweep fragment of one sample (no within-sweep pair) takes the level pooled over every
+    pair, and the other groups keep their own: on a TTC session one such fragment made every
+    std NaN, the noise floor 0, and the 10 % excess rule blocked PPY3."""
+    rng = np.random.default_rng(3)
+    labels = np.repeat(np.arange(4), [400, 400, 1, 400])
+    scale = np.array([1.0, 2.0, 5.0, 4.0])[labels]
+    e = rng.standard_normal(labels.size) * scale
+    phi, sigma = noise_scale(e, Sweeps(labels), labels)
+    assert phi < PHI_MIN  # independent noise
+    assert np.all(np.isfinite(sigma))
+    for g, s in ((0, 1.0), (1, 2.0), (3, 4.0)):
+        assert sigma[labels == g][0] == pytest.approx(s, rel=0.1)
+    pooled, _ = group_variogram(e, Sweeps(labels), np.zeros(labels.size, dtype=int))
+    assert sigma[labels == 2][0] == pytest.approx(np.sqrt(pooled[0]), rel=1e-12)
+    lone = np.arange(5)
+    assert np.isnan(noise_scale(np.ones(5), Sweeps(lone), lone)[1]).all()
 
 def _table(pb, fz, meas=None, reps=1):
     P = lmfit.Parameters()
