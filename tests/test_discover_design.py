@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import lmfit
 import numpy as np
+import pandas as pd
 import pytest
 
 from identify.discover.design import folds, pressure_is_crossed, condition_cells
@@ -14,6 +15,7 @@ from identify.discover.noise import (PHI_MIN, Sweeps, group_variogram, lag1, swe
                                      variogram, whiten)
 from identify.discover.scenarios import make_confounded
 from identify.discover.search import Settings, discover
+from identify.discover.stages import label_sweeps
 from identify.discover.working import noise_scale
 from identify.fit.problem import FitProblem
 
@@ -196,3 +198,27 @@ def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
     assert np.isin(kept["t"], trailer["t"]).all()  # samples as logged, not averaged
     sample = load_folder(ROOT / "measurements" / "sample-225-50R17").trailer
     assert sweeps_only(sample, notes) is sample and len(notes) == 1
+
+
+def test_a_segment_of_identify_segment_is_one_sweep():
+    """In a table segmented by identify.segment, a sweep is a segment: neither the 2 % load
+    steps of a noisy load at high slip nor a sample left out by a filter cut it into fragments
+    (on a TTC session they made 1-44-sample sweeps, one a metric group of its own); a segment
+    change, a run change or a longer time gap still end it. Without segments the load rule
+    stands."""
+    rng = np.random.default_rng(4)
+    n = 400
+    t = np.arange(2 * n) * 0.01
+    keep = np.ones(2 * n, dtype=bool)
+    keep[[100, 150, 151]] = False  # samples a filter left out
+    keep[600:630] = False  # a 0.3 s gap: a new sweep
+    fz = np.r_[np.full(n, 2500.0), np.full(n, 5000.0)] * (1 + 0.03 * rng.standard_normal(2 * n))
+    alpha = np.deg2rad(np.tile(np.linspace(-12.0, 12.0, n), 2))
+    frame = pd.DataFrame({"run": "r1", "t": t, "Fz": fz, "alpha": alpha, "kappa": 0.0,
+                          "gamma": 0.0, "Vx": 11.1, "p": 2.5e5,
+                          "segment_id": np.repeat([3, 8], n)})[keep]
+    sweeps = label_sweeps(frame)["sweep"].to_numpy()
+    assert np.unique(sweeps).size == 3
+    assert np.array_equal(np.unique(sweeps[:n - 3]), [0])
+    unsegmented = label_sweeps(frame.drop(columns="segment_id"))["sweep"].to_numpy()
+    assert np.unique(unsegmented).size > 3
