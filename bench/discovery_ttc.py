@@ -5,8 +5,8 @@ Per seed, in a scratch folder:
 
 1. ``base.tir``: the bundled tyre with every MF pressure term at zero (PPX1-4, PPY1-5, PPMX1,
    PPZ1-2): the base model "without pressure terms";
-2. ``truth.tir``: the base with the hidden terms set (``--hide PPY1=0.455346,PPY3=-0.1``, the
-   bundled tyre's values; nothing for the null set);
+2. ``truth.tir``: the base with the hidden terms set (PPY1 = 0.455346, PPY3 = -0.1, the
+   bundled tyre's values, or ``--hide PPY1=0.455346,PPY3=-0.05``; nothing for the null set);
 3. ``mfid simulate truth.tir session --format ttc --seed S``: a two-run session (cornering and
    drive/brake, ~136k samples, AR(1) noise, drift, warm-ups, temperature trends, logging
    quirks; ``--cornering-only`` for the cornering run alone);
@@ -22,7 +22,7 @@ every phase from the progress lines of ``mfid discover`` (acceptance 4).
 Usage::
 
     python bench/discovery_ttc.py [--seeds 20] [--jobs 2] [--only MF] [--cornering-only]
-                                  [--sets hidden null] [--json out.json]
+                                  [--sets hidden null] [--json out.json] [--hide K=V,...]
     python bench/discovery_ttc.py --timing [--seed 0]
     python bench/discovery_ttc.py --seeds 20 --jsonl part.jsonl   # records as they arrive
     python bench/discovery_ttc.py --summarise part.jsonl          # a run stopped early
@@ -70,9 +70,9 @@ def _mfid(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 
 
 def run_one(task: tuple) -> dict:
-    """One session: (set name, seed, only, cornering_only) -> record."""
-    name, seed, only, cornering_only = task
-    hidden = SETS[name]
+    """One session: (set name, seed, only, cornering_only[, hidden values]) -> record."""
+    name, seed, only, cornering_only, *rest = task
+    hidden = rest[0] if rest else SETS[name]
     with tempfile.TemporaryDirectory(prefix=f"ttc-{name}-{seed}-") as tmp:
         tmp = Path(tmp)
         write_tir(tmp / "base.tir", {})
@@ -96,7 +96,8 @@ def run_one(task: tuple) -> dict:
     keys = {k for a in effects for k in a["coefficients"]}
     grouped = keys | {k for a in effects for k in a.get("ambiguous_with", [])}
     conclusion = proc.stdout.strip().splitlines()
-    return {"set": name, "seed": seed, "hidden": sorted(hidden), "samples": samples,
+    return {"set": name, "seed": seed, "hidden": sorted(hidden),
+            "hidden_values": dict(hidden), "samples": samples,
             "accepted": [a["name"] for a in accepted],
             "accepted_problems": [a["problem"] for a in accepted],
             "accepted_keys": sorted(keys),
@@ -153,10 +154,14 @@ def timing(seed: int, only: str) -> str:
 
 
 def run(n_seeds: int = 20, jobs: int = 2, only: str = "MF", cornering_only: bool = False,
-        sets=("hidden", "null"), seed0: int = 1, jsonl: str | None = None) -> list[dict]:
+        sets=("hidden", "null"), seed0: int = 1, jsonl: str | None = None,
+        hide: dict[str, float] | None = None) -> list[dict]:
     """Every session's record, the sets interleaved (seed 1 of each, then seed 2 ...); with
-    ``jsonl`` each record is appended to that file as it arrives."""
-    tasks = [(s, seed0 + i, only, cornering_only) for i in range(n_seeds) for s in sets]
+    ``jsonl`` each record is appended to that file as it arrives; ``hide`` replaces the hidden
+    set's values."""
+    values = {**SETS, **({"hidden": dict(hide)} if hide else {})}
+    tasks = [(s, seed0 + i, only, cornering_only, values[s]) for i in range(n_seeds)
+             for s in sets]
     out = []
     with ProcessPoolExecutor(max(jobs, 1)) as pool:
         for rec in pool.map(run_one, tasks):
@@ -173,15 +178,17 @@ def table(records: list[dict]) -> str:
         rs = [r for r in records if r["set"] == s]
         n = len(rs)
         drift = sum(r["drift"] for r in rs)
-        if SETS[s]:
+        hidden = rs[0].get("hidden_values") or SETS[s]
+        if hidden:
             k = sum(r["named"] for r in rs)
             exact = sum(r["named_exact"] for r in rs)
             other = sum(bool(r["others"]) for r in rs)
-            lines.append(f"hidden {' and '.join(SETS[s])}: both named in {k}/{n} (target >= "
+            values = ", ".join(f"{key} = {v:g}" for key, v in hidden.items())
+            lines.append(f"hidden {values}: all named in {k}/{n} (target >= "
                          f"{TARGET}/20; {exact}/{n} by their own names, not as an ambiguity "
                          f"group); another tyre effect added in {other}/{n}; drift absorbed "
                          f"in {drift}/{n}")
-            for key in SETS[s]:
+            for key in hidden:
                 k1 = sum(key in r["accepted_keys"] for r in rs)
                 lines.append(f"  {key} named in {k1}/{n}")
         else:
@@ -205,6 +212,8 @@ def main(argv=None) -> int:
     ap.add_argument("--json", default=None)
     ap.add_argument("--timing", action="store_true")
     ap.add_argument("--jsonl", default=None, help="append every record as it arrives")
+    ap.add_argument("--hide", default=None, metavar="K=V,...",
+                    help="the hidden set's .tir values (default PPY1=0.455346,PPY3=-0.1)")
     ap.add_argument("--summarise", default=None, metavar="JSONL",
                     help="only print the table of a --jsonl file (a run stopped early)")
     a = ap.parse_args(argv)
@@ -215,7 +224,9 @@ def main(argv=None) -> int:
     if a.timing:
         print(timing(a.seed, a.only))
         return 0
-    records = run(a.seeds, a.jobs, a.only, a.cornering_only, a.sets, jsonl=a.jsonl)
+    hide = {k.strip(): float(v) for k, v in (kv.split("=") for kv in a.hide.split(","))} \
+        if a.hide else None
+    records = run(a.seeds, a.jobs, a.only, a.cornering_only, a.sets, jsonl=a.jsonl, hide=hide)
     print(table(records))
     if a.json:
         Path(a.json).write_text(json.dumps(records, indent=1), encoding="utf-8")

@@ -5,15 +5,18 @@ from __future__ import annotations
 
 import lmfit
 import numpy as np
+import pandas as pd
 import pytest
 
 from identify.discover.design import folds, pressure_is_crossed, condition_cells
 from identify.discover.floor import replicate_sigma
 from identify.discover.library import load_library
-from identify.discover.noise import (Sweeps, group_variogram, lag1, sweep_index, variogram,
-                                     whiten)
+from identify.discover.noise import (PHI_MIN, Sweeps, group_variogram, lag1, sweep_index,
+                                     variogram, whiten)
 from identify.discover.scenarios import make_confounded
 from identify.discover.search import Settings, discover
+from identify.discover.stages import label_sweeps
+from identify.discover.working import noise_scale
 from identify.fit.problem import FitProblem
 
 PRESSURES = (1.9, 2.2, 2.5, 2.7, 3.0)
@@ -70,6 +73,25 @@ def test_group_variogram_per_noise_group():
     gam, _ = group_variogram(np.ones(5), Sweeps(lone), lone)
     assert np.isnan(gam).all()
 
+
+
+def test_noise_scale_survives_a_one_sample_sweep():
+    """A sweep fragment of one sample (no within-sweep pair) takes the level pooled over every
+    pair, and the other groups keep their own: on a TTC session one such fragment made every
+    std NaN, the noise floor 0, and the 10 % excess rule blocked PPY3."""
+    rng = np.random.default_rng(3)
+    labels = np.repeat(np.arange(4), [400, 400, 1, 400])
+    scale = np.array([1.0, 2.0, 5.0, 4.0])[labels]
+    e = rng.standard_normal(labels.size) * scale
+    phi, sigma = noise_scale(e, Sweeps(labels), labels)
+    assert phi < PHI_MIN  # independent noise
+    assert np.all(np.isfinite(sigma))
+    for g, s in ((0, 1.0), (1, 2.0), (3, 4.0)):
+        assert sigma[labels == g][0] == pytest.approx(s, rel=0.1)
+    pooled, _ = group_variogram(e, Sweeps(labels), np.zeros(labels.size, dtype=int))
+    assert sigma[labels == 2][0] == pytest.approx(np.sqrt(pooled[0]), rel=1e-12)
+    lone = np.arange(5)
+    assert np.isnan(noise_scale(np.ones(5), Sweeps(lone), lone)[1]).all()
 
 def _table(pb, fz, meas=None, reps=1):
     P = lmfit.Parameters()
@@ -176,3 +198,27 @@ def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
     assert np.isin(kept["t"], trailer["t"]).all()  # samples as logged, not averaged
     sample = load_folder(ROOT / "measurements" / "sample-225-50R17").trailer
     assert sweeps_only(sample, notes) is sample and len(notes) == 1
+
+
+def test_a_segment_of_identify_segment_is_one_sweep():
+    """In a table segmented by identify.segment, a sweep is a segment: neither the 2 % load
+    steps of a noisy load at high slip nor a sample left out by a filter cut it into fragments
+    (on a TTC session they made 1-44-sample sweeps, one a metric group of its own); a segment
+    change, a run change or a longer time gap still end it. Without segments the load rule
+    stands."""
+    rng = np.random.default_rng(4)
+    n = 400
+    t = np.arange(2 * n) * 0.01
+    keep = np.ones(2 * n, dtype=bool)
+    keep[[100, 150, 151]] = False  # samples a filter left out
+    keep[600:630] = False  # a 0.3 s gap: a new sweep
+    fz = np.r_[np.full(n, 2500.0), np.full(n, 5000.0)] * (1 + 0.03 * rng.standard_normal(2 * n))
+    alpha = np.deg2rad(np.tile(np.linspace(-12.0, 12.0, n), 2))
+    frame = pd.DataFrame({"run": "r1", "t": t, "Fz": fz, "alpha": alpha, "kappa": 0.0,
+                          "gamma": 0.0, "Vx": 11.1, "p": 2.5e5,
+                          "segment_id": np.repeat([3, 8], n)})[keep]
+    sweeps = label_sweeps(frame)["sweep"].to_numpy()
+    assert np.unique(sweeps).size == 3
+    assert np.array_equal(np.unique(sweeps[:n - 3]), [0])
+    unsegmented = label_sweeps(frame.drop(columns="segment_id"))["sweep"].to_numpy()
+    assert np.unique(unsegmented).size > 3

@@ -79,6 +79,10 @@ LOAD_WINDOW = 15
 """Samples of the running median of the load before its steps are looked for (measured loads
 are noisy: the raw sample-to-sample change would split sweeps everywhere)."""
 
+SEGMENT_GAP = 10
+"""Sample intervals of a time jump that ends a sweep inside a segment of identify.segment (a
+few samples dropped by a filter do not)."""
+
 
 def _moves_and_has(df: pd.DataFrame) -> pd.DataFrame:
     """Per sweep: whether alpha, kappa, gamma move (range > tiny) and are ever nonzero."""
@@ -99,8 +103,11 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
 
     A sweep ends where the running time jumps by more than 1.5 sample intervals, the run
     changes, or the load (running median over :data:`LOAD_WINDOW` samples) changes by more
-    than 2 %. The kind is the manifest test of the run (``tests``: run id -> test) when it is
-    a known one, else it follows from what varies. ``session_pos`` is the sample's position
+    than 2 %; in a table segmented by identify.segment (a ``segment_id`` column), where
+    each segment is one sweep at one set load, where the segment changes or the time jumps
+    by more than :data:`SEGMENT_GAP` sample intervals instead. The kind is the manifest test
+    of the run (``tests``: run id -> test) when it is a known one, else it follows from what
+    varies. ``session_pos`` is the sample's position
     in the session, -1 .. +1 in row order (runs in manifest order): the drift candidate's
     time axis (:mod:`identify.discover.drift`). Vectorised over samples and sweeps.
     """
@@ -112,11 +119,19 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     dt = np.diff(t)
     step = np.median(dt[dt > 0]) if np.any(dt > 0) else 1.0
     brk = np.ones(len(df), dtype=bool)
-    brk[1:] = ((run[1:] != run[:-1]) | (dt > 1.5 * step) | (dt <= 0)
-               | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0)))
-    if "segment_id" in df:  # sweeps found by identify.segment: never one across two
+    brk[1:] = (run[1:] != run[:-1]) | (dt <= 0)
+    if "segment_id" in df:
+        # sweeps found by identify.segment (at one set load each): a segment is one sweep,
+        # across the few samples a filter left out of it. The load-step and time-gap rules
+        # inside them only cut fragments (1-44 samples, at high slip and low load where the
+        # measured load moves by 2 %, or around a dropped sample): a one-sample fragment
+        # varies nothing, so it made a metric group ("speed") of its own that weighed as
+        # much as a pressure level's cornering sweeps in the thesis error
         seg = df["segment_id"].to_numpy()
-        brk[1:] |= seg[1:] != seg[:-1]
+        brk[1:] |= (seg[1:] != seg[:-1]) | (dt > SEGMENT_GAP * step)
+    else:
+        brk[1:] |= (dt > 1.5 * step) \
+            | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0))
     df["sweep"] = np.cumsum(brk) - 1
     df["session_pos"] = session_positions(len(df))
     known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}

@@ -123,13 +123,19 @@ def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
     Each noise group is normalised by its lag-one semivariogram; phi comes from lags 1..3 of
     the pooled variogram (robust to a smooth misfit). With ``long_lags`` and phi >= PHI_MIN the
     marginal level is refined on lags 1..long_lags (for residuals that are pure noise: a long
-    variogram pins the plateau of strongly correlated noise). NaN stds when a group has no
-    pairs.
+    variogram pins the plateau of strongly correlated noise). A group without pairs (a sweep
+    fragment of one sample) takes the level pooled over every pair: it has no noise of its own
+    to read, and one such point must not void the floor of a whole session (it did: the floor
+    of a TTC session became 0 and every candidate had to explain 10 % of the whole error).
+    NaN stds only when no group has pairs.
     """
     gam1, _ = group_variogram(e, index, groups, 1)  # one pass over the points
     ok = np.isfinite(gam1) & (gam1 > 0)
     if not ok.all():
-        return 0.0, np.full(e.size, np.nan)
+        pooled, _ = group_variogram(e, index, np.zeros(e.size, dtype=np.int8), 1)
+        if not (pooled.size and np.isfinite(pooled[0]) and pooled[0] > 0):
+            return 0.0, np.full(e.size, np.nan)
+        gam1 = np.where(ok, gam1, pooled[0])
     en = e / np.sqrt(gam1)
     phi, s2 = fit_ar1(variogram(en, index))
     if phi < PHI_MIN:
