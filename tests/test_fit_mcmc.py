@@ -249,3 +249,33 @@ def test_kya_reparametrisation_samples_the_exact_fy0_posterior():
               "flat-in-Kya - exact [sd]", np.round((flat_kya - exact) / sd, 3))
         np.testing.assert_array_less(np.abs(got - exact) / sd, 0.1)
         assert np.max(np.abs(flat_kya - exact) / sd) > 0.2, name
+
+
+def test_the_budget_of_the_whole_run_is_shared_out_between_the_chains(tmp_path):
+    """``mfid fit``'s --mcmc-budget is the whole MCMC run's: the chains run after the fits,
+    cheapest first, each with the budget left divided by the chains left, so the time a chain
+    that converges early does not use goes to the ones after it; the results get their
+    summaries and nothing else changes."""
+    from functools import partial
+
+    from identify.fit.run import FitSettings
+    from identify.workflows.fit import _Chains
+
+    problems = [_problem(0), _problem(1), _problem(2, noise=0.02)]
+    results = [fit(p) for p in problems]
+    budget, seen = 60.0, []
+    settings = FitSettings(mcmc=True, mcmc_budget_s=budget, seed=5)
+    with _Chains(settings, tmp_path, lambda name, p: seen.append((name, p))) as chains:
+        for i, (p, r) in enumerate(zip(problems, results)):
+            chains.queue(i, f"chain{i}", f"mcmc: chain{i}", r, partial(run_mcmc, p, r))
+        lines = []
+        done = list(results)
+        chains.run_all(done, lines.append)
+    assert lines == ["mcmc: chain0", "mcmc: chain1", "mcmc: chain2"]  # equal cost: in order
+    shares = {name: p.budget for name, p in seen if p.stop}
+    assert shares["chain0"] == pytest.approx(budget / 3, rel=1e-3)
+    spent = sum(d.mcmc.seconds for d in done[:1])
+    assert shares["chain1"] == pytest.approx((budget - spent) / 2, rel=0.05)
+    assert shares["chain1"] > budget / 3 and shares["chain2"] > shares["chain1"]
+    for d, r in zip(done, results):
+        assert d.mcmc.converged and d.parameters == r.parameters and d.mcmc.chain_file is None

@@ -49,6 +49,11 @@ TAU_FACTOR = 50
 CHUNK = 500
 MAX_STEPS = 40000
 """Default cap on a chain [steps] (it stops earlier, at 50 tau)."""
+BUDGET_S = 900.0
+"""Default wall-time budget of the whole MCMC run of one fit, all chains together [s]
+(``mfid fit --mcmc-budget``; identify.workflows.fit shares it out between the chains): with
+the fit itself and the report it keeps ``mfid fit --mcmc`` of the bundled sample under 20
+minutes on 2 cores."""
 MOVES = ("de", "stretch")
 
 
@@ -330,7 +335,8 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     max_steps : int
         Cap on the chain [steps].
     budget : float, optional
-        Time budget of the chain [s]. The chain stops at 50 tau, ``max_steps`` or the budget,
+        Time budget of this chain [s] (``mfid fit`` gives each chain its share of the whole
+        run's budget). The chain stops at 50 tau, ``max_steps`` or the budget,
         whichever comes first; stopped early, the summary says ``converged = False`` and
         ``stopped`` why.
     chain_file : path, optional
