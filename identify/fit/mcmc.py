@@ -48,6 +48,11 @@ from identify.fit.result import FitResult, MCMCSummary
 
 TAU_FACTOR = 50
 CHUNK = 500
+"""Most steps between two estimates of the autocorrelation time."""
+FIRST_CHECK = 250
+"""Steps before the first estimate; later ones come when the chain should pass 50 tau by the
+last estimate (at least MIN_CHECK, at most CHUNK steps later)."""
+MIN_CHECK = 100
 MAX_STEPS = 40000
 """Default cap on a chain [steps] (it stops earlier, at 50 tau)."""
 BUDGET_S = 900.0
@@ -385,10 +390,13 @@ def _signals_between_steps():
 
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
          tau_fn: Callable[[], np.ndarray]):
-    """Run in CHUNKs until 50 tau, the cap or the budget (checked every step); return the
-    last state, steps, the autocorrelation times ``tau_fn()`` and why it stopped."""
+    """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
+    FIRST_CHECK steps and then where the last estimate says 50 tau is reached (MIN_CHECK to
+    CHUNK steps on); return the last state, steps, the autocorrelation times ``tau_fn()`` and
+    why it stopped."""
     steps, tau, stop = 0, np.full(1, np.inf), ""
     last = -math.inf
+    chunk = FIRST_CHECK
 
     def report(stop_now=""):
         tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
@@ -399,7 +407,7 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
 
     with _signals_between_steps() as pending:
         while not stop and not pending:
-            for new in sampler.sample(state, iterations=min(CHUNK, max_steps - steps)):
+            for new in sampler.sample(state, iterations=min(chunk, max_steps - steps)):
                 state = new
                 steps += 1
                 now = time.perf_counter()
@@ -418,6 +426,11 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
                 stop = "converged"
             elif steps >= max_steps and not stop:
                 stop = "max_steps"
+            if np.all(np.isfinite(tau)):
+                need = int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps
+                chunk = min(max(need, MIN_CHECK), CHUNK)
+            else:
+                chunk = CHUNK
     if progress is not None:
         report(stop)
     return state, steps, tau, stop
