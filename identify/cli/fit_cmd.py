@@ -236,7 +236,7 @@ def fit_command(
              "says converged = false."),
     mcmc_budget: float | None = typer.Option(
         None, "--mcmc-budget", metavar="SECONDS",
-        help="With --mcmc: wall-time budget of the whole MCMC run, all chains together [s] "
+        help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
              f"(default {BUDGET_S:g}; 'inf' for none). The chains run after the fits, cheapest "
              "first; each may use the budget left divided by the chains left, so time a chain "
              "does not need goes to the later ones. A chain stops at 50 autocorrelation "
