@@ -288,14 +288,18 @@ def _laplace(posterior: _Posterior, xb: np.ndarray,
         except np.linalg.LinAlgError:
             return None
         xb = reparam.forward(xb[None, :])[0]
+    fisher = jac.T @ jac
+    d = np.sqrt(np.diag(fisher))  # scaled to unit diagonal: the check is on correlations,
+    if not (np.all(np.isfinite(d)) and np.all(d > 0)):  # not on the coefficients' units
+        return None
     try:
-        vals, vecs = np.linalg.eigh(jac.T @ jac)
+        vals, vecs = np.linalg.eigh(fisher / np.outer(d, d))
     except np.linalg.LinAlgError:
         return None
     if not (np.all(np.isfinite(vals)) and vals.min() > 1e-12 * vals.max() > 0):
         return None
     cov = np.zeros((k + 1, k + 1))
-    cov[:k, :k] = sigma0 ** 2 * (vecs / vals) @ vecs.T * n / max(n - k, 1)
+    cov[:k, :k] = (sigma0 ** 2 * n / max(n - k, 1)) * ((vecs / vals) @ vecs.T) / np.outer(d, d)
     cov[k, k] = 1.0 / (2 * max(n - k, 1))
     return np.r_[xb, np.log(sigma0)], cov
 
