@@ -303,3 +303,36 @@ def test_the_budget_of_the_whole_run_is_shared_out_between_the_chains(tmp_path):
     assert shares["chain1"] > budget / 3 and shares["chain2"] > shares["chain1"]
     for d, r in zip(done, results):
         assert d.mcmc.converged and d.parameters == r.parameters and d.mcmc.chain_file is None
+
+
+def test_laplace_move_samples_the_target_even_from_a_wrong_approximation():
+    """The independence proposals carry their density ratio, so a wrong approximation only
+    lowers the acceptance: a correlated Gaussian in 6 dimensions sampled as run_mcmc does
+    (half differential evolution, half Laplace proposals) from an approximation shifted by 1
+    sd in every coefficient and half as wide still gives the exact mean and sd (Monte Carlo
+    error ~0.02 sd; measured <= 0.02 sd and sd ratios 0.99-1.00). The test has power: the same
+    run without the density ratio comes out 0.45 sd off with sd ratios of 0.73."""
+    import emcee
+
+    from identify.fit.mcmc import LaplaceMove
+
+    rng = np.random.default_rng(1)
+    k = 6
+    a = rng.standard_normal((k, k))
+    cov = a @ a.T + k * np.eye(k)
+    mean = rng.standard_normal(k)
+    prec = np.linalg.inv(cov)
+    sd = np.sqrt(np.diag(cov))
+
+    def log_prob(x):
+        d = np.atleast_2d(x) - mean
+        return -0.5 * np.einsum("ij,jk,ik->i", d, prec, d)
+
+    wrong = LaplaceMove(mean + sd, cov / 4, scale=1.0, df=5.0)
+    sampler = emcee.EnsembleSampler(32, k, log_prob, vectorize=True,
+                                    moves=[(emcee.moves.DEMove(), 0.5), (wrong, 0.5)])
+    sampler.random_state = np.random.RandomState(2).get_state()
+    sampler.run_mcmc(mean + 0.1 * rng.standard_normal((32, k)), 4000)
+    flat = sampler.get_chain(discard=200, flat=True)
+    np.testing.assert_allclose((flat.mean(axis=0) - mean) / sd, 0.0, atol=0.06)
+    np.testing.assert_allclose(flat.std(axis=0) / sd, 1.0, atol=0.05)
