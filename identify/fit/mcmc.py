@@ -8,21 +8,32 @@ level as a fraction; the MF stages' channels noise relative to each sweep's RMS)
 AR(1) noise along each sweep (innovations e_t - phi e_(t-1) ~ N(0, sigma^2), stationary
 start), phi in (-0.99, 0.99).
 
-Walkers >= max(32, 2 x parameters); the chain runs in chunks until it is longer than 50
-autocorrelation times (or ``max_steps``); the first 3 tau are discarded and the chain thinned by
-tau/2. All walkers are evaluated in one vectorised call when the model broadcasts over
-parameter arrays of shape (walkers, 1).
+Walkers >= max(32, 2 x parameters); the chain runs until it is longer than 50 autocorrelation
+times (estimated after 250 steps, then where the last estimate says 50 tau is reached), the
+step cap ``max_steps`` or the time ``budget``; the first 3 tau are discarded and the chain
+thinned by tau/2. All walkers are evaluated in one vectorised call when the model broadcasts
+over parameter arrays of shape (walkers, 1). The chain is sampled in memory and written to
+its HDF5 file (emcee's layout) once, at the end.
 
-Moves: differential evolution (emcee.moves.DEMove) by default. It is affine-invariant like
-emcee's stretch move, but its autocorrelation time grows far more slowly with the dimension:
-measured on the 18-coefficient Fx0 stage tau ~ 60 steps against ~ 500 for the stretch move,
-and about half the stretch move's tau on the 2-4 parameter relations, so the 50-tau rule is
-met in a fraction of the steps. ``moves="stretch"`` keeps emcee's default. emcee's
-DESnookerMove is not used: in emcee 3.1.6 it scales its step by the distance to the anchor
-walker (u = delta/sqrt(|delta|) instead of delta/|delta|) and so does not sample the target
-(a unit Gaussian in 19 dimensions comes out with variance 0.56 alone, 0.79 as 20 % of a mix
-with DE; tests/test_fit_mcmc.py checks the posterior width against a linear problem's exact
-one).
+Moves (``moves="de+laplace"``, the default): half of the steps differential evolution
+(emcee.moves.DEMove), half independence Metropolis-Hastings proposals from the Laplace
+approximation of this posterior (:class:`LaplaceMove`: a Student t around the likelihood's
+own maximum, reached from the least-squares optimum by a few Gauss-Newton steps, with
+covariance sigma^2 (J'J)^-1 from the noise-weighted model), and the walkers start drawn from
+that approximation instead of a small ball, so there is no burn-in to grow out of. Both moves
+leave the posterior exactly invariant; the approximation only decides how fast the chain
+mixes. Differential evolution is affine-invariant (whitening the coordinates changes nothing
+for it) and its autocorrelation time grows with the dimension (tau ~ 60 steps on the
+18-coefficient Fx0 stage, against ~500 for emcee's stretch move) and with curvature
+(~100 on the sample's 6-coefficient Fx stage); where the posterior is close to Gaussian the
+Laplace proposals are nearly independent draws: on the bundled sample's MF stages the largest
+tau fell from 54-115 (Fx0, Fy) to 5-14 steps. ``moves="de"`` is differential evolution alone
+from a small ball, ``"stretch"`` emcee's default; with AR(1) noise ``"de+laplace"`` is ``"de"``
+(phi has no Laplace approximation here). emcee's DESnookerMove is not used: in emcee 3.1.6 it
+scales its step by the distance to the anchor walker (u = delta/sqrt(|delta|) instead of
+delta/|delta|) and so does not sample the target (a unit Gaussian in 19 dimensions comes out
+with variance 0.56 alone, 0.79 as 20 % of a mix with DE; tests/test_fit_mcmc.py checks the
+posterior width against a linear problem's exact one).
 """
 from __future__ import annotations
 
@@ -38,9 +49,9 @@ from pathlib import Path
 
 import emcee
 import numpy as np
-from scipy.optimize import least_squares
 
 from identify.fit.engine import problem_covariance
+from identify.fit.mcmc_laplace import LaplaceMove, laplace, laplace_start, sigma0
 from identify.fit.mcmc_reparam import KyaRidge
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult, MCMCSummary
@@ -205,7 +216,7 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     free = problem.free
     k = len(free)
     xb = np.array([result.parameters[n] for n in free])
-    sigma0 = _sigma0(problem, xb)
+    s0 = sigma0(problem, xb)
     sd = (np.sqrt(np.clip(np.diag(problem_covariance(problem, xb)), 0, None)) if k
           else np.zeros(0))
     lo, hi = problem.bounds()
@@ -214,143 +225,10 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     p0 = np.empty((nw, ndim))
     p0[:, :k] = xb + 0.1 * scale * rng.standard_normal((nw, k))
     p0[:, :k] = np.clip(p0[:, :k], lo + 1e-9 * span, hi - 1e-9 * span)
-    p0[:, k] = np.log(sigma0) + 0.01 * rng.standard_normal(nw)
+    p0[:, k] = np.log(s0) + 0.01 * rng.standard_normal(nw)
     if ar1:
         p0[:, k + 1] = 0.5 + 0.01 * rng.standard_normal(nw)
     return p0
-
-
-def _sigma0(problem: FitProblem, xb: np.ndarray) -> float:
-    """RMS of the noise-weighted residuals at ``xb`` (the noise level's starting value)."""
-    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
-    r = r[np.isfinite(r)]
-    return max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
-
-
-def _weighted_jacobian(posterior: _Posterior, x: np.ndarray,
-                       h: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Noise-weighted residuals (n,) at x and their Jacobian (n, k) by central differences
-    (steps h), the 2k + 1 points in one model call."""
-    k = x.size
-    rows = np.concatenate([x + np.diag(h), x - np.diag(h), x[None, :]])
-    pred = posterior._predict(np.column_stack([rows, np.zeros(2 * k + 1)]))
-    r = (pred[-1] - posterior.meas) * posterior.w
-    return r, ((pred[:k] - pred[k:2 * k]) * posterior.w / (2 * h[:, None])).T
-
-
-def _mode(posterior: _Posterior, xb: np.ndarray, h: np.ndarray) -> np.ndarray:
-    """The maximum of the MCMC likelihood near the least-squares optimum ``xb`` (their
-    weights can differ, e.g. the MF stages' sweep-relative noise): a few bounded Gauss-Newton
-    (trust-region) steps on the noise-weighted residuals; ``xb`` if that does not improve."""
-    ok = np.isfinite(_weighted_jacobian(posterior, xb, h)[0])
-
-    def fun(x):
-        return np.nan_to_num(_weighted_jacobian(posterior, x, h)[0][ok], nan=1e30)
-
-    def jac(x):
-        return np.nan_to_num(_weighted_jacobian(posterior, x, h)[1][ok], nan=0.0)
-
-    lo, hi = posterior.lo, posterior.hi
-    x0 = np.clip(xb, lo, hi)
-    try:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", max_nfev=30,
-                            x_scale="jac")
-    except (ValueError, np.linalg.LinAlgError):
-        return xb
-    better = np.all(np.isfinite(sol.x)) and 2 * sol.cost < np.sum(fun(x0) ** 2)
-    return sol.x if better else xb
-
-
-def _laplace(posterior: _Posterior, xb: np.ndarray,
-             reparam: KyaRidge | None) -> tuple[np.ndarray, np.ndarray] | None:
-    """The Laplace approximation of the posterior (sigma profiled) in the sampled coordinates:
-    mean (k + 1,) = [the likelihood's maximum near the optimum ``xb`` (:func:`_mode`; mapped
-    by ``reparam``), log sigma] and covariance sigma^2 (J'J)^-1 n / (n - k) from central
-    differences of the noise-weighted model (J of this posterior's likelihood), log sigma's
-    variance 1/(2(n - k)). None when it is not usable (non-finite, not positive definite)."""
-    k, n = xb.size, posterior.meas.size
-    if k == 0:
-        return None
-    lo, hi = posterior.lo, posterior.hi
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.inf)
-    h = 6e-6 * np.maximum(np.abs(xb), np.minimum(1e-3 * span, 1.0))
-    xb = _mode(posterior, xb, h)
-    r, jac = _weighted_jacobian(posterior, xb, h)
-    ok = np.isfinite(r) & np.isfinite(jac).all(axis=1)
-    sigma0 = max(float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else 1.0, 1e-12)
-    jac = jac[ok]
-    if reparam is not None:  # d x / d z = (d z / d x)^-1 at the optimum
-        rows = np.concatenate([xb + np.diag(h), xb - np.diag(h)])
-        zrows = reparam.forward(rows)
-        dz = ((zrows[:k] - zrows[k:]) / (2 * h[:, None])).T                   # (k, k)
-        try:
-            jac = jac @ np.linalg.inv(dz)
-        except np.linalg.LinAlgError:
-            return None
-        xb = reparam.forward(xb[None, :])[0]
-    fisher = jac.T @ jac
-    d = np.sqrt(np.diag(fisher))  # scaled to unit diagonal: the check is on correlations,
-    if not (np.all(np.isfinite(d)) and np.all(d > 0)):  # not on the coefficients' units
-        return None
-    try:
-        vals, vecs = np.linalg.eigh(fisher / np.outer(d, d))
-    except np.linalg.LinAlgError:
-        return None
-    if not (np.all(np.isfinite(vals)) and vals.min() > 1e-12 * vals.max() > 0):
-        return None
-    cov = np.zeros((k + 1, k + 1))
-    cov[:k, :k] = (sigma0 ** 2 * n / max(n - k, 1)) * ((vecs / vals) @ vecs.T) / np.outer(d, d)
-    cov[k, k] = 1.0 / (2 * max(n - k, 1))
-    return np.r_[xb, np.log(sigma0)], cov
-
-
-class LaplaceMove(emcee.moves.MHMove):
-    """Independence Metropolis-Hastings move: every walker proposes a draw of a fixed
-    multivariate Student t (``df``) around the Laplace approximation (``mean``, ``cov``
-    widened by ``scale``^2) and accepts it with the proposal-density ratio, so the target is
-    left exactly invariant whatever the approximation's error (which only lowers the
-    acceptance). Where the posterior is close to Gaussian, successive draws are nearly
-    independent: autocorrelation times of a few steps where differential evolution needs
-    ~2-3 per dimension."""
-
-    def __init__(self, mean: np.ndarray, cov: np.ndarray, scale: float = 1.2,
-                 df: float = 20.0):
-        self.mean = np.asarray(mean, dtype=float)
-        self.chol = np.linalg.cholesky(scale ** 2 * np.asarray(cov, dtype=float))
-        self.df = float(df)
-        super().__init__(self._propose, ndim=self.mean.size)
-
-    def log_q(self, x: np.ndarray) -> np.ndarray:
-        """Log proposal density (up to a constant) of rows x (W, ndim)."""
-        u = np.linalg.solve(self.chol, (x - self.mean).T)
-        return -0.5 * (self.df + self.mean.size) * np.log1p(np.sum(u * u, axis=0) / self.df)
-
-    def draw(self, n: int, random) -> np.ndarray:
-        """n draws (n, ndim) of the proposal with numpy RandomState ``random``."""
-        z = random.standard_normal((n, self.mean.size))
-        w = random.chisquare(self.df, n) / self.df
-        return self.mean + (z @ self.chol.T) / np.sqrt(w)[:, None]
-
-    def _propose(self, coords: np.ndarray, random):
-        new = self.draw(coords.shape[0], random)
-        return new, self.log_q(coords) - self.log_q(new)
-
-
-def _laplace_start(posterior: _Posterior, move: LaplaceMove, nw: int,
-                   random) -> np.ndarray | None:
-    """Walkers drawn from the Laplace approximation (cov / 1.2^2 of the move's proposal; a
-    start close to the stationary spread needs no burn-in to grow from a small ball), those
-    outside the support drawn again; None if fewer than nw land inside in 5 tries."""
-    keep = []
-    narrow = LaplaceMove(move.mean, move.chol @ move.chol.T, scale=1 / 1.2, df=1e6)
-    for _ in range(5):
-        cand = narrow.draw(2 * nw, random)
-        lp = posterior(cand)
-        lp = lp[:, 0] if lp.ndim == 2 else lp
-        keep += list(cand[np.isfinite(lp)])
-        if len(keep) >= nw:
-            return np.array(keep[:nw])
-    return None
 
 
 @contextmanager
@@ -525,20 +403,20 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     nw += nw % 2
     rng = np.random.default_rng(seed)
     posterior = _Posterior(problem, ar1, reparam)
-    laplace = p0 = None
+    move = p0 = None
     if moves == "de+laplace" and not ar1:  # phi has no Laplace approximation here
         xb = np.array([result.parameters[n] for n in free])
-        approx = _laplace(posterior, xb, reparam)
+        approx = laplace(posterior, xb, reparam)
         if approx is not None:
-            laplace = LaplaceMove(*approx)
-            p0 = _laplace_start(posterior, laplace, nw,
+            move = LaplaceMove(*approx)
+            p0 = laplace_start(posterior, move, nw,
                                  np.random.RandomState(rng.integers(2 ** 32)))
     if p0 is None:
         p0 = _start(problem, result, ar1, nw, ndim, rng)
         if reparam is not None:
             p0[:, :k] = reparam.forward(p0[:, :k])
     sampler = emcee.EnsembleSampler(nw, ndim, posterior, vectorize=True,
-                                    moves=_moves(moves, laplace))
+                                    moves=_moves(moves, move))
     sampler.random_state = np.random.RandomState(seed).get_state()
     names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
     if reparam is not None:  # the sampled coordinates and the coefficients mapped back
