@@ -336,3 +336,20 @@ def test_laplace_move_samples_the_target_even_from_a_wrong_approximation():
     flat = sampler.get_chain(discard=200, flat=True)
     np.testing.assert_allclose((flat.mean(axis=0) - mean) / sd, 0.0, atol=0.06)
     np.testing.assert_allclose(flat.std(axis=0) / sd, 1.0, atol=0.05)
+
+
+def test_a_chain_stopped_by_the_budget_continues_in_its_session():
+    """run_mcmc(session=...) keeps a chain the budget stopped; passed again it continues the
+    same chain (steps and seconds count on) to 50 tau, as mfid fit does with the time the
+    other chains left."""
+    from identify.fit.mcmc import ChainSession
+
+    problem = _problem(0)
+    result = fit(problem)
+    session = ChainSession()
+    first = run_mcmc(problem, result, seed=5, budget=0.02, moves="de", session=session).mcmc
+    assert first.stopped == "budget" and 0 < first.n_steps < 500
+    more = run_mcmc(problem, result, seed=5, moves="de", session=session).mcmc
+    assert more.converged and more.n_steps > first.n_steps
+    assert more.seconds > first.seconds
+    assert session.sampler.iteration == more.n_steps  # one chain, not a new one

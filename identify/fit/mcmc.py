@@ -270,14 +270,17 @@ def _signals_between_steps():
 
 
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
-         tau_fn: Callable[[], np.ndarray]):
+         tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
     """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
     FIRST_CHECK steps and then where the last estimate says 50 tau is reached (MIN_CHECK to
     CHUNK steps on); return the last state, steps, the autocorrelation times ``tau_fn()`` and
-    why it stopped."""
-    steps, tau, stop = 0, np.full(1, np.inf), ""
+    why it stopped. ``steps0``, ``tau0``: a chain continued from where it stopped."""
+    steps, tau, stop = steps0, np.full(1, np.inf) if tau0 is None else tau0, ""
     last = -math.inf
     chunk = FIRST_CHECK
+    if steps0 and np.all(np.isfinite(tau)):
+        chunk = min(max(int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps,
+                        MIN_CHECK), CHUNK)
 
     def report(stop_now=""):
         tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
@@ -356,11 +359,28 @@ def _chain(sampler, reparam: KyaRidge | None, discard: int = 0, thin: int = 1) -
     return c.reshape(-1, c.shape[-1])
 
 
+class ChainSession:
+    """Keeps a chain that a time budget stopped so that ``run_mcmc(..., session=...)`` can
+    continue it later with more time (identify.workflows.fit gives the budget the other
+    chains left to the chains it stopped). Empty until the first run; the caller only passes
+    it back."""
+
+    def __init__(self):
+        self.sampler = None
+        self.state = None
+        self.steps = 0
+        self.tau = None
+        self.seconds = 0.0
+        self.tau_fn = None
+        self.move = None
+
+
 def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool = False,
              n_walkers: int | None = None, max_steps: int = MAX_STEPS,
              budget: float | None = None, chain_file: str | Path | None = None,
              moves: str = "de+laplace", reparam: KyaRidge | None = None,
-             progress: Callable[[ChainProgress], None] | None = None) -> FitResult:
+             progress: Callable[[ChainProgress], None] | None = None,
+             session: ChainSession | None = None) -> FitResult:
     """Sample the posterior around a least-squares result; return the result with ``mcmc`` set.
 
     Parameters
@@ -392,8 +412,16 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         mcmc_reparam); the prior stays flat in the coefficients.
     progress : callable, optional
         Called with a :class:`ChainProgress` about once a second and when the chain stops.
+    session : ChainSession, optional
+        Keep the chain in it; passed again (same problem and settings), the chain it holds
+        continues from where it stopped, with this call's ``budget`` (steps and seconds
+        count from the first call).
     """
     t0 = time.perf_counter()
+    if session is not None and session.sampler is not None:
+        return _summary(problem, result, session, seed, ar1, reparam, chain_file, *_run(
+            session.sampler, session.state, max_steps, budget, progress, t0, session.tau_fn,
+            session.steps, session.tau), t0=t0)
     if moves not in MOVES:
         raise ValueError(f"moves must be one of {MOVES}, not {moves!r}")
     free = problem.free
@@ -432,7 +460,25 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     else:
         def tau_fn():
             return sampler.get_autocorr_time(tol=0)
-    _, steps, tau, stop = _run(sampler, p0, max_steps, budget, progress, t0, tau_fn)
+    session = session if session is not None else ChainSession()
+    session.sampler, session.tau_fn = sampler, tau_fn
+    return _summary(problem, result, session, seed, ar1, reparam, chain_file,
+                    *_run(sampler, p0, max_steps, budget, progress, t0, tau_fn), t0=t0)
+
+
+def _summary(problem, result, session: ChainSession, seed, ar1, reparam, chain_file, state,
+             steps, tau, stop, *, t0: float) -> FitResult:
+    """The result with the MCMC summary of the chain in ``session`` (and its file written);
+    the session keeps where the chain stopped."""
+    sampler = session.sampler
+    session.state, session.steps, session.tau = state, steps, tau
+    session.seconds += time.perf_counter() - t0
+    free = problem.free
+    k = len(free)
+    nw = sampler.nwalkers
+    names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
+    if reparam is not None:
+        names += list(reparam.labels)
     finite = bool(np.all(np.isfinite(tau)))
     tau_max = float(np.max(tau)) if finite else float(steps) / TAU_FACTOR
     discard = min(int(np.ceil(3 * tau_max)), steps // 2)
@@ -457,7 +503,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         tau={n: float(t) for n, t in tau_of.items()},
         acceptance=float(np.mean(sampler.acceptance_fraction)), n_walkers=nw, n_steps=steps,
         n_discard=discard, n_thin=thin, n_samples=n_eff, correlations=corr, noise=noise,
-        seed=seed, converged=stop == "converged", seconds=time.perf_counter() - t0,
+        seed=seed, converged=stop == "converged", seconds=session.seconds,
         chain_file=None if chain_file is None else str(chain_file),
         samples=flat[:, :k], stopped="" if stop == "converged" else stop,
         reparametrised=() if reparam is None else tuple(reparam.labels))

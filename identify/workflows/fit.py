@@ -24,7 +24,7 @@ from identify.core.names import name_problem
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
-from identify.fit.mcmc import ChainProgress, run_mcmc
+from identify.fit.mcmc import ChainProgress, ChainSession, run_mcmc
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.plan import PLAN, RELATION_NAMES
@@ -62,10 +62,11 @@ class _Chains:
     """MCMC runs of one fit_folder call, their shared time budget and their chain files.
 
     The chains are queued while the fits run (``queue``) and sampled once every fit is done
-    (``run_all``), cheapest first (points x free coefficients), so that the time budget of the
-    whole MCMC run (``FitSettings.mcmc_budget_s``) can be shared out: each chain may use the
-    budget left divided by the chains left, and a chain that converges early leaves its unused
-    time to the ones after it.
+    (``run_all``), cheapest first (points x free coefficients squared), so that the time
+    budget of the whole MCMC run (``FitSettings.mcmc_budget_s``) can be shared out: each chain
+    may use the budget left divided by the chains left, so a chain that converges early leaves
+    its unused time to the ones after it; the chains the budget stopped are then continued
+    (not restarted) with what is left.
 
     Each chain is written to a temporary name next to fits/<id>/mcmc/<name>.h5 and renamed
     only when the whole fit has been written (``with`` block left without an exception); an
@@ -117,23 +118,38 @@ class _Chains:
         self.jobs.append((cost, index, name, title, sample))
 
     def run_all(self, results: list[FitResult], progress: Progress | None) -> None:
-        """Run the queued chains, cheapest first, each with its share of the budget left, and
-        set the ``mcmc`` summary of their results (naming the final chain file)."""
+        """Run the queued chains, cheapest first, each with its share of the budget left; then
+        continue the chains the budget stopped, in the same order, with the time the others
+        left (again shared out). Sets the ``mcmc`` summary of their results (naming the
+        final chain file)."""
         s = self.settings
         t0 = time.perf_counter()
         jobs = sorted(self.jobs, key=lambda j: j[0])  # stable: plan order among equals
-        for left, (_cost, index, name, title, sample) in zip(range(len(jobs), 0, -1), jobs):
-            share = None
-            if s.mcmc_budget_s is not None:
-                share = max(s.mcmc_budget_s - (time.perf_counter() - t0), 0.0) / left
-            _say(progress, title)
-            final, tmp = self._tmp(name)
-            chain_progress = None if self.progress is None else partial(self.progress, name)
-            mc = sample(chain_file=tmp, progress=chain_progress, max_steps=s.mcmc_max_steps,
-                        budget=share, seed=s.seed, ar1=s.mcmc_ar1).mcmc
-            if final is not None:
-                mc = dataclasses.replace(mc, chain_file=str(final))
-            results[index] = dataclasses.replace(results[index], mcmc=mc)
+        files = {name: self._tmp(name) for _c, _i, name, _t, _s in jobs}
+        sessions = {name: ChainSession() for _c, _i, name, _t, _s in jobs}
+        for again in (False, True):
+            if again:
+                if s.mcmc_budget_s is None:
+                    break
+                jobs = [j for j in jobs if results[j[1]].mcmc.stopped == "budget"]
+            for left, (_cost, index, name, title, sample) in zip(range(len(jobs), 0, -1),
+                                                                jobs):
+                share = None
+                if s.mcmc_budget_s is not None:
+                    share = max(s.mcmc_budget_s - (time.perf_counter() - t0), 0.0) / left
+                    if again and share < 1.0:
+                        break
+                _say(progress, f"{title} (continued with the time the other chains left)"
+                     if again else title)
+                final, tmp = files[name]
+                chain_progress = (None if self.progress is None
+                                  else partial(self.progress, name))
+                mc = sample(chain_file=tmp, progress=chain_progress,
+                            max_steps=s.mcmc_max_steps, budget=share, seed=s.seed,
+                            ar1=s.mcmc_ar1, session=sessions[name]).mcmc
+                if final is not None:
+                    mc = dataclasses.replace(mc, chain_file=str(final))
+                results[index] = dataclasses.replace(results[index], mcmc=mc)
         self.jobs.clear()
 
 
