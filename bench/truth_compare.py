@@ -94,25 +94,27 @@ def forms_trial(seed: int, where: str) -> list[dict]:
     return out
 
 
-def run_truth(seeds, sample: bool, jobs: int, keep: str | None) -> list[dict]:
-    items = ([None] if sample else []) + list(seeds)
+def _in_pool(trial, items, names, jobs: int, keep: str | None) -> list:
+    """``trial(item, folder)`` for every item in a process pool, each in its own folder
+    (below ``keep``, or a temporary folder removed afterwards)."""
     with tempfile.TemporaryDirectory() as tmp:
         base = Path(keep or tmp)
-        dirs = [str(base / f"truth-{'sample' if s is None else s}") for s in items]
+        dirs = [str(base / name) for name in names]
         for d in dirs:
             Path(d).mkdir(parents=True, exist_ok=True)
         with ProcessPoolExecutor(max_workers=jobs) as pool:
-            return list(pool.map(truth_trial, items, dirs))
+            return list(pool.map(trial, items, dirs))
+
+
+def run_truth(seeds, sample: bool, jobs: int, keep: str | None) -> list[dict]:
+    items = ([None] if sample else []) + list(seeds)
+    names = [f"truth-{'sample' if s is None else s}" for s in items]
+    return _in_pool(truth_trial, items, names, jobs, keep)
 
 
 def run_forms(seeds, jobs: int, keep: str | None) -> list[dict]:
-    with tempfile.TemporaryDirectory() as tmp:
-        base = Path(keep or tmp)
-        dirs = [str(base / f"forms-{s}") for s in seeds]
-        for d in dirs:
-            Path(d).mkdir(parents=True, exist_ok=True)
-        with ProcessPoolExecutor(max_workers=jobs) as pool:
-            return [r for rows in pool.map(forms_trial, seeds, dirs) for r in rows]
+    rows = _in_pool(forms_trial, seeds, [f"forms-{s}" for s in seeds], jobs, keep)
+    return [r for trial_rows in rows for r in trial_rows]
 
 
 def forms_summary(records: list[dict]) -> dict[str, dict]:

@@ -15,12 +15,31 @@ import numpy as np
 
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
+from identify.simulate.manifest import toml_value
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
 TRAILER_NAMES = ("RUNTIME", "LONGVEL", "WHROTSPD", "SLIPANGL", "LONGSLIP", "INCLANGL",
                  "INFLPRES", "FX", "FYW", "FZW", "MXW", "MYW", "MZW")
 FLATPLANK_NAMES = ("time", "Gx1", "Gx2", "Gy", "Gz1", "Gz2", "plank_x", "wheel_angle", "psi",
                    "hub_z", "phi_wheel", "phi_plank", "loaded_radius")
+
+#: The manifest's runs, in order: ``key = value`` lines of each ``[[runs]]`` table
+RUNS = (
+    {"file": "flatplank/parking_p250_fz5000_s1.csv", "kind": "flatplank", "test": "parking",
+     "conditions": {"pressure_Pa": 250000, "load_N": 5000, "start_position": 1}},
+    {"file": "flatplank/camber_p250_fz5000_s1_g5.csv", "kind": "flatplank", "test": "camber",
+     "units": {"phi_plank": "deg"},
+     "conditions": {"pressure_Pa": 250000, "load_N": 5000, "start_position": 1,
+                    "gamma_deg": 5.0}},
+    {"file": "trailer/cornering_p250.csv", "kind": "trailer", "test": "cornering",
+     "axes": "ISO-W", "units": {"SLIPANGL": "deg", "INFLPRES": "kPa"},
+     "conditions": {"pressure_Pa": 250000, "load_N": 5000}},
+    {"id": "cornering_p220", "file": "trailer/cornering_p220.h5", "kind": "trailer",
+     "test": "cornering", "conditions": {"pressure_Pa": 220000, "load_N": 5000}},
+    {"file": "trailer/cornering_p280.tdx", "kind": "trailer", "test": "cornering", "axes": "SAE",
+     "conditions": {"pressure_Pa": 280000, "load_N": 5000}},
+    {"id": "thesis", "file": "tables/thesis.csv", "kind": "characteristics", "test": "any"},
+)
 
 TOML = """\
 [tyre]
@@ -33,48 +52,8 @@ source = "simulated"
 [rig]
 hub_a_m = 0.08
 hub_b_m = 0.05
-
-[[runs]]
-file = "flatplank/parking_p250_fz5000_s1.csv"
-kind = "flatplank"
-test = "parking"
-conditions = { pressure_Pa = 250000, load_N = 5000, start_position = 1 }
-
-[[runs]]
-file = "flatplank/camber_p250_fz5000_s1_g5.csv"
-kind = "flatplank"
-test = "camber"
-units = { phi_plank = "deg" }
-conditions = { pressure_Pa = 250000, load_N = 5000, start_position = 1, gamma_deg = 5.0 }
-
-[[runs]]
-file = "trailer/cornering_p250.csv"
-kind = "trailer"
-test = "cornering"
-axes = "ISO-W"
-units = { SLIPANGL = "deg", INFLPRES = "kPa" }
-conditions = { pressure_Pa = 250000, load_N = 5000 }
-
-[[runs]]
-id = "cornering_p220"
-file = "trailer/cornering_p220.h5"
-kind = "trailer"
-test = "cornering"
-conditions = { pressure_Pa = 220000, load_N = 5000 }
-
-[[runs]]
-file = "trailer/cornering_p280.tdx"
-kind = "trailer"
-test = "cornering"
-axes = "SAE"
-conditions = { pressure_Pa = 280000, load_N = 5000 }
-
-[[runs]]
-id = "thesis"
-file = "tables/thesis.csv"
-kind = "characteristics"
-test = "any"
-"""
+""" + "".join("\n[[runs]]\n" + "".join(f"{k} = {toml_value(v)}\n" for k, v in run.items())
+              for run in RUNS)
 
 CHARACTERISTICS = """\
 quantity,pi_bar,Fz_N,value,unit

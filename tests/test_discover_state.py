@@ -19,6 +19,15 @@ from identify.workflows.discover import discover_folder
 from tests.discover_cases import THESIS, assert_consistent, tir_values
 
 
+def _discover_session(frame, tir):
+    """Discovery on a trailer session's MF problems (no rolling resistance) from ``tir``."""
+    ctx = Context(fz0=tir["FNOMIN"], p0_bar=tir["NOMPRES"] / 1e5, tir=tir)
+    lib = load_library()
+    problems = [apply_base(p, Base(), lib, tir)
+                for p in trailer_problems(frame, tir, ctx, with_rr=False)]
+    return discover(problems, lib, Settings())
+
+
 def test_thesis_table_tir_equals_discovery(tmp_path):
     """The thesis table: PCFY3 and PCFY2 accepted on CFy are the .tir's (the relaxation
     problem reads them instead of overwriting them with its own), and the .tir reproduces
@@ -53,11 +62,7 @@ def test_fy_effect_reaches_the_moment_stages():
     rng = np.random.default_rng(5)
     frame, truth = make_session(rng, 12_000, hidden={"PPY1": 0.6}, rho=0.0)
     tir = base_tir()
-    ctx = Context(fz0=tir["FNOMIN"], p0_bar=tir["NOMPRES"] / 1e5, tir=tir)
-    lib = load_library()
-    problems = [apply_base(p, Base(), lib, tir)
-                for p in trailer_problems(frame, tir, ctx, with_rr=False)]
-    d = discover(problems, lib, Settings())
+    d = _discover_session(frame, tir)
     fy = [a for a in d.accepted if a.problem == "MF/Fy"]
     assert fy and fy[0].name == "PPY1"
     assert fy[0].coefficients["PPY1"] == pytest.approx(0.6, abs=0.05)
@@ -77,12 +82,7 @@ def test_drift_is_named_as_drift_not_as_a_pressure_law():
     absorbs it; no pressure coefficient is named with confidence, none reaches the state."""
     rng = np.random.default_rng(6)
     frame, _ = make_session(rng, 12_000, drift=0.03, rho=0.0)
-    tir = base_tir()
-    ctx = Context(fz0=tir["FNOMIN"], p0_bar=tir["NOMPRES"] / 1e5, tir=tir)
-    lib = load_library()
-    problems = [apply_base(p, Base(), lib, tir)
-                for p in trailer_problems(frame, tir, ctx, with_rr=False)]
-    d = discover(problems, lib, Settings())
+    d = _discover_session(frame, base_tir())
     names = {a.problem: a.name for a in d.accepted}
     assert names.get("MF/Fy") == "DRIFT" and names.get("MF/Fx") == "DRIFT"
     assert all(a.name == "DRIFT" or a.ambiguous_with for a in d.accepted), d.conclusion

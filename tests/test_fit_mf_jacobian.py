@@ -22,20 +22,15 @@ from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.optimize import fit
 from tests.test_fit_calibration_mf import add_noise
-from tests.test_fit_mf_stages import _perturb, _simulate, _sweeps, _truth
+from tests import test_fit_mf_stages as _stages
+from tests.test_fit_mf_stages import _perturb
 
 HAVE_JAX = mf_jacobian._jax() is not None
 needs_jax = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
 
 
-@pytest.fixture(scope="module")
-def truth():
-    return _truth()
-
-
-@pytest.fixture(scope="module")
-def data(truth):
-    return _simulate(truth, _sweeps())
+# the stage tests' fixtures: the truth and its simulated sweeps (module scope: built once here)
+truth, data = _stages.truth, _stages.data
 
 
 @pytest.fixture()

@@ -1,7 +1,6 @@
 """The parameter table (identify/model/parameter_table.csv) and its accessors."""
 from __future__ import annotations
 
-import csv
 import math
 import re
 
@@ -9,22 +8,9 @@ import pytest
 
 from identify.core.units import dimension_factor
 from identify.model import parameters as P
-from tests.reference_data import MFEVAL_DIR
+from tests.reference_data import MFEVAL_DIR, MFEVAL_FILES, mfeval_params
 
-MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
 EXTENSIONS = {"F_X", "F_Y", "F_Z", "F_THETA", "F_GAMMA", "F_PSI", "PCMZ2", "PCMZ3", "CMZ_FORM"}
-
-
-def _parsed(stem):
-    with open(MFEVAL_DIR / f"{stem}__params_parsed.csv", newline="") as fh:
-        rows = list(csv.reader(fh))[1:]
-    out = {}
-    for name, text in rows:
-        try:
-            out[name] = float(text)
-        except ValueError:
-            out[name] = text.strip("'")
-    return out
 
 
 def test_table_size_and_unique_names():
@@ -35,7 +21,7 @@ def test_table_size_and_unique_names():
 
 @pytest.mark.parametrize("stem", MFEVAL_FILES)
 def test_names_equal_mfeval_keys(stem):
-    mfeval = set(_parsed(stem))
+    mfeval = set(mfeval_params(stem))
     ours = {p.name for p in P.PARAMETERS if p.section != "MFID_EXTENSIONS"}
     assert ours == mfeval
 
@@ -53,7 +39,7 @@ def test_defaults_equal_mfeval_defaults_for_absent_keys(stem):
         elif s and s[0] not in "$!" and "=" in s:
             key = s.split("=")[0].strip().upper()
             present.add("MASS1" if key == "MASS" and section != "UNITS" else key)
-    absent = {k: v for k, v in _parsed(stem).items() if k not in present}
+    absent = {k: v for k, v in mfeval_params(stem).items() if k not in present}
     assert absent, "every file lacks some keys (the MF 5.2-only ones at least)"
     for name, value in absent.items():
         assert P.spec(name).default == value, name

@@ -1,7 +1,6 @@
 """Reading .tir files: MFeval agreement, robustness, unit conversion, tables, round trip."""
 from __future__ import annotations
 
-import csv
 import json
 import math
 import pickle
@@ -15,9 +14,7 @@ from hypothesis import strategies as st
 from identify.io.tir import TirFile, read_tir
 from identify.model.parameters import PARAMETERS, defaults
 from identify.io.tir import write_tir
-from tests.reference_data import GOLDEN_DIR, MFEVAL_DIR
-
-MFEVAL_FILES = ("MagicFormula61_Paramerters", "MagicFormula62_Paramerters", "reference_tire_tvd3")
+from tests.reference_data import GOLDEN_DIR, MFEVAL_DIR, MFEVAL_FILES, mfeval_params
 
 
 def _write(tmp_path: Path, text: str, name: str = "t.tir", newline: str = "\n") -> Path:
@@ -26,25 +23,13 @@ def _write(tmp_path: Path, text: str, name: str = "t.tir", newline: str = "\n") 
     return path
 
 
-def _parsed(path: Path) -> dict[str, float | str]:
-    with open(path, newline="") as fh:
-        rows = list(csv.reader(fh))[1:]
-    out: dict[str, float | str] = {}
-    for name, text in rows:
-        try:
-            out[name] = float(text)
-        except ValueError:
-            out[name] = text.strip("'")
-    return out
-
-
 # ---------------------------------------------------------------- reference files
 
 @pytest.mark.parametrize("stem", MFEVAL_FILES)
 def test_values_equal_mfeval_parse(stem):
     folder = MFEVAL_DIR
     tir = read_tir(folder / f"{stem}.tir")
-    expected = _parsed(folder / f"{stem}__params_parsed.csv")
+    expected = mfeval_params(stem)
     assert len(expected) == 284
     for name, want in expected.items():
         got = tir.values[name]

@@ -9,16 +9,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import Sequence
+from typing import Mapping, Sequence
 
 import numpy as np
 from scipy.stats import chi2
 from scipy.stats import f as f_dist
 
-from identify.extract.diagnostics import Flag
-from identify.extract.runs import RunData
+from identify.extract.diagnostics import Flag, row
+from identify.extract.runs import RunData, cell_label
 
-__all__ = ["Thresholds", "stick_slip_score", "condition_flags", "spread_flag"]
+__all__ = ["Thresholds", "stick_slip_score", "condition_flags", "spread_flag", "cell_means"]
 
 
 @dataclass(frozen=True)
@@ -166,3 +166,20 @@ def spread_flag(label: str, test: str, quantity: str, values: Sequence[float],
     return Flag(label, test, "spread",
                 f"{quantity} differs by {100 * spread / mean:.1f} % between start positions "
                 f"(threshold {100 * th.spread:.0f} %)")
+
+
+def cell_means(test: str, quantity: str,
+               cells: Mapping[tuple[float, float], Sequence[tuple[float, float]]],
+               th: Thresholds) -> tuple[list[dict], list[Flag]]:
+    """One characteristic row per pressure x load cell, the mean of its runs' values, and the
+    :func:`spread_flag` of every cell whose runs disagree.
+
+    ``cells`` maps (pressure [bar], load [N]) to the (value, standard error) of each run.
+    """
+    rows, flags = [], []
+    for (p, fz), values in sorted(cells.items()):
+        vals, errors = zip(*values)
+        rows.append(row(quantity, p, fz, float(np.mean(vals))))
+        found = spread_flag(cell_label(test, p, fz), test, quantity, vals, errors, th)
+        flags += [found] if found else []
+    return rows, flags

@@ -11,10 +11,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from identify.extract.diagnostics import Flag, Part, RunDiagnostic, row
-from identify.extract.flags import Thresholds, condition_flags, spread_flag, stick_slip_score
+from identify.extract.diagnostics import Flag, Part, RunDiagnostic
+from identify.extract.flags import Thresholds, cell_means, condition_flags, stick_slip_score
 from identify.extract.linear import line_fit, linear_window, noise_sigma, smooth
-from identify.extract.runs import RunData, cell_label
+from identify.extract.runs import RunData
 
 __all__ = ["branches", "parking_run", "extract_parking"]
 
@@ -139,7 +139,7 @@ def extract_parking(runs: list[RunData], th: Thresholds) -> Part:
     th : Thresholds
         Flag thresholds and window settings.
     """
-    rows, diags, flags = [], [], []
+    diags, flags = [], []
     cells: dict[tuple[float, float], list[tuple[float, float]]] = {}
     for run in runs:
         res = parking_run(run.ch["psi"], run.ch["Mz"], th)
@@ -164,9 +164,5 @@ def extract_parking(runs: list[RunData], th: Thresholds) -> Part:
                                           "around psi = 0"}),
              "saturation_Nm": res["height"], "stick_slip_log10p": res["log10p"],
              "stick_slip_amplitude": res["amplitude"]}))
-    for (p, fz), values in sorted(cells.items()):
-        slopes, errors = zip(*values)
-        rows.append(row("CMz", p, fz, float(np.mean(slopes))))
-        found = spread_flag(cell_label("parking", p, fz), "parking", "CMz", slopes, errors, th)
-        flags += [found] if found else []
-    return Part(tuple(rows), tuple(diags), tuple(flags))
+    rows, spread = cell_means("parking", "CMz", cells, th)
+    return Part(tuple(rows), tuple(diags), tuple(flags + spread))

@@ -15,10 +15,10 @@ from typing import Callable
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from identify.extract.diagnostics import Flag, Part, RunDiagnostic, row
-from identify.extract.flags import Thresholds, condition_flags, spread_flag
+from identify.extract.diagnostics import Flag, Part, RunDiagnostic
+from identify.extract.flags import Thresholds, cell_means, condition_flags
 from identify.extract.linear import smooth
-from identify.extract.runs import RunData, cell_label
+from identify.extract.runs import RunData
 
 __all__ = ["fit_build_up", "distance_63", "pair_with_reference", "difference",
            "extract_relaxation"]
@@ -141,7 +141,7 @@ def extract_relaxation(runs: list[RunData], th: Thresholds) -> Part:
     th : Thresholds
         Flag thresholds.
     """
-    rows, diags, flags = [], [], []
+    diags, flags = [], []
     cells: dict[tuple[float, float], list[tuple[float, float]]] = {}
     for run in runs:
         flags += condition_flags(run, th)
@@ -168,10 +168,5 @@ def extract_relaxation(runs: list[RunData], th: Thresholds) -> Part:
             {"reference": [r.run for r in refs], "Fss_N": fit["fss"], "sigma_se": fit["sigma_se"],
              "distance_63_m": distance_63(x, y, fit["fss"]), "relaxation_lengths": lengths,
              "extrapolated": bool(mine)}))
-    for (p, fz), values in sorted(cells.items()):
-        sig, errors = zip(*values)
-        rows.append(row("sigma_y", p, fz, float(np.mean(sig))))
-        found = spread_flag(cell_label("relaxation", p, fz), "relaxation", "sigma_y", sig,
-                            errors, th)
-        flags += [found] if found else []
-    return Part(tuple(rows), tuple(diags), tuple(flags))
+    rows, spread = cell_means("relaxation", "sigma_y", cells, th)
+    return Part(tuple(rows), tuple(diags), tuple(flags + spread))

@@ -12,10 +12,10 @@ import math
 
 import numpy as np
 
-from identify.extract.diagnostics import Part, RunDiagnostic, row
-from identify.extract.flags import Thresholds, condition_flags, spread_flag
+from identify.extract.diagnostics import Part, RunDiagnostic
+from identify.extract.flags import Thresholds, cell_means, condition_flags
 from identify.extract.linear import line_fit
-from identify.extract.runs import RunData, cell_label
+from identify.extract.runs import RunData
 
 __all__ = ["rolling_radius", "extract_rolling"]
 
@@ -60,7 +60,7 @@ def extract_rolling(free: list[RunData], references: list[RunData], th: Threshol
     th : Thresholds
         Flag thresholds.
     """
-    rows, diags, flags = [], [], []
+    diags, flags = [], []
     have = {r.cell for r in free}
     cells: dict[tuple[float, float], list[tuple[float, float]]] = {}
     for run in free + [r for r in references if r.cell not in have]:
@@ -76,10 +76,5 @@ def extract_rolling(free: list[RunData], references: list[RunData], th: Threshol
             None if fit is None else (fit.lo, fit.hi), "rad", 0 if fit is None else fit.n,
             math.nan if fit is None else fit.r2, math.nan if fit is None else fit.rmse,
             tuple(f.flag for f in mine), {"speed_mps": res["speed"]}))
-    for (p, fz), values in sorted(cells.items()):
-        radii, errors = zip(*values)
-        rows.append(row("Re", p, fz, float(np.mean(radii))))
-        found = spread_flag(cell_label("free_rolling", p, fz), "free_rolling", "Re", radii,
-                            errors, th)
-        flags += [found] if found else []
-    return Part(tuple(rows), tuple(diags), tuple(flags))
+    rows, spread = cell_means("free_rolling", "Re", cells, th)
+    return Part(tuple(rows), tuple(diags), tuple(flags + spread))

@@ -20,10 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from identify.extract.diagnostics import Flag, Part, RunDiagnostic, row
-from identify.extract.flags import Thresholds, condition_flags, spread_flag, stick_slip_score
+from identify.extract.diagnostics import Flag, Part, RunDiagnostic
+from identify.extract.flags import Thresholds, cell_means, condition_flags, stick_slip_score
 from identify.extract.linear import line_fit, linear_window, noise_sigma, smooth
-from identify.extract.runs import RunData, cell_label
+from identify.extract.runs import RunData
 
 __all__ = ["TESTS", "extract_stiffness", "locked_hub_run"]
 
@@ -83,7 +83,7 @@ def extract_stiffness(runs: list[RunData], th: Thresholds) -> Part:
     th : Thresholds
         Flag thresholds and window settings.
     """
-    rows, diags, flags = [], [], []
+    diags, flags = [], []
     cells: dict[tuple[float, float], list[tuple[float, float]]] = {}
     for run in runs:
         quantity, channel = TESTS[run.test]
@@ -108,12 +108,7 @@ def extract_stiffness(runs: list[RunData], th: Thresholds) -> Part:
                                 fit.intercept + fit.slope * fit.hi],
              "linear_test_passed": res["window_ok"], "stick_slip_log10p": res["log10p"],
              "stick_slip_amplitude": res["amplitude"]}))
-    for (p, fz), values in sorted(cells.items()):
-        quantity = TESTS[runs[0].test][0]
-        slopes, errors = zip(*values)
-        rows.append(row(quantity, p, fz, float(np.mean(slopes))))
-        found = spread_flag(cell_label(runs[0].test, p, fz), runs[0].test, quantity, slopes,
-                            errors, th)
-        flags += [found] if found else []
-    return Part(tuple(rows), tuple(diags), tuple(flags))
+    test = runs[0].test if runs else ""  # one test type per call
+    rows, spread = cell_means(test, TESTS[test][0], cells, th) if runs else ([], [])
+    return Part(tuple(rows), tuple(diags), tuple(flags + spread))
 

@@ -145,6 +145,18 @@ def _gyk(P, s):
             / magic_cosine(byk, P["RCY1"], eyk, shyk))
 
 
+#: The combined-slip stages: the switches (all zero: no combined-slip term to constrain), the
+#: slip the B margin varies with, and the (name, margin) of the B, E and G constraints
+_COMBINED = {
+    "Fx": (("RBX1", "RBX3"), "kappa", ("Bxa > 0", _bxa),
+           ("Exa <= 1", lambda P, s: 1 - (P["REX1"] + P["REX2"] * s.dfz)),
+           ("Gxa > 0", longitudinal.gx_alpha)),
+    "Fy": (("RBY1", "RBY3", "RBY4"), "alpha", ("Byk > 0", _byk),
+           ("Eyk <= 1", lambda P, s: 1 - (P["REY1"] + P["REY2"] * s.dfz)),
+           ("Gyk > 0", _gyk)),
+}
+
+
 # ----- constraints per stage ----------------------------------------------------------------
 
 Merge = Callable[[Mapping[str, float]], Mapping[str, float]]
@@ -197,22 +209,12 @@ def stage_constraints(stage: str, base: Mapping[str, float], merge: Merge,
         return (_make("Bt > 0", merge, sb, _bt),
                 _make("Ct > 0", merge, fz_only, lambda P, s: P["QCZ1"]),
                 _make("Et <= 1", merge, se, lambda P, s: 1 - _et(P, s)))
-    if stage == "Fx":
-        if base["RBX1"] == 0 and base["RBX3"] == 0:
+    if stage in _COMBINED:
+        switches, slip, (b_name, b), (e_name, e), (g_name, g) = _COMBINED[stage]
+        if all(base[k] == 0 for k in switches):
             return ()
-        sb = _state(base, grid, ("kappa", "gamma_abs"))
+        sb = _state(base, grid, (slip, "gamma_abs"))
         sg = _state(base, grid, ("kappa", "alpha", "gamma_abs"))
-        return (_make("Bxa > 0", merge, sb, _bxa),
-                _make("Exa <= 1", merge, fz_only,
-                      lambda P, s: 1 - (P["REX1"] + P["REX2"] * s.dfz)),
-                _make("Gxa > 0", merge, sg, longitudinal.gx_alpha))
-    if stage == "Fy":
-        if base["RBY1"] == 0 and base["RBY3"] == 0 and base["RBY4"] == 0:
-            return ()
-        sb = _state(base, grid, ("alpha", "gamma_abs"))
-        sg = _state(base, grid, ("kappa", "alpha", "gamma_abs"))
-        return (_make("Byk > 0", merge, sb, _byk),
-                _make("Eyk <= 1", merge, fz_only,
-                      lambda P, s: 1 - (P["REY1"] + P["REY2"] * s.dfz)),
-                _make("Gyk > 0", merge, sg, _gyk))
+        return (_make(b_name, merge, sb, b), _make(e_name, merge, fz_only, e),
+                _make(g_name, merge, sg, g))
     return ()

@@ -15,7 +15,7 @@ from pathlib import Path
 import pandas as pd
 
 from identify.core.plausible import judge
-from identify.io.common import Problems, decode_problem
+from identify.io.common import Problems, read_utf8
 from identify.io.data_warning import DataWarning
 from identify.core.quantities import CHARACTERISTICS_COLUMNS, MODES, QUANTITIES
 from identify.core.units import SI_UNITS, to_si, unit_problem
@@ -73,25 +73,16 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     problems = problems if problems is not None else Problems(strict=True)
     path = Path(path)
     start = problems.total
-    raw = b""
+    text = read_utf8(path, problems)
+    if text is None:
+        return None
     try:
-        raw = path.read_bytes()
-        reader = csv.reader(io.StringIO(raw.decode("utf-8-sig"), newline=""))
+        reader = csv.reader(io.StringIO(text, newline=""))
         rows, lines, previous = [], [], 0
         for row in reader:
             rows.append(row)
             lines.append(previous + 1)  # a quoted cell may span lines: where the row starts
             previous = reader.line_num
-    except FileNotFoundError:
-        problems.add(path, "file not found")
-        return None
-    except UnicodeDecodeError as exc:
-        line, message = decode_problem(raw, exc)
-        problems.add(path, message, line=line)
-        return None
-    except OSError as exc:
-        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
-        return None
     except csv.Error as exc:  # a field over the csv module's limit, a NUL byte
         problems.add(path, f"cannot parse CSV: {str(exc).splitlines()[0]}",
                      line=reader.line_num or None)

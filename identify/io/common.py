@@ -26,7 +26,7 @@ from identify.core.errors import InputError, one_line
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text", "file_problem", "decode_problem"]
+           "open_text", "file_problem", "decode_problem", "read_utf8"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -130,6 +130,24 @@ def decode_problem(data: bytes, exc: UnicodeDecodeError) -> tuple[int, str]:
     byte = data[exc.start:exc.start + 1]
     shown = f"0x{byte[0]:02X}" if byte else "end of data"
     return line, f"not UTF-8 text: byte {shown} cannot be decoded"
+
+
+def read_utf8(path: Path, problems: Problems, *, missing: str = "file not found") -> str | None:
+    """The whole text of ``path`` (UTF-8, a byte-order mark dropped), or None after adding
+    the problem to ``problems``: ``missing`` for a file that is not there, the line and byte
+    that is not UTF-8, or why the file cannot be read."""
+    raw = b""
+    try:
+        raw = path.read_bytes()
+        return raw.decode("utf-8-sig")
+    except FileNotFoundError:
+        problems.add(path, missing)
+    except UnicodeDecodeError as exc:
+        line, message = decode_problem(raw, exc)
+        problems.add(path, message, line=line)
+    except OSError as exc:
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+    return None
 
 
 def split_header_name(text: str) -> tuple[str, str | None]:

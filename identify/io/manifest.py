@@ -16,7 +16,7 @@ from types import MappingProxyType
 from typing import Any, Mapping
 
 from identify.io.axes import AXES
-from identify.io.common import Problems, decode_problem
+from identify.io.common import Problems, read_utf8
 from identify.io.data_warning import DataWarning
 from identify.core.names import name_problem
 from identify.core.plausible import judge
@@ -222,20 +222,11 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
     path = Path(path)
     file = str(path)
     start = problems.total
-    raw = b""
+    text = read_utf8(path, problems, missing=f"no {MANIFEST_NAME} in the folder")
+    if text is None:
+        return None
     try:
-        raw = path.read_bytes()
-        data = tomllib.loads(raw.decode("utf-8-sig"))
-    except FileNotFoundError:
-        problems.add(file, f"no {MANIFEST_NAME} in the folder")
-        return None
-    except UnicodeDecodeError as exc:
-        line, message = decode_problem(raw, exc)
-        problems.add(file, message, line=line)
-        return None
-    except OSError as exc:
-        problems.add(file, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
-        return None
+        data = tomllib.loads(text)
     except RecursionError:
         problems.add(file, "invalid TOML: nested too deeply")
         return None

@@ -29,6 +29,19 @@ SCRATCH = NOUT
 NROWS = SCRATCH + 6
 
 
+@numba.njit(inline="always")
+def _slip_forces(c, s, limits, alpha_star):
+    """Combined-slip Fx and Fy and the aligning moment at one prepared point ``s``: (pure
+    longitudinal, pure lateral, aligning moment results, Fx, Fy)."""
+    lon = fx0(c, s, limits)
+    fx = gx_alpha(c, s, limits) * lon.fx0
+    lat = fy0(c, s, s.g_star, limits, alpha_star)
+    fy0_zero = fy0(c, s, 0.0, limits, alpha_star).fy0
+    fy, gyk = fy_combined(c, s, lat.muy, lat.fy0, limits)
+    al = mz(c, s, lat, fy0_zero, gyk, fy, fx, lon.kxk, limits)
+    return lon, lat, al, fx, fy
+
+
 @numba.njit(**LOOP_JIT)
 def _slip_pass(c, inp, m, limits, alpha_star, blk):
     """Pass 1 over a block's first ``m`` points: everything but Re, omega and the deflection.
@@ -40,12 +53,7 @@ def _slip_pass(c, inp, m, limits, alpha_star, blk):
         s = prepare(c, inp[i], inp[BLOCK + i], inp[2 * BLOCK + i], inp[3 * BLOCK + i],
                     inp[4 * BLOCK + i], inp[5 * BLOCK + i], inp[6 * BLOCK + i], limits,
                     alpha_star)
-        lon = fx0(c, s, limits)
-        fx = gx_alpha(c, s, limits) * lon.fx0
-        lat = fy0(c, s, s.g_star, limits, alpha_star)
-        fy0_zero = fy0(c, s, 0.0, limits, alpha_star).fy0
-        fy, gyk = fy_combined(c, s, lat.muy, lat.fy0, limits)
-        al = mz(c, s, lat, fy0_zero, gyk, fy, fx, lon.kxk, limits)
+        lon, lat, al, fx, fy = _slip_forces(c, s, limits, alpha_star)
         a, b = kv.contact_patch(c, s.fz_u, s.dpi)
         cx, cy = kv.structural(c, s.dfz, s.dpi)
         blk[FX * BLOCK + i] = fx
@@ -188,12 +196,7 @@ def _forces_with_mz(c, fz, kappa, alpha, gamma, vx, p, limits, alpha_star, out):
         for i in range(m):
             s = prepare(c, inp[i], inp[BLOCK + i], inp[2 * BLOCK + i], inp[3 * BLOCK + i],
                         inp[4 * BLOCK + i], inp[5 * BLOCK + i], 0.0, limits, alpha_star)
-            lon = fx0(c, s, limits)
-            fx = gx_alpha(c, s, limits) * lon.fx0
-            lat = fy0(c, s, s.g_star, limits, alpha_star)
-            fy0_zero = fy0(c, s, 0.0, limits, alpha_star).fy0
-            fy, gyk = fy_combined(c, s, lat.muy, lat.fy0, limits)
-            al = mz(c, s, lat, fy0_zero, gyk, fy, fx, lon.kxk, limits)
+            lon, lat, al, fx, fy = _slip_forces(c, s, limits, alpha_star)
             blk[i] = fx
             blk[BLOCK + i] = fy
             blk[2 * BLOCK + i] = al.mz

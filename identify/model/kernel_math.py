@@ -21,6 +21,7 @@ phases); beyond that their absolute error grows like |x| * 1e-16, as a naive red
 from __future__ import annotations
 
 import math
+from math import factorial
 
 import numba
 import numpy as np
@@ -50,6 +51,14 @@ LN2_LO = -4.2009150726810846e-11
 INV_LN2 = 1.4426950408889634
 SQRT_HALF = 0.7071067811865476
 
+# Series coefficients, highest power first (for _horner); each is the exact rational of the
+# textbook series rounded once, as the literal 1.0 / 27.0 would be
+ATAN_SERIES = tuple((1.0 if k % 4 == 3 else -1.0) / k for k in range(29, 1, -2))  # -1/29 .. 1/3
+SIN_SERIES = tuple((1.0 if k % 4 == 3 else -1.0) / factorial(k) for k in range(19, 1, -2))
+COS_SERIES = tuple((1.0 if k % 4 == 0 else -1.0) / factorial(k) for k in range(20, 0, -2))
+EXP_SERIES = tuple(1.0 / factorial(k) for k in range(14, -1, -1))  # 1/14! .. 1/1!, 1/0!
+ATANH_SERIES = tuple(1.0 / k for k in range(25, 1, -2))  # 1/25 .. 1/3
+
 
 @intrinsic
 def _bits_to_float(typingctx, bits):
@@ -72,24 +81,23 @@ def _float_to_bits(typingctx, x):
 
 
 @numba.njit(**_JIT)
+def _horner(z, coefficients):
+    """c[0] z^(n-1) + c[1] z^(n-2) + ... + c[n-1] by Horner's rule (n-1 multiply-adds).
+
+    ``coefficients`` is a constant tuple; LLVM unrolls the loop into the straight chain of
+    multiply-adds.
+    """
+    s = coefficients[0]
+    for c in coefficients[1:]:
+        s = s * z + c
+    return s
+
+
+@numba.njit(**_JIT)
 def _atan_series(u):
     # atan(u) = u - u^3/3 + u^5/5 - ... for |u| <= 2 - sqrt(3); 15 terms reach 1e-18 relative
     z = u * u
-    s = -1.0 / 29.0
-    s = s * z + 1.0 / 27.0
-    s = s * z - 1.0 / 25.0
-    s = s * z + 1.0 / 23.0
-    s = s * z - 1.0 / 21.0
-    s = s * z + 1.0 / 19.0
-    s = s * z - 1.0 / 17.0
-    s = s * z + 1.0 / 15.0
-    s = s * z - 1.0 / 13.0
-    s = s * z + 1.0 / 11.0
-    s = s * z - 1.0 / 9.0
-    s = s * z + 1.0 / 7.0
-    s = s * z - 1.0 / 5.0
-    s = s * z + 1.0 / 3.0
-    return u - u * z * s
+    return u - u * z * _horner(z, ATAN_SERIES)
 
 
 @numba.njit(**_JIT)
@@ -129,44 +137,21 @@ def _odd(q):
 
 
 @numba.njit(**_JIT)
-def _sin_series(r):
-    # |r| <= pi/4: sin r = r - r^3/3! + ... to r^19/19! (the next term is below 2e-21)
+def _sin_cos(x):
+    """(sin r, cos r, q) of the reduced argument x = k pi/2 + r, |r| <= pi/4, q = k mod 4."""
+    r, q = _reduce(x)
     z = r * r
-    s = 1.0 / 121645100408832000.0
-    s = s * z - 1.0 / 355687428096000.0
-    s = s * z + 1.0 / 1307674368000.0
-    s = s * z - 1.0 / 6227020800.0
-    s = s * z + 1.0 / 39916800.0
-    s = s * z - 1.0 / 362880.0
-    s = s * z + 1.0 / 5040.0
-    s = s * z - 1.0 / 120.0
-    s = s * z + 1.0 / 6.0
-    return r - r * z * s
-
-
-@numba.njit(**_JIT)
-def _cos_series(r):
-    # |r| <= pi/4: cos r = 1 - r^2/2! + ... to r^20/20! (the next term is below 1e-19)
-    z = r * r
-    c = 1.0 / 2432902008176640000.0
-    c = c * z - 1.0 / 6402373705728000.0
-    c = c * z + 1.0 / 20922789888000.0
-    c = c * z - 1.0 / 87178291200.0
-    c = c * z + 1.0 / 479001600.0
-    c = c * z - 1.0 / 3628800.0
-    c = c * z + 1.0 / 40320.0
-    c = c * z - 1.0 / 720.0
-    c = c * z + 1.0 / 24.0
-    c = c * z - 0.5
-    return 1.0 + z * c
+    # sin r = r - r^3/3! + ... to r^19/19! (the next term is below 2e-21)
+    s = r - r * z * _horner(z, SIN_SERIES)
+    # cos r = 1 - r^2/2! + ... to r^20/20! (the next term is below 1e-19)
+    c = 1.0 + z * _horner(z, COS_SERIES)
+    return s, c, q
 
 
 @numba.njit(**_JIT)
 def sin(x):
     """Sine of x [rad]."""
-    r, q = _reduce(x)
-    s = _sin_series(r)
-    c = _cos_series(r)
+    s, c, q = _sin_cos(x)
     v = c if _odd(q) else s
     return -v if q >= 2.0 else v
 
@@ -174,9 +159,7 @@ def sin(x):
 @numba.njit(**_JIT)
 def cos(x):
     """Cosine of x [rad]."""
-    r, q = _reduce(x)
-    s = _sin_series(r)
-    c = _cos_series(r)
+    s, c, q = _sin_cos(x)
     v = s if _odd(q) else c
     return -v if abs(q - 1.5) < 1.0 else v  # quadrants 1 and 2
 
@@ -184,9 +167,7 @@ def cos(x):
 @numba.njit(**_JIT)
 def tan(x):
     """Tangent of x [rad] (sin/cos of the reduced argument; one division)."""
-    r, q = _reduce(x)
-    s = _sin_series(r)
-    c = _cos_series(r)
+    s, c, q = _sin_cos(x)
     return (-c / s) if _odd(q) else (s / c)
 
 
@@ -197,21 +178,7 @@ def exp(x):
     k = np.floor(xc * INV_LN2 + 0.5)
     r = (xc - k * LN2_HI) - k * LN2_LO
     # |r| <= ln2/2: Taylor to r^14/14!
-    p = 1.0 / 87178291200.0
-    p = p * r + 1.0 / 6227020800.0
-    p = p * r + 1.0 / 479001600.0
-    p = p * r + 1.0 / 39916800.0
-    p = p * r + 1.0 / 3628800.0
-    p = p * r + 1.0 / 362880.0
-    p = p * r + 1.0 / 40320.0
-    p = p * r + 1.0 / 5040.0
-    p = p * r + 1.0 / 720.0
-    p = p * r + 1.0 / 120.0
-    p = p * r + 1.0 / 24.0
-    p = p * r + 1.0 / 6.0
-    p = p * r + 0.5
-    p = p * r + 1.0
-    p = p * r + 1.0
+    p = _horner(r, EXP_SERIES)
     # 2^k in two factors so that k down to -1075 and up to 1024 stay representable
     k1 = np.floor(k * 0.5)
     k2 = k - k1
@@ -233,18 +200,7 @@ def log(x):
     s = (m - 1.0) / (m + 1.0)                # |s| <= 0.1716
     z = s * s
     # log m = 2 atanh s = 2 (s + s^3/3 + s^5/5 + ...), to s^25/25
-    t = 1.0 / 25.0
-    t = t * z + 1.0 / 23.0
-    t = t * z + 1.0 / 21.0
-    t = t * z + 1.0 / 19.0
-    t = t * z + 1.0 / 17.0
-    t = t * z + 1.0 / 15.0
-    t = t * z + 1.0 / 13.0
-    t = t * z + 1.0 / 11.0
-    t = t * z + 1.0 / 9.0
-    t = t * z + 1.0 / 7.0
-    t = t * z + 1.0 / 5.0
-    t = t * z + 1.0 / 3.0
+    t = _horner(z, ATANH_SERIES)
     v = ef * LN2_HI + (ef * LN2_LO + 2.0 * (s + s * z * t))
     v = math.nan if x < 0.0 else v
     v = -math.inf if x == 0.0 else v

@@ -73,30 +73,30 @@ def metadata(fd: FitDir) -> dict:
     return meta
 
 
+def _per_fit(fd: FitDir, fits, make, label: str, progress: Progress | None, notes: list[str]):
+    """Yield the pages ``make(fd, fit)`` of every fit in turn; its note, if any, goes to
+    ``notes``."""
+    for fit in fits:
+        if progress:
+            progress(f"report: {label}{fit.relation} [{fit.form}]")
+        pages, note = make(fd, fit)
+        if note:
+            notes.append(note)
+        yield from pages
+
+
 def build_pages(fd: FitDir, progress: Progress | None = None):
     """Yield (title, Figure) for every page, and collect notes in the generator's return."""
     notes: list[str] = []
     yield from cover(fd)
-    for fit in fd.results:
-        if progress:
-            progress(f"report: {fit.relation} [{fit.form}]")
-        fpages, note = fit_pages(fd, fit)
-        if note:
-            notes.append(note)
-        yield from fpages
+    yield from _per_fit(fd, fd.results, fit_pages, "", progress, notes)
     slip, slip_notes = mf_slip_pages(fd)
     notes += slip_notes
     if slip and progress:
         progress("report: MF slip pages")
     yield from slip_pages(fd, slip)
-    for fit in fd.results:
-        if fit.mcmc is not None:
-            if progress:
-                progress(f"report: MCMC {fit.relation} [{fit.form}]")
-            mpages, note = mcmc_pages(fd, fit)
-            if note:
-                notes.append(note)
-            yield from mpages
+    yield from _per_fit(fd, [f for f in fd.results if f.mcmc is not None], mcmc_pages, "MCMC ",
+                        progress, notes)
     yield from quality_pages(fd, notes)
     yield from trailer_pages(fd)
     yield from inputs_appendix(fd)

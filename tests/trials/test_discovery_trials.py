@@ -13,29 +13,19 @@
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "discovery_trials.py"
+from tests.bench_modules import load_bench
+
 N_TRIALS = 50
 N_NULL = 200
 
 
-def _bench():
-    spec = importlib.util.spec_from_file_location("discovery_trials", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # the worker processes unpickle its functions by name
-    spec.loader.exec_module(mod)
-    return mod
-
-
 @pytest.mark.trials
 def test_discovery_trials(tmp_path, capsys):
-    bench = _bench()
+    bench = load_bench("discovery_trials")
     records = bench.run(N_TRIALS, N_NULL, jobs=2)
     s = bench.summarise(records)
     text = bench.table(s)

@@ -14,28 +14,18 @@ loaded two-core machine.
 """
 from __future__ import annotations
 
-import importlib.util
 import json
-import sys
-from pathlib import Path
 
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "discovery_ttc.py"
+from tests.bench_modules import load_bench
+
 N_SEEDS = 20
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("discovery_ttc", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # the worker processes unpickle its functions by name
-    spec.loader.exec_module(mod)
-    return mod
 
 
 @pytest.mark.trials
 def test_discovery_ttc_sessions(tmp_path, capsys):
-    bench = _bench()
+    bench = load_bench("discovery_ttc")
     records = bench.run(N_SEEDS, jobs=2)
     (tmp_path / "discovery_ttc.json").write_text(json.dumps(records, indent=1))
     with capsys.disabled():

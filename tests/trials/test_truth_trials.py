@@ -9,26 +9,15 @@ whole pipeline (simulate -> extract -> fit) with bench/truth_compare.py.
 """
 from __future__ import annotations
 
-import importlib.util
-import sys
-from pathlib import Path
-
 import pytest
 
-BENCH = Path(__file__).resolve().parents[2] / "bench" / "truth_compare.py"
-
-
-def _bench():
-    spec = importlib.util.spec_from_file_location("truth_compare", BENCH)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod  # the worker processes unpickle its functions by name
-    spec.loader.exec_module(mod)
-    return mod
+from tests.bench_modules import load_bench
 
 
 @pytest.mark.trials
 def test_fitted_tir_matches_the_truth(tmp_path, capsys):
-    records = _bench().run_truth([2, 3], sample=True, jobs=2, keep=str(tmp_path))
+    bench = load_bench("truth_compare")
+    records = bench.run_truth([2, 3], sample=True, jobs=2, keep=str(tmp_path))
     with capsys.disabled():
         for r in records:
             print(f"\n{r['folder']}: forms {r['forms']}\n{r['table']}")
@@ -41,7 +30,7 @@ def test_fitted_tir_matches_the_truth(tmp_path, capsys):
 
 @pytest.mark.trials
 def test_quadratic_load_form_written_when_the_data_have_it(tmp_path, capsys):
-    bench = _bench()
+    bench = load_bench("truth_compare")
     records = bench.run_forms(list(range(20)), jobs=2, keep=str(tmp_path))
     summary = bench.forms_summary(records)
     with capsys.disabled():
