@@ -419,6 +419,12 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     """
     t0 = time.perf_counter()
     if session is not None and session.sampler is not None:
+        # emcee's memory backend grew by the whole last chunk; a chain stopped inside it has
+        # spare rows that a shorter next chunk would make negative (np.empty in grow)
+        b = session.sampler.backend
+        b.chain, b.log_prob = b.chain[:b.iteration], b.log_prob[:b.iteration]
+        if b.blobs is not None:
+            b.blobs = b.blobs[:b.iteration]
         return _summary(problem, result, session, seed, ar1, reparam, chain_file, *_run(
             session.sampler, session.state, max_steps, budget, progress, t0, session.tau_fn,
             session.steps, session.tau), t0=t0)
