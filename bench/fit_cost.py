@@ -8,16 +8,26 @@ stages' wall time over one evaluation of all their points. The yardstick is the 
 every version, so ratios of different versions compare the fits, not the kernels.
 
     python bench/fit_cost.py [--folder DIR] [--json out.json]
+    python bench/fit_cost.py --ttc 0 [--save-table ttc0.pkl]   # a generated TTC session
     python bench/fit_cost.py --trailer table.pkl --fnomin 4980 --nompres 256600 --r0 0.3255
     python bench/fit_cost.py --trailer table.pkl ... --bin     # dense sweeps binned first
 
 ``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
 e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
 given nominal load [N], pressure [Pa] and unloaded radius [m], so that two checkouts fit the
-same samples. ``--bin`` selects the points as ``mfid fit`` does by default
+same samples. ``--ttc SEED`` generates a TTC-style session in a temporary folder as
+bench/ttc_truth.py does (``mfid simulate default DIR --format ttc --seed SEED``, then ``mfid
+import`` of its two .mat runs with the truth's nominal pressure and unloaded radius: 135111
+samples at seed 0) and fits it with ``--bin``. ``--save-table PATH`` pickles the table the MF
+stages fit (binned with ``--bin``), so that an older checkout fits the same points with
+``--trailer PATH`` (without ``--bin``). ``--bin`` selects the points as ``mfid fit`` does by
+default
 (identify.workflows.sweep_bins.mf_table: logged runs segmented, dense sweeps binned); that
 step is part of the timed fit. The last line divides the MF stages' wall time by one evaluation of
 every trailer sample (the same yardstick with and without binning, and in every version).
+The ``cpu`` line divides the process's CPU time of the MF stages by the CPU time of one
+evaluation of their points (best of REPEATS): on a loaded machine a process gets a varying
+share of a core, which moves wall-time ratios by 2x between runs; CPU-time ratios move less.
 
 Measured 2026-11-23 on the 2-core machine under a load average of 20-29 (the per-stage
 yardsticks vary by 2-10x between runs at that load; the totals are the numbers to compare):
@@ -26,6 +36,17 @@ at e85cb99/7bca3d3 (49 s, 70 s); 507 with ``--jacobian fd``. A generated 136k-sa
 session (``mfid simulate default DIR --format ttc --seed 0``, ``mfid import DIR/*.mat``) with
 ``--bin``: MF stages 92.8 s, 68 evaluations of every trailer sample; ddb9f71 did not finish
 on it (over 13 GB resident in its validity grid, then under 10 % of a core for 9 minutes).
+
+Measured 2026-11-24 02:35-02:52 UTC, load average 12-15, back to back in one round each (the
+``cpu`` ratios; wall ratios at that load moved by up to 2x between runs of the same code). The
+bundled sample: 379 at ddb9f71; main before the fit-cost branch (0008732) 194 and 191 in two
+rounds; the branch 152 and 152 (4537c6e, d4067b7): 2.5x ddb9f71, 1.26x main. The generated TTC
+session, seed 0, its binned table (14642 points, ``--ttc 0 --save-table``, then ``--trailer``
+in each checkout; ddb9f71 with main's validity grid at the data's pressure levels patched in,
+as it otherwise builds one grid column per sample): 612 at ddb9f71; main 209 and 239; the
+branch 214 and 209: 2.9x ddb9f71, 1.0-1.14x main. After merging main (787ab4d, load average
+9.4): the sample 138 (wall 196), ``--ttc 0`` 207 (wall 303; 75 evaluations of every one of
+the 135111 samples, binning included).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
@@ -40,6 +61,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import json  # noqa: E402
 import subprocess  # noqa: E402
+import tempfile  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
 from pathlib import Path  # noqa: E402
@@ -71,17 +93,34 @@ def start_values(fnomin: float, nompres: float, r0: float | None) -> dict[str, f
     return base
 
 
-def evaluation_seconds(params: dict, points) -> float:
-    """Best of REPEATS wall times of one full forward evaluation of ``points`` [s]."""
+def evaluation_seconds(params: dict, points, clock=time.perf_counter) -> float:
+    """Best of REPEATS times of one full forward evaluation of ``points`` [s] (wall time, or
+    ``clock=time.process_time`` for CPU time)."""
     cols = {c: points[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
     omega = points["omega"].to_numpy(float) if "omega" in points else None
     best = np.inf
     for _ in range(REPEATS):
-        t0 = time.perf_counter()
+        t0 = clock()
         evaluate(params, cols["Fz"], cols["kappa"], cols["alpha"], cols["gamma"], cols["Vx"],
                  p=cols["p"], omega=omega, mode=211)
-        best = min(best, time.perf_counter() - t0)
+        best = min(best, clock() - t0)
     return best
+
+
+def ttc_session(seed: int, where: Path):
+    """A generated TTC session imported into ``where``/folder (see module): the loaded
+    measurement set. Not in versions before the TTC reader: imported here."""
+    from identify.io.tir import read_tir
+    from identify.simulate import default_tir_path
+    from identify.simulate.ttc import simulate_ttc
+    from identify.workflows.import_session import import_session
+
+    simulate_ttc(read_tir(default_tir_path()).params(), where / "ttc", seed=seed)
+    truth = json.loads((where / "ttc" / "truth.json").read_text())["tir"]
+    imp = import_session(sorted((where / "ttc").glob("*.mat")), where / "folder",
+                         nominal_pressure_Pa=float(truth["NOMPRES"]),
+                         unloaded_radius_m=float(truth["UNLOADED_RADIUS"]))
+    return load_folder(imp.path)
 
 
 def main() -> None:
@@ -95,17 +134,28 @@ def main() -> None:
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
     ap.add_argument("--bin", action="store_true",
                     help="segment logged runs and bin dense sweeps first, as mfid fit does")
+    ap.add_argument("--ttc", type=int, metavar="SEED",
+                    help="fit a generated TTC session of this seed (implies --bin)")
+    ap.add_argument("--save-table", type=Path, metavar="PATH",
+                    help="pickle the table the MF stages fit (for --trailer elsewhere)")
     ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
                     help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
     if args.jacobian:
         os.environ["MFID_JACOBIAN"] = args.jacobian
+    tmp = None
     if args.trailer:
         trailer = pd.read_pickle(args.trailer)
         base = start_values(args.fnomin, args.nompres, args.r0)
         name = args.trailer.name
     else:
-        mset = load_folder(args.folder)
+        if args.ttc is not None:
+            tmp = tempfile.TemporaryDirectory(prefix="fit_cost_ttc")
+            mset = ttc_session(args.ttc, Path(tmp.name))
+            args.bin = True
+            args.folder = Path(f"ttc-seed{args.ttc}")
+        else:
+            mset = load_folder(args.folder)
         tyre = mset.manifest.tyre
         trailer = mset.trailer
         base = start_values(tyre.nominal_load_N, tyre.nominal_pressure_Pa,
@@ -113,7 +163,7 @@ def main() -> None:
         name = args.folder.name
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        t0 = time.perf_counter()
+        t0, c0 = time.perf_counter(), time.process_time()
         table = trailer
         if args.bin:
             from identify.fit.run import FitSettings  # not in versions before binning
@@ -124,6 +174,11 @@ def main() -> None:
                                 alpha_deg=s.bin_alpha_deg, kappa=s.bin_kappa)
         mf = fit_mf(table, base)
         total_fit = time.perf_counter() - t0
+        total_cpu = time.process_time() - c0
+    if args.save_table:
+        table.to_pickle(args.save_table)
+    if tmp is not None:
+        tmp.cleanup()
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"],
                             capture_output=True, text=True).stdout.strip()
     commit = args.label or commit
@@ -146,6 +201,11 @@ def main() -> None:
               f"{r.message[:60]}")
     print(f"{'total':9} {sum(x['points'] for x in rows):7d} {total_fit:8.2f} "
           f"{1e3 * all_eval:8.2f} {total_fit / all_eval:9.0f}")
+    cpu_eval = sum(evaluation_seconds(mf.params, mf.points[r.form], time.process_time)
+                   for r in mf.results)
+    print(f"{'cpu':9} {sum(x['points'] for x in rows):7d} {total_cpu:8.2f} "
+          f"{1e3 * cpu_eval:8.2f} {total_cpu / cpu_eval:9.0f}  (CPU times: MF stages / one "
+          f"evaluation of their points)")
     every = evaluation_seconds(mf.params, trailer)
     print(f"{'samples':9} {len(trailer):7d} {total_fit:8.2f} {1e3 * every:8.2f} "
           f"{total_fit / every:9.0f}  (MF wall time / one evaluation of every trailer sample)")
@@ -156,7 +216,9 @@ def main() -> None:
                                          "total_ratio": total_fit / all_eval,
                                          "samples": len(trailer), "binned": bool(args.bin),
                                          "samples_eval_s": every,
-                                         "samples_ratio": total_fit / every}, indent=1))
+                                         "samples_ratio": total_fit / every,
+                                         "total_cpu_s": total_cpu, "eval_cpu_s": cpu_eval,
+                                         "cpu_ratio": total_cpu / cpu_eval}, indent=1))
 
 
 if __name__ == "__main__":

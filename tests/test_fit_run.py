@@ -237,6 +237,19 @@ def test_fit_result_round_trip_with_nan_inf_and_numpy():
     assert FitResult.from_dict(old).nfev == 0
 
 
+def test_covariance_and_unidentified_round_trip():
+    r = _result(covariance="sweep-jackknife", clusters=45,
+                unidentified={"A": "correlated +0.9950 with C"})
+    d = json.loads(json_text(r.to_dict()))
+    assert d["covariance"] == "sweep-jackknife" and d["clusters"] == 45
+    back = FitResult.from_dict(d)
+    assert back.to_dict() == d and back.unidentified == {"A": "correlated +0.9950 with C"}
+    assert "standard errors: sweep-jackknife over 45 sweeps" in back.report()
+    # written before they were recorded: every standard error was iid
+    old = {k: v for k, v in d.items() if k not in ("covariance", "clusters", "unidentified")}
+    assert (FitResult.from_dict(old).covariance, FitResult.from_dict(old).clusters) == ("iid", 0)
+
+
 def test_mcmc_summary_round_trip():
     m = MCMCSummary(median={"A": 1.0}, q16={"A": 0.9}, q84={"A": 1.1}, q025={"A": 0.8},
                     q975={"A": 1.2}, tau={"A": np.float64(20.5), "log_sigma": np.nan},

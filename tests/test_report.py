@@ -9,6 +9,7 @@ page), never skipped.
 """
 from __future__ import annotations
 
+import dataclasses
 import json
 import shutil
 import subprocess
@@ -271,6 +272,16 @@ def test_tables_total_first_and_intervals(full_fit):
         assert p.interval == "LS +/-1.96 s.e."
         assert p.lo95 == pytest.approx(p.value - T.Z95 * p.stderr)
     assert any(p.in_tir for p in plain) and not any(p.in_tir for p in params)
+    # an MF-style result: the interval names its covariance, a coefficient that is not
+    # identifiable on its own carries the reason (docs/intervals.md)
+    quad = fd.run.result("CFx/quadratic_load")
+    first = quad.free[0]
+    staged = T.parameter_rows(dataclasses.replace(
+        quad, covariance="staged-sweep-jackknife", clusters=45,
+        unidentified={first: "correlated +0.9950 with X"}), fd.key_sources)
+    assert {p.interval for p in staged} == {"LS +/-1.96 s.e. (staged sweep jackknife)"}
+    assert [p.unidentified for p in staged][0] == "correlated +0.9950 with X"
+    assert not any(p.unidentified for p in staged[1:])
     flags = T.data_flags(fd.run, fd.extraction)
     # the run's list of flag names repeats the detailed flag: listed once, with its detail
     assert [(f["flag"], f["detail"]) for f in flags] == [

@@ -31,12 +31,16 @@ def test_each_bin_is_the_mean_of_its_samples_and_free_rolling_is_kept():
     table = pd.concat([sweep, free], ignore_index=True)
     out, count = bin_sweeps(table, 4000.0, alpha_deg=0.25, kappa=0.0025)
     lat = out[out["run"] == "lat"]
-    assert len(lat) == 80 and list(out.columns) == list(table.columns)
+    assert len(lat) == 80 and list(out.columns) == [*table.columns, "segment_id"]
+    # the binned rows are not in time order; their sweep is the segment label
+    assert lat["segment_id"].nunique() == 1
+    assert np.unique(mf_data.sweep_ids(out, 4000.0)[out["run"] == "lat"]).size == 1
     assert count.applied and count.remaining == len(out) == 85
     # 25 samples 0.01 deg apart per bin; a sample on a bin edge may fall on either side
     np.testing.assert_allclose(np.diff(np.rad2deg(lat["alpha"].to_numpy())), 0.25, atol=0.006)
     np.testing.assert_allclose(lat["Fy"].to_numpy(), 1e4 * lat["alpha"].to_numpy())
-    pd.testing.assert_frame_equal(out[out["run"] == "rr"].reset_index(drop=True), free)
+    pd.testing.assert_frame_equal(out[out["run"] == "rr"].drop(columns="segment_id")
+                                  .reset_index(drop=True), free)
 
 
 def test_sparse_sweeps_and_switched_off_binning_keep_every_sample():
@@ -66,7 +70,11 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
     fnomin = float(s.truth["tir"]["FNOMIN"])
     out, notes = mf_table(table, fnomin, segment=True, alpha_deg=None, kappa=None)
     assert len(notes) == 1 and notes[0].startswith("segment: ")
-    assert list(out.columns) == list(table.columns) and 0.5 * len(table) < len(out) < len(table)
+    assert list(out.columns) == [*table.columns, "segment_id"]
+    assert 0.5 * len(table) < len(out) < len(table)
+    # one sweep per slip-angle sweep of the programme, 3 pressures x 3 cambers x 5 loads (the
+    # clusters of the covariance; their binned rows are not in time order)
+    assert np.unique(mf_data.sweep_ids(out, fnomin)).size == 45
     for run in s.truth["runs"]:
         starts = np.array([g["t_start"] for g in run["segments"]])
         kinds = np.array([g["kind"] for g in run["segments"]])

@@ -126,6 +126,11 @@ def _check_fit(folder, out, result, before):
     assert cov["My"]["skipped"] == "no My channel"
     fitted = [f["form"] for f in doc["fits"] if f["relation"] == "MF"]
     assert fitted == [s for s, c in cov.items() if not c["skipped"]]
+    # the MF standard errors are the staged sweep jackknife (docs/intervals.md), with the
+    # coefficients that are not identifiable on their own named
+    mf_fits = [f for f in doc["fits"] if f["relation"] == "MF"]
+    assert {f["covariance"] for f in mf_fits} == {"staged-sweep-jackknife"}
+    assert all(f["clusters"] >= 10 and isinstance(f["unidentified"], dict) for f in mf_fits)
     quality = doc["data_quality"]
     assert quality["warnings"] and all(w["count"] > 0 for w in quality["warnings"])
     assert quality["trailer"]["segmentation"]["kept"] == quality["trailer"]["rows_fitted"]

@@ -23,7 +23,7 @@ from collections.abc import Mapping
 from identify.fit.result import FitResult
 
 __all__ = ["MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
-           "problems", "suspects"]
+           "problems", "suspects", "unidentified"]
 
 MAX_CORRELATION = 0.99
 """|correlation| of two estimates above which only their combination is determined."""
@@ -86,6 +86,28 @@ def problems(r: FitResult) -> list[str]:
     return out
 
 
+def unidentified(r: FitResult) -> dict[str, str]:
+    """Free coefficients of ``r`` that are not identifiable on their own -> why (the first
+    reason; the rules of :func:`problems` that name one coefficient): on a bound (its interval
+    is one-sided and the estimate is the bound's), no finite standard error or a 95 % interval
+    wider than its bounds (a near-null direction of J^T J), or correlated beyond
+    :data:`MAX_CORRELATION` with another (only their combination is determined). Their
+    intervals are not a statement about the coefficient; the others' are (docs/intervals.md)."""
+    out: dict[str, str] = {}
+    for n in r.at_bound:
+        lo, hi = r.bounds.get(n, (-math.inf, math.inf))
+        side = "lower" if abs(r.parameters[n] - lo) <= abs(r.parameters[n] - hi) else "upper"
+        out.setdefault(n, f"at its {side} bound")
+    for n, _ in _wide(r):
+        se = float(r.stderr.get(n, math.nan))
+        out.setdefault(n, "no finite standard error" if not math.isfinite(se)
+                       else "95 % interval wider than its bounds")
+    for a, b, c in _pairs(r):
+        out.setdefault(a, f"correlated {c:+.4f} with {b}")
+        out.setdefault(b, f"correlated {c:+.4f} with {a}")
+    return {n: out[n] for n in r.free if n in out}
+
+
 def suspects(r: FitResult) -> list[str]:
     """The free coefficients the problems name, most suspect first: by the number of problems
     that name them (on a bound, interval wider than its bounds, each correlated pair), ties by
@@ -110,4 +132,5 @@ def assess(r: FitResult, held: Mapping[str, str] | None = None,
     status = POOR if reasons else OK
     reasons += tuple(f"{n} held at {r.parameters.get(n, math.nan):.6g}: {why}"
                      for n, why in held.items())
-    return dataclasses.replace(r, identification=status, reasons=reasons, held=held)
+    return dataclasses.replace(r, identification=status, reasons=reasons, held=held,
+                               unidentified=unidentified(r) if r.converged else {})

@@ -37,9 +37,9 @@ from identify.fit.result import FitResult
 from identify.model.parameters import spec
 from identify.model.state import OperatingState
 
-__all__ = ["N_LHS", "MAX_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER", "CANDIDATE_RTOL",
-           "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample", "ladder_sizes",
-           "search", "refine_on", "prune", "canonical_br", "final_predictions"]
+__all__ = ["N_LHS", "MAX_NFEV", "REFIT_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER",
+           "CANDIDATE_RTOL", "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample",
+           "ladder_sizes", "search", "refine_on", "prune", "canonical_br", "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
@@ -48,12 +48,22 @@ MAX_NFEV = 100
 (Jacobian evaluations not counted). A candidate from the subsample search starts near the
 optimum and converges in a few tens; one that crawls for longer is reported as not converged
 instead of costing minutes."""
+REFIT_NFEV = 40
+"""Budget of a re-fit's least-squares solve on all points (identify.fit.mf_stages._refine): it
+starts at the re-fit's optimum on the search's subsample, where the re-fits the data support
+converge within 4-18 evaluations (the bundled sample and a generated TTC session); the ones
+that ran into MAX_NFEV (QSX4, QSX5, QSX9 on the sample's Mx; RVY4..6 on the TTC session's Fy)
+were products of weakly determined coefficients running off along a flat valley, not taken
+in the end, and cost a second per stage on all points."""
 SEARCH_NFEV = 200
 """Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
-SUBSAMPLE = CHUNK
+SUBSAMPLE = 2 * CHUNK
 """Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
 order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
-Equal to the exact Jacobian's chunk (identify.fit.mf_jacobian.CHUNK): one call per Jacobian."""
+Two of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding. One chunk
+(2048) was tried and reverted: on the decimated TTC session of tests/test_ttc_fit.py (seed 7)
+the Fy stage, searched on 2048 of its 3643 points instead of all, then ran into MAX_NFEV on
+all points and was reported not converged."""
 LADDER = 4
 """Each rung of the ladder from the search's subsample to all points has this many times the
 points of the one below."""

@@ -62,6 +62,7 @@ from identify.fit.mf_result import MFFit, point_columns
 from identify.fit.mf_search import (
     MAX_NFEV,
     N_LHS,
+    REFIT_NFEV,
     canonical_br,
     final_predictions,
     ladder_sizes,
@@ -193,7 +194,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                           mf_data.pressure_groups(pts), objective="wls", sigma=None,
                           constraints=tuple(constraints),
                           sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
-                          extra=extra, noise="sweep", jacobian=jacobian)
+                          extra=extra, noise="sweep", jacobian=jacobian,
+                          covariance="sweeps")
 
     if screen and hold is None:
         more, _ = sensitivity_screen(build([n for n in names if n not in held]))
@@ -231,10 +233,11 @@ def _say(progress: Progress | None, text: str) -> None:
 def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
                 give_up: bool = False) -> FitResult | int:
     """Search on the subsample, then solve the candidates on all points (see module).
-    ``give_up``: when the search on the subsample did not converge, return its number of
-    model evaluations instead (a re-fit whose added coefficients run off along a flat valley,
-    e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC session: the re-fit would not be taken, and
-    solving it on all points cost minutes)."""
+    ``give_up`` (a re-fit): when the search on the subsample did not converge, return its
+    number of model evaluations instead (a re-fit whose added coefficients run off along a
+    flat valley, e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC session: the re-fit would not be
+    taken, and solving it on all points cost minutes), and solve on all points within
+    REFIT_NFEV instead of MAX_NFEV."""
     t0 = time.perf_counter()
     stage, n = sp.problem.form, sp.problem.measured.size
     index = subsample(n)
@@ -252,7 +255,8 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
         nfev += sum(k for _, k in moved) + len(moved)
         candidates = prune(rung, [x for x, _ in moved])
     _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
-    result = fit(sp.problem, starts=np.vstack(candidates), max_nfev=MAX_NFEV, tol=MF_SOLVE)
+    result = fit(sp.problem, starts=np.vstack(candidates),
+                 max_nfev=REFIT_NFEV if give_up else MAX_NFEV, tol=MF_SOLVE)
     return dataclasses.replace(result, n_starts=found.n_starts,
                                starts_at_best=found.starts_at_best,
                                seconds=time.perf_counter() - t0, nfev=result.nfev + nfev)

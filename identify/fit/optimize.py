@@ -89,12 +89,18 @@ def _solve(problem: FitProblem, x0: np.ndarray, max_nfev: int | None,
 
 def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
     """SLSQP on the true objective with bounds and constraints, from the least-squares x."""
+    # weighted least squares: SLSQP in the metric of the solver's own Jacobian at lsq.x
+    # (J^T J, the Gauss-Newton Hessian of 0.5 r^T r; see engine.polish)
+    metric = (lsq.jac.T @ lsq.jac if problem.objective == "wls" and lsq.jac is not None
+              and lsq.jac.shape[1] == lsq.x.size else None)
+
     def run(x1):
         return engine.polish(problem.objective_value, x1, problem.bounds(), tol,
                              constraints=(problem.constraint_values if problem.constraints
                                           else None),
                              gradient=(problem.objective_gradient
-                                       if problem.jacobian is not None else None))
+                                       if problem.jacobian is not None else None),
+                             metric=metric)
 
     pol = run(lsq.x)
     if pol.status == 0:
@@ -185,6 +191,8 @@ class Diagnosis:
     cov : ndarray                  covariance of the free parameters (k, k)
     jacobian_source : str          "solver" (the least-squares solver's at its solution),
                                    "exact" (FitProblem.jacobian) or "central differences"
+    covariance : str               which covariance (FitProblem.covariance_used)
+    clusters : int                 its number of sweeps (0: iid)
     """
 
     x: np.ndarray
@@ -192,6 +200,8 @@ class Diagnosis:
     active: tuple[str, ...]
     cov: np.ndarray
     jacobian_source: str
+    covariance: str = "iid"
+    clusters: int = 0
 
 
 def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
@@ -215,16 +225,15 @@ def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
             g = np.atleast_1d(np.asarray(c.fun(vals), dtype=float))
             if g.size and g.min() <= 1e-7 * max(1.0, float(np.max(np.abs(g)))):
                 active.append(c.name)
-    sigma_known = problem.sigma is not None
     if not free:
         cov, source = np.zeros((0, 0)), "solver"
     elif not out.polished:
-        cov = engine.covariance(out.lsq.jac, out.lsq.fun, sigma_known=sigma_known)
+        cov = engine.problem_covariance(problem, xb, jac=out.lsq.jac, fun=out.lsq.fun)
         source = "solver"
     else:
         cov = engine.problem_covariance(problem, xb)
         source = "exact" if problem.jacobian is not None else "central differences"
-    return Diagnosis(xb, at_bound, tuple(active), cov, source)
+    return Diagnosis(xb, at_bound, tuple(active), cov, source, *problem.covariance_used())
 
 
 def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: int,
@@ -257,7 +266,7 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
         message=out.message, n_starts=len(outcomes), starts_at_best=at_best,
         correlations=corr, predicted=pred, measured=problem.measured,
         pressure_bar=problem.pressure_bar, seconds=time.perf_counter() - t0, nfev=counter.calls,
-        status=out.status)
+        status=out.status, covariance=diag.covariance, clusters=diag.clusters)
 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,

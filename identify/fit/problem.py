@@ -14,6 +14,11 @@ import numpy as np
 from identify.fit.metric import group_weights, thesis_error_by_group
 
 NOISE_MODELS = ("weights", "relative", "sweep")
+COVARIANCES = ("iid", "sweeps")
+"""How the standard errors of a problem are computed (FitProblem.covariance)."""
+MIN_CLUSTERS = 10
+"""Fewest sweeps for the sweep-clustered covariance (and more than the free coefficients);
+with fewer the covariance is the iid one."""
 NOISE_FLOOR = 0.01
 """Smallest noise level of a point, as a fraction of the RMS of all measurements."""
 
@@ -72,6 +77,13 @@ class FitProblem:
         Sweep id of each point (for AR(1) noise in MCMC and for diagnostics).
     unit : str
         Unit of the data, for reports.
+    covariance : str
+        How the standard errors are computed (identify.fit.engine.covariance, docs/intervals.md):
+        ``"iid"``: s^2 (J^T J)^-1, residuals independent with one variance (sigma known: s = 1);
+        ``"sweeps"``: the delete-one-sweep jackknife over ``sweeps``, residuals correlated and
+        of any variance within a sweep (AR(1) noise, drift, binned sweeps), independent
+        between sweeps; the iid one when there are fewer than MIN_CLUSTERS sweeps or not more
+        sweeps than free coefficients (:meth:`clusters`).
     jacobian : JacobianFn or None
         Exact derivatives of ``model`` (see :data:`JacobianFn`), or None for finite
         differences. When given, the least-squares solver uses it (``jac=``), the covariance is
@@ -106,8 +118,12 @@ class FitProblem:
     extra: Mapping[str, object] = field(default_factory=dict)
     noise: str = "weights"
     jacobian: JacobianFn | None = None
+    covariance: str = "iid"
 
     def __post_init__(self) -> None:
+        if self.covariance not in COVARIANCES:
+            raise ValueError(f"covariance must be one of {COVARIANCES}, not "
+                             f"{self.covariance!r}")
         if self.objective not in ("thesis", "wls"):
             raise ValueError(f"objective must be 'thesis' or 'wls', not {self.objective!r}")
         if self.noise not in NOISE_MODELS:
@@ -141,6 +157,29 @@ class FitProblem:
         lo = np.array([self.parameters[n].min for n in self.free], dtype=float)
         hi = np.array([self.parameters[n].max for n in self.free], dtype=float)
         return lo, hi
+
+    def clusters(self) -> list[np.ndarray] | None:
+        """Index arrays of the sweeps, the clusters of the covariance; None for the iid
+        covariance (``covariance="iid"``, no sweeps, fewer than MIN_CLUSTERS sweeps or not more
+        sweeps than free coefficients)."""
+        if self.covariance != "sweeps" or self.sweeps is None:
+            return None
+        _, index = np.unique(np.asarray(self.sweeps), return_inverse=True)
+        index = index.ravel()
+        C = int(index.max(initial=-1)) + 1
+        if C < MIN_CLUSTERS or C <= len(self.free):
+            return None
+        order = np.argsort(index, kind="stable")
+        return np.split(order, np.cumsum(np.bincount(index, minlength=C))[:-1])
+
+    def covariance_used(self) -> tuple[str, int]:
+        """(the covariance the standard errors come from, its number of clusters):
+        ``("sweep-jackknife", C)``, ``("iid", 0)`` or ``("iid-known-sigma", 0)``
+        (FitResult.covariance, .clusters)."""
+        clusters = self.clusters()
+        if clusters is not None:
+            return "sweep-jackknife", len(clusters)
+        return ("iid-known-sigma" if self.sigma is not None else "iid"), 0
 
     # ----- objective -----------------------------------------------------------------------
     def predict(self, x: np.ndarray | None = None) -> np.ndarray:

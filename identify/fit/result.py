@@ -150,6 +150,18 @@ class FitResult:
     reasons : tuple of str                  why it is poorly identified, and what was held
     held : Mapping[str, str]                coefficients the fit would free but held at their
                                             default (``--hold`` or not identifiable) -> why
+    covariance : str                        the covariance ``stderr`` comes from
+                                            (docs/intervals.md): "iid" (s^2 (J^T J)^-1),
+                                            "iid-known-sigma" ((J^T J)^-1, weights 1/sigma),
+                                            "sweep-jackknife" (delete-one-sweep jackknife) or
+                                            "staged-sweep-jackknife" (the same with the
+                                            earlier MF stages' uncertainty:
+                                            identify.fit.mf_uncertainty)
+    clusters : int                          sweeps of the jackknife (0 for iid)
+    unidentified : Mapping[str, str]        free coefficients not identifiable on their own
+                                            -> why (at a bound, near-null direction, a
+                                            correlation above 0.99:
+                                            identify.fit.identifiability.unidentified)
     """
 
     relation: str
@@ -180,6 +192,9 @@ class FitResult:
     identification: str = "ok"
     reasons: tuple[str, ...] = ()
     held: Mapping[str, str] = field(default_factory=dict)
+    covariance: str = "iid"
+    clusters: int = 0
+    unidentified: Mapping[str, str] = field(default_factory=dict)
 
     @property
     def status_text(self) -> str:
@@ -206,6 +221,8 @@ class FitResult:
             "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
             "identification": self.identification, "reasons": list(self.reasons),
             "held": dict(self.held),
+            "covariance": self.covariance, "clusters": self.clusters,
+            "unidentified": dict(self.unidentified),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -218,8 +235,9 @@ class FitResult:
         per-point arrays are empty: they live in measured_vs_model.csv (see
         :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
         documents written before they were recorded, ``identification`` to "ok" and
-        ``reasons``/``held`` to empty. Raises KeyError or TypeError/ValueError
-        on a malformed entry.
+        ``reasons``/``held`` to empty, ``covariance`` to "iid" (every standard error
+        was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
+        TypeError/ValueError on a malformed entry.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -245,7 +263,11 @@ class FitResult:
                    nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0),
                    identification=str(d.get("identification") or "ok"),
                    reasons=tuple(str(x) for x in d.get("reasons") or ()),
-                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()})
+                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()},
+                   covariance=str(d.get("covariance") or "iid"),
+                   clusters=int(d.get("clusters") or 0),
+                   unidentified={str(k): str(v)
+                                 for k, v in (d.get("unidentified") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -268,11 +290,15 @@ class FitResult:
         lines = [f"{self.relation} [{self.form}], objective {self.objective}: "
                  f"total thesis error {self.error_total_pct:.3f} %"
                  f" ({'converged' if self.converged else 'NOT converged: ' + self.message})",
-                 f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value"]
+                 f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value",
+                 f"  standard errors: {self.covariance}"
+                 + (f" over {self.clusters} sweeps" if self.clusters else "")]
         for p, e in self.error_by_pressure_pct.items():
             lines.append(f"  {p:5.2f} bar: {e:.3f} %")
         for n in self.free:
             flag = "  (at bound)" if n in self.at_bound else ""
+            if n in self.unidentified and n not in self.at_bound:
+                flag += f"  (not identifiable: {self.unidentified[n]})"
             lines.append(f"  {n:>10} = {self.parameters[n]: .6g} +/- {self.stderr[n]:.2g}{flag}")
         if self.active_constraints:
             lines.append("  active constraints: " + ", ".join(self.active_constraints))

@@ -171,11 +171,12 @@ def _param_table(ax, prow, fit, more: int = 0) -> None:
         title += f"   ({more} more on the next page)"
     table = [[r.name, T.fmt(r.value, 6), T.fmt(r.stderr, 3), T.fmt(r.lo95, 4),
               T.fmt(r.hi95, 4), _bounds_text(r.lower, r.upper),
-              "AT BOUND" if r.at_bound else "", "yes" if r.in_tir else ""] for r in prow]
+              "AT BOUND" if r.at_bound else "not ident." if r.unidentified else "",
+              "yes" if r.in_tir else ""] for r in prow]
     draw_table(ax, ["parameter", "value", "std. error", "95 % low", "95 % high", "bounds",
-                    "at bound", ".tir"], table,
+                    "flag", ".tir"], table,
                [0.16, 0.14, 0.11, 0.12, 0.12, 0.21, 0.09, 0.05], fontsize=7.5, title=title,
-               colours=[RED if r.at_bound else "black" for r in prow],
+               colours=[RED if r.at_bound or r.unidentified else "black" for r in prow],
                align=["left", "right", "right", "right", "right", "left", "left", "left"])
     if not prow:
         ax.text(0, 0.8, "no free parameters", fontsize=8, transform=ax.transAxes)

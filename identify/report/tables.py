@@ -87,6 +87,13 @@ class ParamRow:
     at_bound: bool
     in_tir: bool
     median: float = math.nan  # MCMC posterior median (NaN without MCMC)
+    unidentified: str = ""    # why it is not identifiable on its own ("" when it is)
+
+
+_COVARIANCE = {"sweep-jackknife": " (sweep jackknife)",
+               "staged-sweep-jackknife": " (staged sweep jackknife)"}
+"""How the label of a least-squares interval names a covariance other than iid
+(docs/intervals.md)."""
 
 
 def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None = None
@@ -94,7 +101,9 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
     """The free parameters with value, standard error, 95 % interval, bounds and flags.
 
     The interval is the MCMC 2.5-97.5 % posterior quantiles when the fit has an MCMC
-    summary for the parameter, else value +/- 1.96 standard errors (labelled as such).
+    summary for the parameter, else value +/- 1.96 standard errors (labelled as such, with the
+    covariance when it is not iid); ``unidentified`` says why a coefficient is not identifiable
+    on its own (FitResult.unidentified).
     """
     mc = fit.mcmc
     q025, q975, med = (mc.q025, mc.q975, mc.median) if mc is not None else ({}, {}, {})
@@ -105,10 +114,12 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
         if name in q025 and name in q975:
             lo, hi, how = num(q025[name]), num(q975[name]), "MCMC 2.5-97.5 %"
         else:
-            lo, hi, how = v - Z95 * se, v + Z95 * se, "LS +/-1.96 s.e."
+            lo, hi, how = v - Z95 * se, v + Z95 * se, "LS +/-1.96 s.e." + _COVARIANCE.get(
+                fit.covariance, "")
         lower, upper = fit.bounds.get(name, (-math.inf, math.inf))
         rows.append(ParamRow(name, v, se, lo, hi, how, num(lower), num(upper),
-                             name in fit.at_bound, name in keys, num(med.get(name))))
+                             name in fit.at_bound, name in keys, num(med.get(name)),
+                             fit.unidentified.get(name, "")))
     return rows
 
 

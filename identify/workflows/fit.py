@@ -27,6 +27,7 @@ from identify.fit.identifiability import assess
 from identify.fit.mcmc import ChainProgress, ChainSession, run_mcmc
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
+from identify.fit.mf_uncertainty import propagate
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
@@ -316,6 +317,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             _say(progress, "fit: Magic Formula stages on trailer data")
             mf = fit_mf(trailer, _numeric(tir), seed=settings.seed, fittyp=settings.fittyp,
                         stages=stages, progress=progress)
+            _say(progress, "MF standard errors: delete-one-sweep jackknife, the earlier "
+                           "stages' uncertainty included")
+            mf = propagate(trailer, mf)
             for r in mf.results:
                 if settings.mcmc:
                     chains.queue(len(results), f"MF_{r.form}", f"mcmc: MF [{r.form}]", r,

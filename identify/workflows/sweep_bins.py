@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from identify.fit import mf_data
+from identify.fit.mf_data import SEGMENT_COLUMN
 from identify.segment import FilterCount, SegmentSettings, segment_trailer
 from identify.segment.filters import binning
 
@@ -101,8 +102,9 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     Returns
     -------
     table : DataFrame
-        The same columns; unbinned rows as they were, then one row per bin, ordered by segment
-        and time.
+        The same columns and the segment label ``segment_id`` (mf_data.SEGMENT_COLUMN: the
+        sweeps of the covariance); unbinned rows as they were, then one row per bin, ordered
+        by segment and time.
     count : FilterCount
         Samples removed and kept, and the widths (for the fit's progress and record).
     """
@@ -113,9 +115,16 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     kinds = _kinds(trailer, segment, widths)
     if not pd.notna(kinds).any():  # no dense sweep: the table as it is, in its order
         return trailer, FilterCount("binning", 0, len(trailer), True, "no dense sweep")
-    frame = trailer.assign(segment=segment, sweep=kinds)
+    frame = trailer.drop(columns=SEGMENT_COLUMN, errors="ignore").assign(segment=segment,
+                                                                         sweep=kinds)
     out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa))
-    return out.drop(columns=["segment", "sweep"])[list(trailer.columns)], count
+    return out.drop(columns="sweep").rename(columns={"segment": SEGMENT_COLUMN})[
+        _with_label(trailer)], count
+
+
+def _with_label(trailer: pd.DataFrame) -> list[str]:
+    """``trailer``'s columns and the segment label (mf_data.SEGMENT_COLUMN), once."""
+    return [c for c in trailer.columns if c != SEGMENT_COLUMN] + [SEGMENT_COLUMN]
 
 
 def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: float | None,
@@ -136,7 +145,8 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
     Returns
     -------
     table : DataFrame
-        The same columns: the segmented runs' selected (and binned) samples, then the other
+        The same columns and ``segment_id`` where a segmentation or binning labelled the
+        sweeps: the segmented runs' selected (and binned) samples, then the other
         runs, dense sweeps binned.
     notes : list of str
         One line per step that changed the table (for the progress and the log).
@@ -151,7 +161,9 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
                                   if s.kind == "warmup"))
         if runs:
             mine = trailer["run"].isin(runs).to_numpy()
-            picked = seg.table[seg.table["run"].isin(runs)][list(trailer.columns)]
+            picked = seg.table[seg.table["run"].isin(runs)].drop(
+                columns=SEGMENT_COLUMN, errors="ignore").rename(
+                columns={"segment": SEGMENT_COLUMN})[_with_label(trailer)]
             sweeps = sum(1 for s in seg.segmentation.segments
                          if s.run in runs and s.kind == "sweep")
             filters = "; ".join(f"{f.name} {f.removed}" for f in seg.segmentation.filters

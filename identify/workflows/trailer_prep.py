@@ -21,6 +21,7 @@ from typing import Any
 
 import pandas as pd
 
+from identify.fit.mf_data import SEGMENT_COLUMN
 from identify.segment import LEVEL_COLUMNS, Segmentation, SegmentSettings, segment_trailer
 
 __all__ = ["SEGMENTED_SUFFIXES", "TrailerData", "prepare_trailer", "unavailable_channels"]
@@ -94,8 +95,9 @@ def prepare_trailer(mset, settings: SegmentSettings = SegmentSettings(), *,
         return TrailerData(trailer, None, (), unavailable)
     is_cont = trailer["run"].astype(str).isin(continuous)
     seg = segment_trailer(trailer[is_cont], settings)
-    kept = seg.table.drop(columns=["segment", "sweep", *LEVEL_COLUMNS.values()],
-                          errors="ignore")
+    # the segment of each sample stays as the sweep label (the clusters of the covariance)
+    kept = seg.table.drop(columns=["sweep", *LEVEL_COLUMNS.values()], errors="ignore") \
+        .rename(columns={"segment": SEGMENT_COLUMN})
     table = pd.concat([kept, trailer[~is_cont]], ignore_index=True)
     runs = tuple(sorted(set(trailer.loc[is_cont, "run"].astype(str))))
     return TrailerData(table, seg.segmentation, runs, unavailable)
