@@ -73,22 +73,22 @@ def test_fit_thesis_writes_outputs_and_summary(tmp_path):
 
 
 def test_mcmc_stopped_at_the_cap_is_a_warning_with_the_cap_that_suffices(tmp_path):
-    """A 500-step cap stops the CFx chains (tau ~ 20) short of 50 tau: the run succeeds, and
+    """A 100-step cap stops the CFx chains (tau ~ 3-5) short of 50 tau: the run succeeds, and
     stderr names each short chain, its tau and a --mcmc-max-steps that would suffice."""
-    result = _fit(tmp_path, THESIS, "--only", "CFx", "--mcmc", "--mcmc-max-steps", "500",
+    result = _fit(tmp_path, THESIS, "--only", "CFx", "--mcmc", "--mcmc-max-steps", "100",
                   "--no-report")
     assert result.exit_code == 0, result.output
     doc = json.loads((tmp_path / "fits" / "thesis-225-50R17" / "fit.json").read_text())
     run = FitRun.from_dict(doc)
     assert run.to_dict() == doc  # fit.json with MCMC summaries round-trips
     short = [f for f in run.results if not f.mcmc.converged]
-    assert short and all(f.mcmc.n_steps == 500 for f in short)
+    assert short and all(f.mcmc.n_steps == 100 for f in short)
     lines = result.stderr.strip().splitlines()
     assert len(lines) == len(short), result.stderr
     for fit, line in zip(short, lines):
         tau = max(fit.mcmc.tau.values())
         assert line.startswith(f"warning: CFx [{fit.form}]: MCMC chain shorter than 50 "
-                               f"autocorrelation times (500 steps, largest tau {tau:.0f}")
+                               f"autocorrelation times (100 steps, largest tau {tau:.0f}")
         cap = int(re.search(r"--mcmc-max-steps (\d+) ", line).group(1))
         assert 50 * tau < cap <= 55 * tau + 1000
 
@@ -158,7 +158,7 @@ def test_single_csv_with_nominal_conditions_and_no_report(tmp_path):
     (["{thesis}", "--fittyp", "63"], "--fittyp: FITTYP must be 61 or 62, not 63"),
     (["{thesis}", "--mcmc-ar1"], "--mcmc-ar1 needs --mcmc"),
     (["{thesis}", "--mcmc-max-steps", "5000"], "--mcmc-max-steps needs --mcmc"),
-    (["{thesis}", "--mcmc", "--mcmc-max-steps", "100"], "--mcmc-max-steps must be at least 500"),
+    (["{thesis}", "--mcmc", "--mcmc-max-steps", "50"], "--mcmc-max-steps must be at least 100"),
     (["{thesis}", "--mcmc-budget", "60"], "--mcmc-budget needs --mcmc"),
     (["{thesis}", "--mcmc", "--mcmc-budget", "0"], "--mcmc-budget must be a positive number"),
     (["{tmp}/bad.csv"], "bad.csv:2: value: not a number: 'abc'"),

@@ -30,7 +30,7 @@ from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli.fit_options import check_fit_options
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import MAX_STEPS, ChainProgress
+from identify.fit.mcmc import BUDGET_S, MAX_STEPS, ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import FitSettings, fit_folder, only_names
 from identify.fit.summary import notes_lines  # lazy: see fit_command
@@ -236,9 +236,12 @@ def fit_command(
              "says converged = false."),
     mcmc_budget: float | None = typer.Option(
         None, "--mcmc-budget", metavar="SECONDS",
-        help="With --mcmc: time budget of each chain [s]. A chain stops at 50 "
-             "autocorrelation times, the step cap or the budget, whichever comes first; "
-             "stopped early, it says converged = false and a warning names it."),
+        help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
+             f"(default {BUDGET_S:g}; 'inf' for none). The chains run after the fits, cheapest "
+             "first; each may use the budget left divided by the chains left, so time a chain "
+             "does not need goes to the later ones. A chain stops at 50 autocorrelation "
+             "times, the step cap or its share, whichever comes first; stopped early, it says "
+             "converged = false and a warning names it with its steps and tau."),
     seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
     only: list[str] = typer.Option([], "--only", metavar="NAME",
                                    help="Fit only these relations (repeat or separate with "
@@ -293,9 +296,9 @@ def fit_command(
                           mcmc_max_steps=mcmc_max_steps)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
-        if mcmc_budget is not None and not (math.isfinite(mcmc_budget) and mcmc_budget > 0):
-            raise InputError(None, f"--mcmc-budget must be a positive number of seconds, not "
-                                   f"{mcmc_budget:g}", key="--mcmc-budget")
+        if mcmc_budget is not None and not mcmc_budget > 0:
+            raise InputError(None, f"--mcmc-budget must be a positive number of seconds (or "
+                                   f"inf), not {mcmc_budget:g}", key="--mcmc-budget")
         if no_bin and (bin_alpha is not None or bin_kappa is not None):
             raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
                              key="--no-bin")
@@ -308,7 +311,9 @@ def fit_command(
         settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                                only=only_names(only), fittyp=fittyp,
                                mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               mcmc_budget_s=mcmc_budget, forms=only_names(form),
+                               mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
+                                              if math.isinf(mcmc_budget) else mcmc_budget),
+                               forms=only_names(form),
                                hold=only_names(hold), segment=not no_segment, **bins)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):

@@ -1,15 +1,14 @@
 """The fit options ``mfid batch`` shares with ``mfid fit``, checked and turned into settings.
 
 The checks (:func:`check_fit_options`, also made by ``mfid fit``): FITTYP 61 or 62,
-``--mcmc-ar1`` and ``--mcmc-max-steps`` only with ``--mcmc``, a cap of at least one chunk of
-the chain.
+``--mcmc-ar1`` and ``--mcmc-max-steps`` only with ``--mcmc``, a cap of at least MIN_CHECK steps.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
 
 from identify.core.errors import InputError
-from identify.fit.mcmc import CHUNK, MAX_STEPS
+from identify.fit.mcmc import MAX_STEPS, MIN_CHECK
 from identify.fit.run import FitSettings
 from identify.workflows.fit import only_names
 
@@ -26,9 +25,10 @@ def check_fit_options(*, fittyp: int, mcmc: bool, mcmc_ar1: bool,
         raise InputError(None, "--mcmc-ar1 needs --mcmc", key="--mcmc-ar1")
     if mcmc_max_steps is not None and not mcmc:
         raise InputError(None, "--mcmc-max-steps needs --mcmc", key="--mcmc-max-steps")
-    if mcmc_max_steps is not None and mcmc_max_steps < CHUNK:
-        raise InputError(None, f"--mcmc-max-steps must be at least {CHUNK} (one chunk of "
-                               f"the chain), not {mcmc_max_steps}", key="--mcmc-max-steps")
+    if mcmc_max_steps is not None and mcmc_max_steps < MIN_CHECK:
+        raise InputError(None, f"--mcmc-max-steps must be at least {MIN_CHECK} (the fewest "
+                               f"steps between two estimates of tau), not {mcmc_max_steps}",
+                         key="--mcmc-max-steps")
 
 
 def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,

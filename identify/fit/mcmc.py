@@ -8,21 +8,32 @@ level as a fraction; the MF stages' channels noise relative to each sweep's RMS)
 AR(1) noise along each sweep (innovations e_t - phi e_(t-1) ~ N(0, sigma^2), stationary
 start), phi in (-0.99, 0.99).
 
-Walkers >= max(32, 2 x parameters); the chain runs in chunks until it is longer than 50
-autocorrelation times (or ``max_steps``); the first 3 tau are discarded and the chain thinned by
-tau/2. All walkers are evaluated in one vectorised call when the model broadcasts over
-parameter arrays of shape (walkers, 1).
+Walkers >= max(32, 2 x parameters); the chain runs until it is longer than 50 autocorrelation
+times (estimated after 250 steps, then where the last estimate says 50 tau is reached), the
+step cap ``max_steps`` or the time ``budget``; the first 3 tau are discarded and the chain
+thinned by tau/2. All walkers are evaluated in one vectorised call when the model broadcasts
+over parameter arrays of shape (walkers, 1). The chain is sampled in memory and written to
+its HDF5 file (emcee's layout) once, at the end.
 
-Moves: differential evolution (emcee.moves.DEMove) by default. It is affine-invariant like
-emcee's stretch move, but its autocorrelation time grows far more slowly with the dimension:
-measured on the 18-coefficient Fx0 stage tau ~ 60 steps against ~ 500 for the stretch move,
-and about half the stretch move's tau on the 2-4 parameter relations, so the 50-tau rule is
-met in a fraction of the steps. ``moves="stretch"`` keeps emcee's default. emcee's
-DESnookerMove is not used: in emcee 3.1.6 it scales its step by the distance to the anchor
-walker (u = delta/sqrt(|delta|) instead of delta/|delta|) and so does not sample the target
-(a unit Gaussian in 19 dimensions comes out with variance 0.56 alone, 0.79 as 20 % of a mix
-with DE; tests/test_fit_mcmc.py checks the posterior width against a linear problem's exact
-one).
+Moves (``moves="de+laplace"``, the default): half of the steps differential evolution
+(emcee.moves.DEMove), half independence Metropolis-Hastings proposals from the Laplace
+approximation of this posterior (:class:`LaplaceMove`: a Student t around the likelihood's
+own maximum, reached from the least-squares optimum by a few Gauss-Newton steps, with
+covariance sigma^2 (J'J)^-1 from the noise-weighted model), and the walkers start drawn from
+that approximation instead of a small ball, so there is no burn-in to grow out of. Both moves
+leave the posterior exactly invariant; the approximation only decides how fast the chain
+mixes. Differential evolution is affine-invariant (whitening the coordinates changes nothing
+for it) and its autocorrelation time grows with the dimension (tau ~ 60 steps on the
+18-coefficient Fx0 stage, against ~500 for emcee's stretch move) and with curvature
+(~100 on the sample's 6-coefficient Fx stage); where the posterior is close to Gaussian the
+Laplace proposals are nearly independent draws: on the bundled sample's MF stages the largest
+tau fell from 54-115 (Fx0, Fy) to 5-14 steps. ``moves="de"`` is differential evolution alone
+from a small ball, ``"stretch"`` emcee's default; with AR(1) noise ``"de+laplace"`` is ``"de"``
+(phi has no Laplace approximation here). emcee's DESnookerMove is not used: in emcee 3.1.6 it
+scales its step by the distance to the anchor walker (u = delta/sqrt(|delta|) instead of
+delta/|delta|) and so does not sample the target (a unit Gaussian in 19 dimensions comes out
+with variance 0.56 alone, 0.79 as 20 % of a mix with DE; tests/test_fit_mcmc.py checks the
+posterior width against a linear problem's exact one).
 """
 from __future__ import annotations
 
@@ -37,27 +48,41 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import emcee
-import h5py
 import numpy as np
 
 from identify.fit.engine import problem_covariance
+from identify.fit.mcmc_laplace import LaplaceMove, laplace, laplace_start, sigma0
 from identify.fit.mcmc_reparam import KyaRidge
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult, MCMCSummary
 
 TAU_FACTOR = 50
 CHUNK = 500
+"""Most steps between two estimates of the autocorrelation time."""
+FIRST_CHECK = 250
+"""Steps before the first estimate; later ones come when the chain should pass 50 tau by the
+last estimate (at least MIN_CHECK, at most CHUNK steps later)."""
+MIN_CHECK = 100
 MAX_STEPS = 40000
 """Default cap on a chain [steps] (it stops earlier, at 50 tau)."""
-MOVES = ("de", "stretch")
+BUDGET_S = 900.0
+"""Default wall-time budget of the whole MCMC run of one fit, all chains together [s]
+(``mfid fit --mcmc-budget``; identify.workflows.fit shares it out between the chains): with
+the fit itself and the report it keeps ``mfid fit --mcmc`` of the bundled sample under 20
+minutes on 2 cores."""
+MOVES = ("de+laplace", "de", "stretch")
+LAPLACE_SHARE = 0.5
+"""Share of the steps that are LaplaceMove proposals with ``moves="de+laplace"``."""
 
 
-def _moves(name: str):
-    if name == "de":
-        return emcee.moves.DEMove()
+def _moves(name: str, laplace: LaplaceMove | None):
+    if name not in MOVES:
+        raise ValueError(f"moves must be one of {MOVES}, not {name!r}")
     if name == "stretch":
         return None  # emcee's default StretchMove
-    raise ValueError(f"moves must be one of {MOVES}, not {name!r}")
+    if name == "de+laplace" and laplace is not None:
+        return [(emcee.moves.DEMove(), 1 - LAPLACE_SHARE), (laplace, LAPLACE_SHARE)]
+    return emcee.moves.DEMove()
 
 
 def _innovations(r: np.ndarray, phi: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -191,9 +216,7 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     free = problem.free
     k = len(free)
     xb = np.array([result.parameters[n] for n in free])
-    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
-    r = r[np.isfinite(r)]
-    sigma0 = max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
+    s0 = sigma0(problem, xb)
     sd = (np.sqrt(np.clip(np.diag(problem_covariance(problem, xb)), 0, None)) if k
           else np.zeros(0))
     lo, hi = problem.bounds()
@@ -202,7 +225,7 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     p0 = np.empty((nw, ndim))
     p0[:, :k] = xb + 0.1 * scale * rng.standard_normal((nw, k))
     p0[:, :k] = np.clip(p0[:, :k], lo + 1e-9 * span, hi - 1e-9 * span)
-    p0[:, k] = np.log(sigma0) + 0.01 * rng.standard_normal(nw)
+    p0[:, k] = np.log(s0) + 0.01 * rng.standard_normal(nw)
     if ar1:
         p0[:, k + 1] = 0.5 + 0.01 * rng.standard_normal(nw)
     return p0
@@ -247,11 +270,17 @@ def _signals_between_steps():
 
 
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
-         tau_fn: Callable[[], np.ndarray]):
-    """Run in CHUNKs until 50 tau, the cap or the budget (checked every step); return the
-    last state, steps, the autocorrelation times ``tau_fn()`` and why it stopped."""
-    steps, tau, stop = 0, np.full(1, np.inf), ""
+         tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
+    """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
+    FIRST_CHECK steps and then where the last estimate says 50 tau is reached (MIN_CHECK to
+    CHUNK steps on); return the last state, steps, the autocorrelation times ``tau_fn()`` and
+    why it stopped. ``steps0``, ``tau0``: a chain continued from where it stopped."""
+    steps, tau, stop = steps0, np.full(1, np.inf) if tau0 is None else tau0, ""
     last = -math.inf
+    chunk = FIRST_CHECK
+    if steps0 and np.all(np.isfinite(tau)):
+        chunk = min(max(int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps,
+                        MIN_CHECK), CHUNK)
 
     def report(stop_now=""):
         tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
@@ -262,7 +291,7 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
 
     with _signals_between_steps() as pending:
         while not stop and not pending:
-            for new in sampler.sample(state, iterations=min(CHUNK, max_steps - steps)):
+            for new in sampler.sample(state, iterations=min(chunk, max_steps - steps)):
                 state = new
                 steps += 1
                 now = time.perf_counter()
@@ -281,26 +310,44 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
                 stop = "converged"
             elif steps >= max_steps and not stop:
                 stop = "max_steps"
+            if np.all(np.isfinite(tau)):
+                need = int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps
+                chunk = min(max(need, MIN_CHECK), CHUNK)
+            else:
+                chunk = CHUNK
     if progress is not None:
         report(stop)
     return state, steps, tau, stop
 
 
-def _map_chain_file(path, reparam: KyaRidge) -> None:
-    """Rewrite a saved chain from the sampled coordinates to the free coefficients (kept as
-    blobs) and its log-probabilities to the posterior density in them, so that the chain file
-    is in the names the report labels it with."""
-    idx = list(reparam.index)
-    with h5py.File(path, "r+") as f:
+def _write_chain_file(path, sampler, reparam: KyaRidge | None) -> None:
+    """Save the chain once it has run, as emcee's HDFBackend lays it out (group ``mcmc``;
+    ``emcee.backends.HDFBackend(path, name="mcmc", read_only=True)`` reads it): sampling into
+    the file directly costs ~25 ms a step in file opens, 8-10x the sampling of a relation.
+    With ``reparam`` the chain is in the free coefficients (the blobs: the mapped ones and the
+    log-Jacobian) and its log-probabilities are the posterior density in them, so that the
+    file is in the names the report labels it with."""
+    chain = sampler.get_chain()
+    log_prob = sampler.get_log_prob()
+    blobs = sampler.get_blobs()
+    if reparam is not None:
+        chain = chain.copy()
+        chain[..., list(reparam.index)] = blobs[..., :3]
+        log_prob = log_prob - blobs[..., 3]
+    nw, ndim = chain.shape[1:]
+    backend = emcee.backends.HDFBackend(str(path), name="mcmc")
+    backend.reset(nw, ndim)
+    backend.grow(chain.shape[0], None if blobs is None else blobs[0])
+    with backend.open("a") as f:
         g = f["mcmc"]
-        n = int(g.attrs["iteration"])
-        for a in range(0, n, 1000):
-            b = min(n, a + 1000)
-            blobs = g["blobs"][a:b]
-            chain = g["chain"][a:b]
-            chain[..., idx] = blobs[..., :3]
-            g["chain"][a:b] = chain
-            g["log_prob"][a:b] = g["log_prob"][a:b] - blobs[..., 3]
+        g["chain"][...] = chain
+        g["log_prob"][...] = log_prob
+        if blobs is not None:
+            g["blobs"][...] = blobs
+        g["accepted"][...] = sampler.backend.accepted
+        for i, v in enumerate(sampler.random_state):
+            g.attrs[f"random_state_{i}"] = v
+        g.attrs["iteration"] = chain.shape[0]
 
 
 def _chain(sampler, reparam: KyaRidge | None, discard: int = 0, thin: int = 1) -> np.ndarray:
@@ -312,11 +359,28 @@ def _chain(sampler, reparam: KyaRidge | None, discard: int = 0, thin: int = 1) -
     return c.reshape(-1, c.shape[-1])
 
 
+class ChainSession:
+    """Keeps a chain that a time budget stopped so that ``run_mcmc(..., session=...)`` can
+    continue it later with more time (identify.workflows.fit gives the budget the other
+    chains left to the chains it stopped). Empty until the first run; the caller only passes
+    it back."""
+
+    def __init__(self):
+        self.sampler = None
+        self.state = None
+        self.steps = 0
+        self.tau = None
+        self.seconds = 0.0
+        self.tau_fn = None
+        self.move = None
+
+
 def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool = False,
              n_walkers: int | None = None, max_steps: int = MAX_STEPS,
              budget: float | None = None, chain_file: str | Path | None = None,
-             moves: str = "de", reparam: KyaRidge | None = None,
-             progress: Callable[[ChainProgress], None] | None = None) -> FitResult:
+             moves: str = "de+laplace", reparam: KyaRidge | None = None,
+             progress: Callable[[ChainProgress], None] | None = None,
+             session: ChainSession | None = None) -> FitResult:
     """Sample the posterior around a least-squares result; return the result with ``mcmc`` set.
 
     Parameters
@@ -330,38 +394,63 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     max_steps : int
         Cap on the chain [steps].
     budget : float, optional
-        Time budget of the chain [s]. The chain stops at 50 tau, ``max_steps`` or the budget,
+        Time budget of this chain [s] (``mfid fit`` gives each chain its share of the whole
+        run's budget). The chain stops at 50 tau, ``max_steps`` or the budget,
         whichever comes first; stopped early, the summary says ``converged = False`` and
         ``stopped`` why.
     chain_file : path, optional
         Save the chain to this HDF5 file (emcee HDFBackend, group ``mcmc``), in the free
         coefficients (also with ``reparam``).
     moves : str
-        ``"de"`` (differential evolution, the default) or ``"stretch"``.
+        ``"de+laplace"`` (the default: differential evolution and, half of the steps,
+        independence proposals from the Laplace approximation at the optimum, :class:
+        `LaplaceMove`; the walkers start drawn from that approximation), ``"de"``
+        (differential evolution alone, from a small ball around the optimum) or
+        ``"stretch"``. With ``ar1``, ``"de+laplace"`` is ``"de"``.
     reparam : KyaRidge, optional
         Sample these coordinates instead of some free coefficients (identify.fit.
         mcmc_reparam); the prior stays flat in the coefficients.
     progress : callable, optional
         Called with a :class:`ChainProgress` about once a second and when the chain stops.
+    session : ChainSession, optional
+        Keep the chain in it; passed again (same problem and settings), the chain it holds
+        continues from where it stopped, with this call's ``budget`` (steps and seconds
+        count from the first call).
     """
     t0 = time.perf_counter()
-    move_list = _moves(moves)
+    if session is not None and session.sampler is not None:
+        # emcee's memory backend grew by the whole last chunk; a chain stopped inside it has
+        # spare rows that a shorter next chunk would make negative (np.empty in grow)
+        b = session.sampler.backend
+        b.chain, b.log_prob = b.chain[:b.iteration], b.log_prob[:b.iteration]
+        if b.blobs is not None:
+            b.blobs = b.blobs[:b.iteration]
+        return _summary(problem, result, session, seed, ar1, reparam, chain_file, *_run(
+            session.sampler, session.state, max_steps, budget, progress, t0, session.tau_fn,
+            session.steps, session.tau), t0=t0)
+    if moves not in MOVES:
+        raise ValueError(f"moves must be one of {MOVES}, not {moves!r}")
     free = problem.free
     k = len(free)
     ndim = k + 1 + int(ar1)
     nw = max(32, 2 * ndim, n_walkers or 0)
     nw += nw % 2
     rng = np.random.default_rng(seed)
-    p0 = _start(problem, result, ar1, nw, ndim, rng)
-    if reparam is not None:
-        p0[:, :k] = reparam.forward(p0[:, :k])
-    backend = None
-    if chain_file is not None:
-        backend = emcee.backends.HDFBackend(str(chain_file), name="mcmc")
-        backend.reset(nw, ndim)
     posterior = _Posterior(problem, ar1, reparam)
-    sampler = emcee.EnsembleSampler(nw, ndim, posterior, vectorize=True, backend=backend,
-                                    moves=move_list)
+    move = p0 = None
+    if moves == "de+laplace" and not ar1:  # phi has no Laplace approximation here
+        xb = np.array([result.parameters[n] for n in free])
+        approx = laplace(posterior, xb, reparam)
+        if approx is not None:
+            move = LaplaceMove(*approx)
+            p0 = laplace_start(posterior, move, nw,
+                                 np.random.RandomState(rng.integers(2 ** 32)))
+    if p0 is None:
+        p0 = _start(problem, result, ar1, nw, ndim, rng)
+        if reparam is not None:
+            p0[:, :k] = reparam.forward(p0[:, :k])
+    sampler = emcee.EnsembleSampler(nw, ndim, posterior, vectorize=True,
+                                    moves=_moves(moves, move))
     sampler.random_state = np.random.RandomState(seed).get_state()
     names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
     if reparam is not None:  # the sampled coordinates and the coefficients mapped back
@@ -377,14 +466,32 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     else:
         def tau_fn():
             return sampler.get_autocorr_time(tol=0)
-    _, steps, tau, stop = _run(sampler, p0, max_steps, budget, progress, t0, tau_fn)
+    session = session if session is not None else ChainSession()
+    session.sampler, session.tau_fn = sampler, tau_fn
+    return _summary(problem, result, session, seed, ar1, reparam, chain_file,
+                    *_run(sampler, p0, max_steps, budget, progress, t0, tau_fn), t0=t0)
+
+
+def _summary(problem, result, session: ChainSession, seed, ar1, reparam, chain_file, state,
+             steps, tau, stop, *, t0: float) -> FitResult:
+    """The result with the MCMC summary of the chain in ``session`` (and its file written);
+    the session keeps where the chain stopped."""
+    sampler = session.sampler
+    session.state, session.steps, session.tau = state, steps, tau
+    session.seconds += time.perf_counter() - t0
+    free = problem.free
+    k = len(free)
+    nw = sampler.nwalkers
+    names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
+    if reparam is not None:
+        names += list(reparam.labels)
     finite = bool(np.all(np.isfinite(tau)))
     tau_max = float(np.max(tau)) if finite else float(steps) / TAU_FACTOR
     discard = min(int(np.ceil(3 * tau_max)), steps // 2)
     thin = max(1, int(tau_max / 2))
     tau_of = dict(zip(names, np.broadcast_to(tau, len(names))))
-    if reparam is not None and chain_file is not None:
-        _map_chain_file(chain_file, reparam)
+    if chain_file is not None:
+        _write_chain_file(chain_file, sampler, reparam)
     flat = _chain(sampler, reparam, discard=discard, thin=thin)
     q = np.quantile(flat, [0.025, 0.16, 0.5, 0.84, 0.975], axis=0)
     corr_m = np.corrcoef(flat[:, :k], rowvar=False) if k > 1 else np.ones((k, k))
@@ -402,7 +509,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         tau={n: float(t) for n, t in tau_of.items()},
         acceptance=float(np.mean(sampler.acceptance_fraction)), n_walkers=nw, n_steps=steps,
         n_discard=discard, n_thin=thin, n_samples=n_eff, correlations=corr, noise=noise,
-        seed=seed, converged=stop == "converged", seconds=time.perf_counter() - t0,
+        seed=seed, converged=stop == "converged", seconds=session.seconds,
         chain_file=None if chain_file is None else str(chain_file),
         samples=flat[:, :k], stopped="" if stop == "converged" else stop,
         reparametrised=() if reparam is None else tuple(reparam.labels))

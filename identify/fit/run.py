@@ -24,7 +24,7 @@ from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
 from identify.fit.coverage import StageCoverage
 from identify.fit.forms import FormChoice
-from identify.fit.mcmc import MAX_STEPS
+from identify.fit.mcmc import BUDGET_S, MAX_STEPS
 from identify.fit.result import FitResult
 from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
@@ -58,8 +58,10 @@ class FitSettings:
     fittyp : int           61 or 62 for the written .tir
     mcmc_max_steps : int   cap on every MCMC chain [steps]; a chain stops at 50 tau before it,
                            and its summary says converged = false if the cap came first
-    mcmc_budget_s : float or None   time budget of every MCMC chain [s]; a chain stopped by
-                           it says converged = false (None: no budget)
+    mcmc_budget_s : float or None   wall-time budget of the whole MCMC run, all chains
+                           together [s], shared out between the chains (each gets the budget
+                           left divided by the chains left); a chain stopped by it says
+                           converged = false (None: no budget)
     mcmc_reparam : bool    sample the Fy0 cornering stiffness at three loads in place of
                            PKY1, PKY2, PKY4 (identify.fit.mcmc_reparam; same posterior)
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
@@ -80,7 +82,7 @@ class FitSettings:
     only: tuple[str, ...] = ()
     fittyp: int = 61
     mcmc_max_steps: int = MAX_STEPS
-    mcmc_budget_s: float | None = None
+    mcmc_budget_s: float | None = BUDGET_S
     mcmc_reparam: bool = True
     forms: tuple[str, ...] = ()
     hold: tuple[str, ...] = ()

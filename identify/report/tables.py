@@ -218,10 +218,11 @@ def mcmc_shortfall(mc: MCMCSummary) -> str:
         need = int(math.ceil(55.0 * tau / 1000.0) * 1000)
         if budget and mc.seconds > 0:
             secs = int(math.ceil(need * mc.seconds / steps / 60.0) * 60)
+            more = max(secs - int(mc.seconds), 60)
             text += (f" ({steps} steps in {mc.seconds:.0f} s, largest tau {tau:.0f}: its "
-                     f"intervals are provisional; about {need} steps, --mcmc-budget {secs} "
-                     f"(and --mcmc-max-steps {need} if the cap is lower), would let it reach "
-                     "50 tau)")
+                     f"intervals are provisional; about {need} steps, {secs} s of this chain, "
+                     f"would let it reach 50 tau: raise --mcmc-budget, the whole run's, by "
+                     f"about {more} s, and --mcmc-max-steps to {need} if it is lower)")
         else:
             text += (f" ({steps} steps, largest tau {tau:.0f}: its intervals are provisional; "
                      f"--mcmc-max-steps {need} would let it reach 50 tau)")

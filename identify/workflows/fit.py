@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import time
 from collections.abc import Callable, Sequence
 from contextlib import ExitStack
 from functools import partial
@@ -23,7 +24,7 @@ from identify.core.names import name_problem
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
-from identify.fit.mcmc import ChainProgress, run_mcmc
+from identify.fit.mcmc import ChainProgress, ChainSession, run_mcmc
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_uncertainty import propagate
@@ -59,7 +60,14 @@ def _say(progress: Progress | None, text: str) -> None:
 
 
 class _Chains:
-    """MCMC runs of one fit_folder call and their chain files.
+    """MCMC runs of one fit_folder call, their shared time budget and their chain files.
+
+    The chains are queued while the fits run (``queue``) and sampled once every fit is done
+    (``run_all``), cheapest first (points x free coefficients squared), so that the time
+    budget of the whole MCMC run (``FitSettings.mcmc_budget_s``) can be shared out: each chain
+    may use the budget left divided by the chains left, so a chain that converges early leaves
+    its unused time to the ones after it; the chains the budget stopped are then continued
+    (not restarted) with what is left.
 
     Each chain is written to a temporary name next to fits/<id>/mcmc/<name>.h5 and renamed
     only when the whole fit has been written (``with`` block left without an exception); an
@@ -73,6 +81,7 @@ class _Chains:
         self.progress = progress
         self.stack = ExitStack()
         self.made: list[Path] = []
+        self.jobs: list[tuple[float, int, str, str, Callable[..., FitResult]]] = []
 
     def __enter__(self) -> _Chains:
         self.stack.__enter__()
@@ -101,18 +110,48 @@ class _Chains:
         tmp.unlink()  # emcee's HDF backend creates the file
         return final, tmp
 
-    def run(self, name: str, sample: Callable[..., FitResult]) -> FitResult:
-        """``sample(chain_file=..., progress=..., max_steps=..., budget=..., seed=...,
-        ar1=...)`` with this run's settings; the summary names the final chain file."""
-        final, tmp = self._tmp(name)
+    def queue(self, index: int, name: str, title: str, fit: FitResult,
+              sample: Callable[..., FitResult]) -> None:
+        """Sample ``results[index]`` (the least-squares ``fit``) later with ``sample(
+        chain_file=..., progress=..., max_steps=..., budget=..., seed=..., ar1=...)``;
+        ``title`` is the progress line."""
+        cost = float(fit.n_points) * max(len(fit.free), 1) ** 2
+        self.jobs.append((cost, index, name, title, sample))
+
+    def run_all(self, results: list[FitResult], progress: Progress | None) -> None:
+        """Run the queued chains, cheapest first, each with its share of the budget left; then
+        continue the chains the budget stopped, in the same order, with the time the others
+        left (again shared out). Sets the ``mcmc`` summary of their results (naming the
+        final chain file)."""
         s = self.settings
-        progress = None if self.progress is None else partial(self.progress, name)
-        result = sample(chain_file=tmp, progress=progress, max_steps=s.mcmc_max_steps,
-                        budget=s.mcmc_budget_s, seed=s.seed, ar1=s.mcmc_ar1)
-        if final is not None:
-            result = dataclasses.replace(result, mcmc=dataclasses.replace(
-                result.mcmc, chain_file=str(final)))
-        return result
+        t0 = time.perf_counter()
+        jobs = sorted(self.jobs, key=lambda j: j[0])  # stable: plan order among equals
+        files = {name: self._tmp(name) for _c, _i, name, _t, _s in jobs}
+        sessions = {name: ChainSession() for _c, _i, name, _t, _s in jobs}
+        for again in (False, True):
+            if again:
+                if s.mcmc_budget_s is None:
+                    break
+                jobs = [j for j in jobs if results[j[1]].mcmc.stopped == "budget"]
+            for left, (_cost, index, name, title, sample) in zip(range(len(jobs), 0, -1),
+                                                                jobs):
+                share = None
+                if s.mcmc_budget_s is not None:
+                    share = max(s.mcmc_budget_s - (time.perf_counter() - t0), 0.0) / left
+                    if again and share < 1.0:
+                        break
+                _say(progress, f"{title} (continued with the time the other chains left)"
+                     if again else title)
+                final, tmp = files[name]
+                chain_progress = (None if self.progress is None
+                                  else partial(self.progress, name))
+                mc = sample(chain_file=tmp, progress=chain_progress,
+                            max_steps=s.mcmc_max_steps, budget=share, seed=s.seed,
+                            ar1=s.mcmc_ar1, session=sessions[name]).mcmc
+                if final is not None:
+                    mc = dataclasses.replace(mc, chain_file=str(final))
+                results[index] = dataclasses.replace(results[index], mcmc=mc)
+        self.jobs.clear()
 
 
 def _mf_trailer(td, fnomin: float, settings: FitSettings,
@@ -283,9 +322,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             mf = propagate(trailer, mf)
             for r in mf.results:
                 if settings.mcmc:
-                    _say(progress, f"mcmc: MF [{r.form}]")
-                    r = chains.run(f"MF_{r.form}", partial(stage_mcmc, trailer, mf, r.form,
-                                                           reparam=settings.mcmc_reparam))
+                    chains.queue(len(results), f"MF_{r.form}", f"mcmc: MF [{r.form}]", r,
+                                 partial(stage_mcmc, trailer, mf, r.form,
+                                         reparam=settings.mcmc_reparam))
                 results.append(assess(r))
             key_sources.update(TA.mf_sources(mf.results, mf.held))
             tir.update(mf.params)
@@ -310,10 +349,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                 ef = TA.fit_entry(entry, chars, ctx, seed=settings.seed, hold=hold)
             problem, result = ef.problem, ef.result
             if settings.mcmc:
-                _say(progress, f"mcmc: {entry.relation} [{entry.form}]")
-                result = chains.run(f"{entry.relation}_{entry.form}",
-                                    partial(run_mcmc, problem, result))
-                ef = dataclasses.replace(ef, result=result)
+                chains.queue(len(results), f"{entry.relation}_{entry.form}",
+                             f"mcmc: {entry.relation} [{entry.form}]", result,
+                             partial(run_mcmc, problem, result))
             fitted[entry.form] = ef
             results.append(result)
             rows.append(_csv_rows(result, problem))
@@ -325,6 +363,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     if not results:
         raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
                                     f"of a known quantity{' for --only' if settings.only else ''}")
+    chains.run_all(results, progress)  # after every fit: the budget is shared between them
     points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     TA.apply_limits(tir, key_sources, points)
     run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,
