@@ -33,7 +33,7 @@ import scipy.io
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
-from identify.io.mat_guard import mat_problem
+from identify.io.mat_guard import loadmat_crash, mat_problem
 
 __all__ = [
     "TTC_CHANNELS",
@@ -167,8 +167,9 @@ def _read_mat(path: Path, problems: Problems):
     except OSError as exc:
         problems.add(path, f"cannot read file: {exc.strerror or exc}")
         return None
-    why = mat_problem(data) if data[126:128] in (b"IM", b"MI") and data[124:126] != b"\x00\x02" \
-        else None  # v7.3 (HDF5) files are refused by scipy below
+    v5 = data[126:128] in (b"IM", b"MI") and data[124:126] != b"\x00\x02"
+    why = (mat_problem(data) or loadmat_crash(data)) if v5 else None  # v7.3 (HDF5) files are
+    # refused by scipy below
     if why is not None:  # scipy.io would crash on some (a segmentation fault)
         problems.add(path, f"truncated or corrupt .mat file ({why})")
         return None
