@@ -11,21 +11,19 @@ It waits at most :data:`PROBE_SECONDS`; a child that does not finish, or dies of
 a corrupt file. Exceptions in the child are left to the parent's own reading, which turns them
 into its one-line errors.
 
-The child is a new interpreter running this file (about 0.2 s with the h5py import), not a
-``fork`` of the caller: the caller may be multithreaded (JAX, BLAS, a notebook), and a forked
-copy of a multithreaded process can deadlock on a lock another thread held. It runs in its own
-session, so a Ctrl-C at the terminal reaches mfid, which stops it.
+The child is a new interpreter running this file (about 0.2 s with the h5py import; see
+identify.io.child_fate for why not a fork).
 """
 from __future__ import annotations
 
 import hashlib
 import os
-import signal
-import subprocess
 import sys
 from pathlib import Path
 
 import h5py
+
+from identify.io.child_fate import TIMEOUT, child_fate
 
 __all__ = ["PROBE_SECONDS", "metadata_problem"]
 
@@ -104,29 +102,11 @@ def metadata_problem(path: str | Path, timeout: float | None = None) -> str | No
 
 
 def _probe(path: str | Path, timeout: float) -> str | None:
-    # -P: this file's folder (identify/io) is not put on the child's sys.path
-    cmd = [sys.executable, "-P", __file__, os.fspath(path)]
-    try:
-        child = subprocess.Popen(cmd, stdin=subprocess.DEVNULL, stdout=subprocess.PIPE,
-                                 stderr=subprocess.DEVNULL, start_new_session=True)
-    except OSError:
-        return None  # no child to be had: the parent's reading alone, as without a probe
-    try:
-        out, _ = child.communicate(timeout=timeout)
-    except subprocess.TimeoutExpired:
+    fate = child_fate([__file__, os.fspath(path)], None, timeout)
+    if fate == TIMEOUT:
         return (f"reading its metadata did not finish in {timeout:g} s (the HDF5 "
                 "library loops on it)")
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.wait()
-    if child.returncode < 0:
-        try:
-            name = signal.Signals(-child.returncode).name
-        except ValueError:
-            name = f"signal {-child.returncode}"
-        return f"reading its metadata crashed the HDF5 library ({name})"
-    return None
+    return None if fate is None else f"reading its metadata crashed the HDF5 library ({fate})"
 
 
 if __name__ == "__main__":  # the child: read; a crash or a loop is the parent's verdict

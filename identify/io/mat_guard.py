@@ -21,11 +21,10 @@ cell; the field names and one matrix per field and element for structs and objec
 """
 from __future__ import annotations
 
-import signal
 import struct
-import subprocess
-import sys
 import zlib
+
+from identify.io.child_fate import TIMEOUT, child_fate
 
 __all__ = ["mat_problem", "loadmat_crash"]
 
@@ -201,30 +200,11 @@ def loadmat_crash(data: bytes, timeout: float = PARSE_SECONDS) -> str | None:
     :func:`mat_problem` walks the elements the way scipy's reader does, but one hypothesis
     trial of 30,000 still crashed the process on a file it passed, with no Python frame on the
     stack. So the bytes are parsed once in a new interpreter (about 0.3 s with the scipy
-    import; not a ``fork`` of a multithreaded caller); a child killed by a signal, or one that
+    import; identify.io.child_fate); a child killed by a signal, or one that
     does not finish in ``timeout`` [s], is a corrupt file. An exception in the child is left to
     the caller's own parse, which reports it in its one line.
     """
-    try:
-        child = subprocess.Popen([sys.executable, "-P", "-c", _CHILD], stdin=subprocess.PIPE,
-                                 stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-                                 start_new_session=True)
-    except OSError:
-        return None  # no child to be had: scipy alone, as before
-    try:
-        child.communicate(data, timeout=timeout)
-    except subprocess.TimeoutExpired:
+    fate = child_fate(["-c", _CHILD], data, timeout)
+    if fate == TIMEOUT:
         return f"scipy.io did not finish parsing it in {timeout:g} s"
-    except OSError:  # the child died before it read all of the bytes (a broken pipe)
-        child.wait()
-    finally:
-        if child.poll() is None:
-            child.kill()
-            child.wait()
-    if child.returncode < 0:
-        try:
-            name = signal.Signals(-child.returncode).name
-        except ValueError:
-            name = f"signal {-child.returncode}"
-        return f"parsing it crashed scipy.io ({name})"
-    return None
+    return None if fate is None else f"parsing it crashed scipy.io ({fate})"
