@@ -360,6 +360,19 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     return steps.reshape(len(clusters), J.shape[1]) / scale
 
 
+def standard_errors(names: tuple[str, ...], cov: np.ndarray
+                    ) -> tuple[dict[str, float], dict[str, float]]:
+    """Standard errors ``{name: sd}`` and correlations ``{"a|b": r}`` (each pair once, in
+    ``names`` order; NaN where a standard error is 0) of the covariance ``cov`` (k, k)."""
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    corr = {}
+    for i in range(len(names)):
+        for j in range(i + 1, len(names)):
+            den = sd[i] * sd[j]
+            corr[f"{names[i]}|{names[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
+    return {n: float(s) for n, s in zip(names, sd)}, corr
+
+
 def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: bool = False,
                clusters: list[np.ndarray] | None = None, kind: str = "CR1",
                upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:

@@ -55,14 +55,9 @@ def _upstream_jacobian(sp: StageProblem, x: np.ndarray, params: Mapping[str, flo
 
 def _with_covariance(r: FitResult, free: tuple[str, ...], cov: np.ndarray,
                      clusters: int) -> FitResult:
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    corr = {}
-    for i in range(len(free)):
-        for j in range(i + 1, len(free)):
-            den = sd[i] * sd[j]
-            corr[f"{free[i]}|{free[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
-    return dataclasses.replace(r, stderr={n: float(s) for n, s in zip(free, sd)},
-                               correlations=corr, covariance=STAGED, clusters=clusters)
+    stderr, corr = engine.standard_errors(free, cov)
+    return dataclasses.replace(r, stderr=stderr, correlations=corr, covariance=STAGED,
+                               clusters=clusters)
 
 
 def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:

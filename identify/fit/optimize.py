@@ -243,12 +243,7 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
     free = problem.free
     lo, hi = problem.bounds()
     xb, cov = diag.x, diag.cov
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    corr = {}
-    for i in range(len(free)):
-        for j in range(i + 1, len(free)):
-            den = sd[i] * sd[j]
-            corr[f"{free[i]}|{free[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
+    stderr, corr = engine.standard_errors(free, cov)
     pred = problem.predict(xb)
     with np.errstate(invalid="ignore"):
         r = (pred - problem.measured) * problem.weights()
@@ -258,7 +253,7 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
     return FitResult(
         relation=problem.relation, form=problem.form, objective=problem.objective,
         parameters=problem.values(xb), free=free,
-        stderr={n: float(s) for n, s in zip(free, sd)},
+        stderr=stderr,
         bounds={n: (float(a), float(b)) for n, a, b in zip(free, lo, hi)},
         at_bound=diag.at_bound, active_constraints=diag.active,
         error_total_pct=float(np.mean(list(by_p.values()))), error_by_pressure_pct=by_p,
