@@ -132,10 +132,10 @@ def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
     gam1, _ = group_variogram(e, index, groups, 1)  # one pass over the points
     ok = np.isfinite(gam1) & (gam1 > 0)
     if not ok.all():
-        pooled, _ = group_variogram(e, index, np.zeros(e.size, dtype=np.int8), 1)
-        if not (pooled.size and np.isfinite(pooled[0]) and pooled[0] > 0):
+        pooled = variogram(e, index, 1)[0]  # NaN without pairs
+        if not (np.isfinite(pooled) and pooled > 0):
             return 0.0, np.full(e.size, np.nan)
-        gam1 = np.where(ok, gam1, pooled[0])
+        gam1 = np.where(ok, gam1, pooled)
     en = e / np.sqrt(gam1)
     phi, s2 = fit_ar1(variogram(en, index))
     if phi < PHI_MIN:
