@@ -114,8 +114,6 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     df = frame.reset_index(drop=True).copy()
     run = df["run"].astype(str).to_numpy() if "run" in df else np.zeros(len(df), dtype=str)
     t = df["t"].to_numpy(float) if "t" in df else np.arange(len(df), dtype=float)
-    fz = median_filter(df["Fz"].to_numpy(float), size=LOAD_WINDOW, mode="nearest") \
-        if len(df) >= LOAD_WINDOW else df["Fz"].to_numpy(float)
     dt = np.diff(t)
     step = np.median(dt[dt > 0]) if np.any(dt > 0) else 1.0
     brk = np.ones(len(df), dtype=bool)
@@ -129,7 +127,9 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
         # much as a pressure level's cornering sweeps in the thesis error
         seg = df["segment_id"].to_numpy()
         brk[1:] |= (seg[1:] != seg[:-1]) | (dt > SEGMENT_GAP * step)
-    else:
+    else:  # the load's running median: needed only where the load steps end sweeps
+        fz = median_filter(df["Fz"].to_numpy(float), size=LOAD_WINDOW, mode="nearest") \
+            if len(df) >= LOAD_WINDOW else df["Fz"].to_numpy(float)
         brk[1:] |= (dt > 1.5 * step) \
             | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0))
     df["sweep"] = np.cumsum(brk) - 1
