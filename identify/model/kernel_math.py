@@ -21,7 +21,6 @@ phases); beyond that their absolute error grows like |x| * 1e-16, as a naive red
 from __future__ import annotations
 
 import math
-from math import factorial
 
 import numba
 import numpy as np
@@ -54,9 +53,9 @@ SQRT_HALF = 0.7071067811865476
 # Series coefficients, highest power first (for _horner); each is the exact rational of the
 # textbook series rounded once, as the literal 1.0 / 27.0 would be
 ATAN_SERIES = tuple((1.0 if k % 4 == 3 else -1.0) / k for k in range(29, 1, -2))  # -1/29 .. 1/3
-SIN_SERIES = tuple((1.0 if k % 4 == 3 else -1.0) / factorial(k) for k in range(19, 1, -2))
-COS_SERIES = tuple((1.0 if k % 4 == 0 else -1.0) / factorial(k) for k in range(20, 0, -2))
-EXP_SERIES = tuple(1.0 / factorial(k) for k in range(14, -1, -1))  # 1/14! .. 1/1!, 1/0!
+SIN_SERIES = tuple((1.0 if k % 4 == 3 else -1.0) / math.factorial(k) for k in range(19, 1, -2))
+COS_SERIES = tuple((1.0 if k % 4 == 0 else -1.0) / math.factorial(k) for k in range(20, 0, -2))
+EXP_SERIES = tuple(1.0 / math.factorial(k) for k in range(14, -1, -1))  # 1/14! .. 1/1!, 1/0!
 ATANH_SERIES = tuple(1.0 / k for k in range(25, 1, -2))  # 1/25 .. 1/3
 
 
