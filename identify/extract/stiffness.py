@@ -83,6 +83,9 @@ def extract_stiffness(runs: list[RunData], th: Thresholds) -> Part:
     th : Thresholds
         Flag thresholds and window settings.
     """
+    if not runs:
+        return Part()
+    test = runs[0].test  # one test type per call
     diags, flags = [], []
     cells: dict[tuple[float, float], list[tuple[float, float]]] = {}
     for run in runs:
@@ -108,7 +111,6 @@ def extract_stiffness(runs: list[RunData], th: Thresholds) -> Part:
                                 fit.intercept + fit.slope * fit.hi],
              "linear_test_passed": res["window_ok"], "stick_slip_log10p": res["log10p"],
              "stick_slip_amplitude": res["amplitude"]}))
-    test = runs[0].test if runs else ""  # one test type per call
-    rows, spread = cell_means(test, TESTS[test][0], cells, th) if runs else ([], [])
+    rows, spread = cell_means(test, TESTS[test][0], cells, th)
     return Part(tuple(rows), tuple(diags), tuple(flags + spread))
 
