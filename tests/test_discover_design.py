@@ -74,7 +74,6 @@ def test_group_variogram_per_noise_group():
     assert np.isnan(gam).all()
 
 
-
 def test_noise_scale_survives_a_one_sample_sweep():
     """A sweep fragment of one sample (no within-sweep pair) takes the level pooled over every
     pair, and the other groups keep their own: on a TTC session one such fragment made every
@@ -92,6 +91,7 @@ def test_noise_scale_survives_a_one_sample_sweep():
     assert sigma[labels == 2][0] == pytest.approx(np.sqrt(pooled[0]), rel=1e-12)
     lone = np.arange(5)
     assert np.isnan(noise_scale(np.ones(5), Sweeps(lone), lone)[1]).all()
+
 
 def _table(pb, fz, meas=None, reps=1):
     P = lmfit.Parameters()
