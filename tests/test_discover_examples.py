@@ -3,27 +3,17 @@ README's commands (issue 19, 7), and the worked example's .tir agrees with its d
 and reproduces the printed errors (issue 18, 2). Simulates two folders: about two minutes."""
 from __future__ import annotations
 
-import importlib.util
 import json
 import re
-import sys
 from pathlib import Path
 
 import pytest
 
+from tests.bench_modules import load_bench
 from tests.discover_cases import assert_consistent
 
 ROOT = Path(__file__).resolve().parents[1]
-SCRIPT = ROOT / "bench" / "discovery_examples.py"
 MARK = re.compile(r"^<!-- discovery transcript: (\w+) -->$")
-
-
-def _script():
-    spec = importlib.util.spec_from_file_location("discovery_examples", SCRIPT)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = mod
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def readme_transcripts() -> dict[str, str]:
@@ -48,7 +38,7 @@ def readme_transcripts() -> dict[str, str]:
 @pytest.fixture(scope="module")
 def examples(tmp_path_factory):
     work = tmp_path_factory.mktemp("discovery-examples")
-    mod = _script()
+    mod = load_bench("discovery_examples")
     return work, mod.run(work), mod.EXAMPLES
 
 
