@@ -70,9 +70,8 @@ def _mfid(*args: str, cwd: Path) -> subprocess.CompletedProcess:
 
 
 def run_one(task: tuple) -> dict:
-    """One session: (set name, seed, only, cornering_only[, hidden values]) -> record."""
-    name, seed, only, cornering_only, *rest = task
-    hidden = rest[0] if rest else SETS[name]
+    """One session: (set name, seed, only, cornering_only, hidden values) -> record."""
+    name, seed, only, cornering_only, hidden = task
     with tempfile.TemporaryDirectory(prefix=f"ttc-{name}-{seed}-") as tmp:
         tmp = Path(tmp)
         write_tir(tmp / "base.tir", {})
