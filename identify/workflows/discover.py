@@ -177,8 +177,9 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     say(f"load: {source}")
     mset = load_folder(source)
     tyre = mset.manifest.tyre
-    if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
-        raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
+    bad_id = name_problem(tyre.id)
+    if bad_id:  # load_folder refuses it; a second lock on the output paths
+        raise InputError(mset.manifest.path, bad_id, key="tyre.id")
     tir0, fittyp = start_tir(mset, base_tir)
     if base_form is not None:
         if base_form not in library.forms:
