@@ -206,8 +206,9 @@ def _mtimes(root: Path) -> dict[Path, int]:
 
 def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folders, tmp_path):
     """run_batch twice: the second skips every folder and rewrites nothing; touching a file
-    without changing it still skips; changing one input file refits only that folder; new
-    settings refit all. The workers run one BLAS thread."""
+    without changing it still skips; changing one input file refits only that folder, and so
+    does a change whose file time is older than fit.json; new settings refit all. The workers
+    run one BLAS thread."""
     src = tmp_path / "m"
     shutil.copytree(folders, src)
     names = [src / n for n in IDS[:3]]
@@ -244,6 +245,16 @@ def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folder
     assert freshness(src / "t3", manifest, out / "t3", reports / "t3.pdf", settings) == \
         Freshness(False, "no report")
     assert freshness(src / "t3", manifest, out / "t3", None, settings).up_to_date
+
+    # a changed file older than fit.json (a copy that kept its source's time: cp -p, rsync -a)
+    run_file = sorted((src / "t3" / "flatplank").iterdir())[-1]
+    lines = run_file.read_text().splitlines()
+    lines[2] = lines[2].replace(",", ",1", 1)
+    run_file.write_text("\n".join(lines) + "\n")
+    old = (out / "t3" / "fit.json").stat().st_mtime - 3600
+    os.utime(run_file, (old, old))
+    assert freshness(src / "t3", manifest, out / "t3", None, settings) == \
+        Freshness(False, f"flatplank/{run_file.name} changed")
 
 
 def test_summary_pdf_compares_the_tyres(folders, tmp_path):
