@@ -208,8 +208,8 @@ def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folder
     """run_batch twice: the second skips every folder and rewrites nothing; touching a file
     without changing it still skips; changing one input file refits only that folder, and so
     does a change whose file time is older than fit.json; new settings refit all. The workers
-    run one BLAS thread."""
-    src = tmp_path / "m"
+    run one BLAS thread. The folders sit under a name with a space and a non-ASCII letter."""
+    src = tmp_path / "Messungen Reifen ü"
     shutil.copytree(folders, src)
     names = [src / n for n in IDS[:3]]
     out, reports = tmp_path / "fits", tmp_path / "reports"
