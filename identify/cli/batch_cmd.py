@@ -23,7 +23,17 @@ from rich.progress import (
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import _command_line
 from identify.cli.entry import Interrupted
-from identify.cli.fit_options import fit_settings
+from identify.cli.fit_options import (
+    FittypOption,
+    FormOption,
+    HoldOption,
+    McmcAr1Option,
+    McmcMaxStepsOption,
+    McmcOption,
+    OnlyOption,
+    SeedOption,
+    fit_settings,
+)
 from identify.core.errors import MfidError
 from identify.workflows.batch import run_batch
 from identify.workflows.batch_task import OK, UP_TO_DATE
@@ -130,19 +140,14 @@ def batch_command(
                                      "out of memory)."),
     force: bool = typer.Option(False, "--force", help="Refit folders whose outputs are up to "
                                                       "date."),
-    mcmc: bool = typer.Option(False, "--mcmc", help="As mfid fit --mcmc."),
-    mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1", help="As mfid fit --mcmc-ar1."),
-    mcmc_max_steps: int | None = typer.Option(None, "--mcmc-max-steps", metavar="N",
-                                              help="As mfid fit --mcmc-max-steps."),
-    seed: int = typer.Option(0, "--seed", help="Seed of every fit (as mfid fit --seed)."),
-    only: list[str] = typer.Option([], "--only", metavar="NAME",
-                                   help="Fit only these relations (as mfid fit --only)."),
-    fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
-    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
-                                   help="Write this form of a relation (as mfid fit --form)."),
-    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
-                                   help="Hold this coefficient at its default (as mfid fit "
-                                        "--hold)."),
+    mcmc: McmcOption = False,
+    mcmc_ar1: McmcAr1Option = False,
+    mcmc_max_steps: McmcMaxStepsOption = None,
+    seed: SeedOption = 0,
+    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
+    fittyp: FittypOption = 61,
+    form: FormOption = [],  # noqa: B006
+    hold: HoldOption = [],  # noqa: B006
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.

@@ -27,7 +27,17 @@ from rich.text import Text
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
-from identify.cli.fit_options import check_fit_options
+from identify.cli.fit_options import (
+    FittypOption,
+    FormOption,
+    HoldOption,
+    McmcAr1Option,
+    McmcMaxStepsOption,
+    McmcOption,
+    OnlyOption,
+    SeedOption,
+    check_fit_options,
+)
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
 from identify.fit.mcmc import BUDGET_S, MAX_STEPS, ChainProgress
@@ -224,16 +234,9 @@ def fit_command(
                              help="Root of the fit directories: writes OUT/<tyre id>/."),
     reports: Path = typer.Option(Path("reports"), "--reports",
                                  help="Folder of the PDF reports: writes REPORTS/<tyre id>.pdf."),
-    mcmc: bool = typer.Option(False, "--mcmc", help="Run MCMC (emcee) on every fit; the chains "
-                                                    "are kept in OUT/<tyre id>/mcmc/ for the "
-                                                    "report's corner plots and traces."),
-    mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1",
-                                  help="With --mcmc: AR(1) noise along each sweep."),
-    mcmc_max_steps: int | None = typer.Option(
-        None, "--mcmc-max-steps", metavar="N",
-        help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
-             "is longer than 50 autocorrelation times; if the cap comes first its summary "
-             "says converged = false."),
+    mcmc: McmcOption = False,
+    mcmc_ar1: McmcAr1Option = False,
+    mcmc_max_steps: McmcMaxStepsOption = None,
     mcmc_budget: float | None = typer.Option(
         None, "--mcmc-budget", metavar="SECONDS",
         help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
@@ -242,26 +245,17 @@ def fit_command(
              "does not need goes to the later ones. A chain stops at 50 autocorrelation "
              "times, the step cap or its share, whichever comes first; stopped early, it says "
              "converged = false and a warning names it with its steps and tau."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
-    only: list[str] = typer.Option([], "--only", metavar="NAME",
-                                   help="Fit only these relations (repeat or separate with "
-                                        "commas): CFz, CFx, CFy, CMz, RR, camber, sidewall, "
-                                        "MF."),
+    seed: SeedOption = 0,
+    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     nominal_pressure: float | None = typer.Option(
         None, "--nominal-pressure", metavar="PA",
         help="Nominal pressure [Pa] of a single characteristics CSV."),
     nominal_load: float | None = typer.Option(
         None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
                                                   "characteristics CSV."),
-    fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
-    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
-                                   help="Write this form of a relation whatever the data "
-                                        "choose (repeatable): CFx|CFy=linear_load|"
-                                        "quadratic_load, CMz=T1|T2, RR=old|new."),
-    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
-                                   help="Hold this coefficient at its default in every "
-                                        "relation fit (repeatable), e.g. one the summary "
-                                        "reports poorly identified."),
+    fittyp: FittypOption = 61,
+    form: FormOption = [],  # noqa: B006
+    hold: HoldOption = [],  # noqa: B006
     bin_alpha: float | None = typer.Option(
         None, "--bin-alpha", metavar="DEG",
         help="Bin width [deg] of dense slip-angle sweeps of trailer data: every sweep with at "
