@@ -258,7 +258,7 @@ def fit_command(
     hold: HoldOption = [],  # noqa: B006
     bin_alpha: float | None = typer.Option(
         None, "--bin-alpha", metavar="DEG",
-        help="Bin width [deg] of dense slip-angle sweeps of trailer data: every sweep with at "
+        help="Bin width \\[deg] of dense slip-angle sweeps of trailer data: every sweep with at "
              "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
              "docs/procedures.md, 'Sweep binning', states the effect)."),
     bin_kappa: float | None = typer.Option(

@@ -28,9 +28,9 @@ McmcAr1Option = Annotated[bool, typer.Option(
     "--mcmc-ar1", help="With --mcmc: AR(1) noise along each sweep.")]
 McmcMaxStepsOption = Annotated[int | None, typer.Option(
     "--mcmc-max-steps", metavar="N",
-    help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
-         "is longer than 50 autocorrelation times; if the cap comes first its summary "
-         "says converged = false.")]
+    help=f"With --mcmc: cap on each chain \\[steps] (default {MAX_STEPS}). A chain stops once "
+         "it is longer than 50 autocorrelation times; if the cap comes first its summary says "
+         "converged = false.")]
 SeedOption = Annotated[int, typer.Option("--seed", help="Seed of the global search and MCMC.")]
 OnlyOption = Annotated[list[str], typer.Option(
     "--only", metavar="NAME",
