@@ -36,13 +36,13 @@ from identify.cli.fit_options import (
     McmcOption,
     OnlyOption,
     SeedOption,
-    check_fit_options,
+    fit_settings,
 )
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import BUDGET_S, MAX_STEPS, ChainProgress
+from identify.fit.mcmc import BUDGET_S, ChainProgress
 from identify.report.pdf import write_report
-from identify.workflows.fit import FitSettings, fit_folder, only_names
+from identify.workflows.fit import fit_folder
 from identify.fit.summary import notes_lines  # lazy: see fit_command
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
@@ -286,8 +286,17 @@ def fit_command(
                             nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                             mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin, no_segment)
     try:
-        check_fit_options(fittyp=fittyp, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
-                          mcmc_max_steps=mcmc_max_steps)
+        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
+            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
+            if v is not None}
+        # the settings as mfid batch makes them, plus mfid fit's own; fit_settings checks the
+        # shared options first, mfid fit's own are checked below
+        settings = fit_settings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
+                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp,
+                                form=form, hold=hold,
+                                mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
+                                               if math.isinf(mcmc_budget) else mcmc_budget),
+                                segment=not no_segment, **bins)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not mcmc_budget > 0:
@@ -299,16 +308,6 @@ def fit_command(
         for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
             if width is not None and not width > 0:
                 raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
-        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
-            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
-            if v is not None}
-        settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
-                               only=only_names(only), fittyp=fittyp,
-                               mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
-                                              if math.isinf(mcmc_budget) else mcmc_budget),
-                               forms=only_names(form),
-                               hold=only_names(hold), segment=not no_segment, **bins)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

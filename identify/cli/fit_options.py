@@ -2,14 +2,14 @@
 into settings.
 
 The declarations (``McmcOption`` ... ``HoldOption``, typer's ``Annotated`` form) give both
-commands the same option names and help. The checks (:func:`check_fit_options`, also made by
-``mfid fit``): FITTYP 61 or 62, ``--mcmc-ar1`` and ``--mcmc-max-steps`` only with ``--mcmc``,
-a cap of at least MIN_CHECK steps.
+commands the same option names and help. :func:`fit_settings` turns them into the FitSettings
+of both commands after the checks (:func:`check_fit_options`): FITTYP 61 or 62, ``--mcmc-ar1``
+and ``--mcmc-max-steps`` only with ``--mcmc``, a cap of at least MIN_CHECK steps.
 """
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Annotated
+from typing import Annotated, Any
 
 import typer
 
@@ -67,8 +67,9 @@ def check_fit_options(*, fittyp: int, mcmc: bool, mcmc_ar1: bool,
 def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
                  mcmc_max_steps: int | None = None, only: Sequence[str] = (),
                  fittyp: int = 61, form: Sequence[str] = (),
-                 hold: Sequence[str] = ()) -> FitSettings:
-    """The FitSettings of these command-line options (as ``mfid fit`` builds them).
+                 hold: Sequence[str] = (), **more: Any) -> FitSettings:
+    """The FitSettings of these command-line options, the same for ``mfid fit`` and
+    ``mfid batch``; ``more``: further FitSettings fields (``mfid fit``'s own options).
 
     Raises
     ------
@@ -80,4 +81,4 @@ def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
     return FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
                        only=only_names(only), fittyp=fittyp,
                        mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                       forms=only_names(form), hold=only_names(hold))
+                       forms=only_names(form), hold=only_names(hold), **more)
