@@ -210,7 +210,7 @@ def _run_tasks(engine: Engine, tasks: list[FitTask], retries: int, marker_dir: P
         while len(outcomes) < len(tasks):
             for task, result in engine.collect(TICK_S):
                 if isinstance(result, WorkerDied):
-                    remove_partial(task.tyre_id, task.out_root, task.reports)
+                    remove_partial(task)
                     starts[task] -= not result.started
                     deaths[task] += result.charged
                     if deaths[task] <= retries:
@@ -233,7 +233,7 @@ def _run_tasks(engine: Engine, tasks: list[FitTask], retries: int, marker_dir: P
         engine.close(cancel=True)
         for task in tasks:
             if task not in outcomes:
-                remove_partial(task.tyre_id, task.out_root, task.reports)
+                remove_partial(task)
         raise
     engine.close()
     return {dataclasses.replace(t, marker=None): o for t, o in outcomes.items()}
