@@ -36,7 +36,7 @@ from identify.cli.fit_options import (
 )
 from identify.core.errors import MfidError
 from identify.workflows.batch import run_batch
-from identify.workflows.batch_task import OK, UP_TO_DATE
+from identify.workflows.batch_task import BAD_INPUT, FAILED, LOST, OK, UP_TO_DATE
 
 _GOOD = (OK, UP_TO_DATE)
 
@@ -61,8 +61,8 @@ class RichBatchEvents:
         self._counts = (0, 0, 0, 0, None)
 
     def start(self, engine, total, skipped) -> None:
-        fresh = sum(o.status in ("up to date", "failed") for o in skipped)
-        bad = sum(o.status == "bad input" for o in skipped)
+        fresh = sum(o.status in (UP_TO_DATE, FAILED) for o in skipped)
+        bad = sum(o.status == BAD_INPUT for o in skipped)
         self.console.print(f"batch: {total} to fit on {engine or '-'}, {fresh} up to date, "
                            f"{bad} bad input", markup=False, highlight=False)
         if self.live and total:
@@ -102,8 +102,8 @@ class RichBatchEvents:
 
 
 def _report_end(run) -> None:
-    counts = ", ".join(f"{run.count(s)} {s}" for s in ("ok", "failed", "bad input", "lost",
-                                                       "up to date") if run.count(s))
+    counts = ", ".join(f"{run.count(s)} {s}" for s in (OK, FAILED, BAD_INPUT, LOST, UP_TO_DATE)
+                       if run.count(s))
     out_console.print(f"batch: {len(run.outcomes)} folders: {counts} ({run.seconds:.1f} s"
                       f"{', ' + run.engine if run.engine else ''})", markup=False,
                       highlight=False)
