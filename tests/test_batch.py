@@ -9,6 +9,7 @@ Dask under ``-m trials`` (``make trials``).
 """
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
@@ -24,14 +25,17 @@ import pandas as pd
 import pytest
 from distributed import LocalCluster
 from pypdf import PdfReader
+from rich.console import Console
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.cli.batch_cmd import RichBatchEvents
 from identify.fit.run import FitSettings
 from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 from identify.workflows.batch import run_batch
 from identify.workflows.batch_plan import Freshness, freshness, manifest_of
+from identify.workflows.batch_task import TaskOutcome
 
 MFID = Path(sys.executable).parent / "mfid"
 ROOT = Path(__file__).resolve().parents[1]
@@ -352,3 +356,19 @@ def test_interrupt_stops_the_workers_and_leaves_no_partial_file(folders, tmp_pat
         made = [(out / tyre / n).is_file() for n in (f"{tyre}.tir", "fit.json",
                                                      "measured_vs_model.csv")]
         assert all(made) or not any(made), tyre
+
+
+def test_log_lines_count_tasks_that_end_in_the_same_tick():
+    """Off a terminal each ended task is a line with the counts so far; two tasks that end
+    between two progress updates are 1/2 and 2/2, not 1/2 twice."""
+    console = Console(file=io.StringIO(), width=200, force_terminal=False)
+    events = RichBatchEvents(console)
+    events.start("process pool", 2, [])
+    events.progress(0, 2, 0, 2, None)
+    events.ended(TaskOutcome("a", "ta", "ok", seconds=1.0, attempts=1))
+    events.ended(TaskOutcome("b", "tb", "failed", "fit did not converge: CFx", 1.0, 1))
+    lines = console.file.getvalue().splitlines()
+    assert lines[0] == "batch: 2 to fit on process pool, 0 up to date, 0 bad input"
+    assert lines[1].endswith("] 1/2 done, 0 failed: ta: ok (1.0 s)")
+    assert lines[2].endswith("] 2/2 done, 1 failed: tb: failed (1.0 s): fit did not converge: "
+                             "CFx")

@@ -80,9 +80,11 @@ class RichBatchEvents:
                                   state=f"{running} running, {failed} failed, {_clock(eta_s)}")
 
     def ended(self, outcome) -> None:
-        done, _, failed, total, _ = self._counts
+        done, running, failed, total, eta_s = self._counts
         done += 1
         failed += outcome.status not in _GOOD
+        # tasks that end in the same tick each count (progress() follows after all of them)
+        self._counts = (done, running, failed, total, eta_s)
         text = f"{outcome.tyre_id}: {outcome.status} ({outcome.seconds:.1f} s"
         text += f", {outcome.attempts} attempts)" if outcome.attempts > 1 else ")"
         if outcome.message and outcome.status not in _GOOD:
