@@ -21,7 +21,7 @@ from rich.progress import (
 )
 
 from identify.cli.app import app, err_console, fail, out_console
-from identify.cli.fit_cmd import _command_line
+from identify.cli.fit_cmd import fit_command_line
 from identify.cli.entry import Interrupted
 from identify.cli.fit_options import (
     FittypOption,
@@ -160,9 +160,9 @@ def batch_command(
     """
     def command(folder: str) -> str:
         """The `mfid fit` command of one folder, recorded in its fit.json."""
-        return _command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
-                             fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
-                             forms=form, hold=hold)
+        return fit_command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
+                                fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
+                                forms=form, hold=hold)
 
     events = RichBatchEvents()
     try:

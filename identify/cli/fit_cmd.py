@@ -182,10 +182,10 @@ def summary_table(run: FitRun) -> Table:
     return table
 
 
-def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
-                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
-                  mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
-                  no_bin=False, no_segment=False) -> str:
+def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
+                     no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
+                     mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
+                     no_bin=False, no_segment=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -282,9 +282,10 @@ def fit_command(
     # the CLI itself (python -c "import identify.fit.run" / "import identify.cli.app"), which
     # every other command (and --help) would pay
 
-    command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
-                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
-                            mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin, no_segment)
+    command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
+                               nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
+                               mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
+                               no_segment)
     try:
         bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
             k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
