@@ -9,6 +9,7 @@ Dask under ``-m trials`` (``make trials``).
 """
 from __future__ import annotations
 
+import io
 import json
 import os
 import re
@@ -24,14 +25,17 @@ import pandas as pd
 import pytest
 from distributed import LocalCluster
 from pypdf import PdfReader
+from rich.console import Console
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.cli.batch_cmd import RichBatchEvents
 from identify.fit.run import FitSettings
 from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 from identify.workflows.batch import run_batch
 from identify.workflows.batch_plan import Freshness, freshness, manifest_of
+from identify.workflows.batch_task import TaskOutcome
 
 MFID = Path(sys.executable).parent / "mfid"
 ROOT = Path(__file__).resolve().parents[1]
@@ -206,9 +210,10 @@ def _mtimes(root: Path) -> dict[Path, int]:
 
 def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folders, tmp_path):
     """run_batch twice: the second skips every folder and rewrites nothing; touching a file
-    without changing it still skips; changing one input file refits only that folder; new
-    settings refit all. The workers run one BLAS thread."""
-    src = tmp_path / "m"
+    without changing it still skips; changing one input file refits only that folder, and so
+    does a change whose file time is older than fit.json; new settings refit all. The workers
+    run one BLAS thread. The folders sit under a name with a space and a non-ASCII letter."""
+    src = tmp_path / "Messungen Reifen ü"
     shutil.copytree(folders, src)
     names = [src / n for n in IDS[:3]]
     out, reports = tmp_path / "fits", tmp_path / "reports"
@@ -244,6 +249,16 @@ def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folder
     assert freshness(src / "t3", manifest, out / "t3", reports / "t3.pdf", settings) == \
         Freshness(False, "no report")
     assert freshness(src / "t3", manifest, out / "t3", None, settings).up_to_date
+
+    # a changed file older than fit.json (a copy that kept its source's time: cp -p, rsync -a)
+    run_file = sorted((src / "t3" / "flatplank").iterdir())[-1]
+    lines = run_file.read_text().splitlines()
+    lines[2] = lines[2].replace(",", ",1", 1)
+    run_file.write_text("\n".join(lines) + "\n")
+    old = (out / "t3" / "fit.json").stat().st_mtime - 3600
+    os.utime(run_file, (old, old))
+    assert freshness(src / "t3", manifest, out / "t3", None, settings) == \
+        Freshness(False, f"flatplank/{run_file.name} changed")
 
 
 def test_summary_pdf_compares_the_tyres(folders, tmp_path):
@@ -341,3 +356,19 @@ def test_interrupt_stops_the_workers_and_leaves_no_partial_file(folders, tmp_pat
         made = [(out / tyre / n).is_file() for n in (f"{tyre}.tir", "fit.json",
                                                      "measured_vs_model.csv")]
         assert all(made) or not any(made), tyre
+
+
+def test_log_lines_count_tasks_that_end_in_the_same_tick():
+    """Off a terminal each ended task is a line with the counts so far; two tasks that end
+    between two progress updates are 1/2 and 2/2, not 1/2 twice."""
+    console = Console(file=io.StringIO(), width=200, force_terminal=False)
+    events = RichBatchEvents(console)
+    events.start("process pool", 2, [])
+    events.progress(0, 2, 0, 2, None)
+    events.ended(TaskOutcome("a", "ta", "ok", seconds=1.0, attempts=1))
+    events.ended(TaskOutcome("b", "tb", "failed", "fit did not converge: CFx", 1.0, 1))
+    lines = console.file.getvalue().splitlines()
+    assert lines[0] == "batch: 2 to fit on process pool, 0 up to date, 0 bad input"
+    assert lines[1].endswith("] 1/2 done, 0 failed: ta: ok (1.0 s)")
+    assert lines[2].endswith("] 2/2 done, 1 failed: tb: failed (1.0 s): fit did not converge: "
+                             "CFx")

@@ -21,12 +21,22 @@ from rich.progress import (
 )
 
 from identify.cli.app import app, err_console, fail, out_console
-from identify.cli.fit_cmd import _command_line
+from identify.cli.fit_cmd import fit_command_line
 from identify.cli.entry import Interrupted
-from identify.cli.fit_options import fit_settings
+from identify.cli.fit_options import (
+    FittypOption,
+    FormOption,
+    HoldOption,
+    McmcAr1Option,
+    McmcMaxStepsOption,
+    McmcOption,
+    OnlyOption,
+    SeedOption,
+    fit_settings,
+)
 from identify.core.errors import MfidError
 from identify.workflows.batch import run_batch
-from identify.workflows.batch_task import OK, UP_TO_DATE
+from identify.workflows.batch_task import BAD_INPUT, FAILED, LOST, OK, UP_TO_DATE
 
 _GOOD = (OK, UP_TO_DATE)
 
@@ -51,8 +61,8 @@ class RichBatchEvents:
         self._counts = (0, 0, 0, 0, None)
 
     def start(self, engine, total, skipped) -> None:
-        fresh = sum(o.status in ("up to date", "failed") for o in skipped)
-        bad = sum(o.status == "bad input" for o in skipped)
+        fresh = sum(o.status in (UP_TO_DATE, FAILED) for o in skipped)
+        bad = sum(o.status == BAD_INPUT for o in skipped)
         self.console.print(f"batch: {total} to fit on {engine or '-'}, {fresh} up to date, "
                            f"{bad} bad input", markup=False, highlight=False)
         if self.live and total:
@@ -70,9 +80,11 @@ class RichBatchEvents:
                                   state=f"{running} running, {failed} failed, {_clock(eta_s)}")
 
     def ended(self, outcome) -> None:
-        done, _, failed, total, _ = self._counts
+        done, running, failed, total, eta_s = self._counts
         done += 1
         failed += outcome.status not in _GOOD
+        # tasks that end in the same tick each count (progress() follows after all of them)
+        self._counts = (done, running, failed, total, eta_s)
         text = f"{outcome.tyre_id}: {outcome.status} ({outcome.seconds:.1f} s"
         text += f", {outcome.attempts} attempts)" if outcome.attempts > 1 else ")"
         if outcome.message and outcome.status not in _GOOD:
@@ -92,8 +104,8 @@ class RichBatchEvents:
 
 
 def _report_end(run) -> None:
-    counts = ", ".join(f"{run.count(s)} {s}" for s in ("ok", "failed", "bad input", "lost",
-                                                       "up to date") if run.count(s))
+    counts = ", ".join(f"{run.count(s)} {s}" for s in (OK, FAILED, BAD_INPUT, LOST, UP_TO_DATE)
+                       if run.count(s))
     out_console.print(f"batch: {len(run.outcomes)} folders: {counts} ({run.seconds:.1f} s"
                       f"{', ' + run.engine if run.engine else ''})", markup=False,
                       highlight=False)
@@ -130,19 +142,14 @@ def batch_command(
                                      "out of memory)."),
     force: bool = typer.Option(False, "--force", help="Refit folders whose outputs are up to "
                                                       "date."),
-    mcmc: bool = typer.Option(False, "--mcmc", help="As mfid fit --mcmc."),
-    mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1", help="As mfid fit --mcmc-ar1."),
-    mcmc_max_steps: int | None = typer.Option(None, "--mcmc-max-steps", metavar="N",
-                                              help="As mfid fit --mcmc-max-steps."),
-    seed: int = typer.Option(0, "--seed", help="Seed of every fit (as mfid fit --seed)."),
-    only: list[str] = typer.Option([], "--only", metavar="NAME",
-                                   help="Fit only these relations (as mfid fit --only)."),
-    fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
-    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
-                                   help="Write this form of a relation (as mfid fit --form)."),
-    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
-                                   help="Hold this coefficient at its default (as mfid fit "
-                                        "--hold)."),
+    mcmc: McmcOption = False,
+    mcmc_ar1: McmcAr1Option = False,
+    mcmc_max_steps: McmcMaxStepsOption = None,
+    seed: SeedOption = 0,
+    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
+    fittyp: FittypOption = 61,
+    form: FormOption = [],  # noqa: B006
+    hold: HoldOption = [],  # noqa: B006
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.
@@ -153,9 +160,9 @@ def batch_command(
     """
     def command(folder: str) -> str:
         """The `mfid fit` command of one folder, recorded in its fit.json."""
-        return _command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
-                             fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
-                             forms=form, hold=hold)
+        return fit_command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
+                                fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
+                                forms=form, hold=hold)
 
     events = RichBatchEvents()
     try:

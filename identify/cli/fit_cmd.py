@@ -27,12 +27,22 @@ from rich.text import Text
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
-from identify.cli.fit_options import check_fit_options
+from identify.cli.fit_options import (
+    FittypOption,
+    FormOption,
+    HoldOption,
+    McmcAr1Option,
+    McmcMaxStepsOption,
+    McmcOption,
+    OnlyOption,
+    SeedOption,
+    fit_settings,
+)
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
-from identify.fit.mcmc import BUDGET_S, MAX_STEPS, ChainProgress
+from identify.fit.mcmc import BUDGET_S, ChainProgress
 from identify.report.pdf import write_report
-from identify.workflows.fit import FitSettings, fit_folder, only_names
+from identify.workflows.fit import fit_folder
 from identify.fit.summary import notes_lines  # lazy: see fit_command
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
@@ -172,10 +182,10 @@ def summary_table(run: FitRun) -> Table:
     return table
 
 
-def _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
-                  no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
-                  mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
-                  no_bin=False, no_segment=False) -> str:
+def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
+                     no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
+                     mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
+                     no_bin=False, no_segment=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -224,16 +234,9 @@ def fit_command(
                              help="Root of the fit directories: writes OUT/<tyre id>/."),
     reports: Path = typer.Option(Path("reports"), "--reports",
                                  help="Folder of the PDF reports: writes REPORTS/<tyre id>.pdf."),
-    mcmc: bool = typer.Option(False, "--mcmc", help="Run MCMC (emcee) on every fit; the chains "
-                                                    "are kept in OUT/<tyre id>/mcmc/ for the "
-                                                    "report's corner plots and traces."),
-    mcmc_ar1: bool = typer.Option(False, "--mcmc-ar1",
-                                  help="With --mcmc: AR(1) noise along each sweep."),
-    mcmc_max_steps: int | None = typer.Option(
-        None, "--mcmc-max-steps", metavar="N",
-        help="With --mcmc: cap on each chain [steps] (default 40000). A chain stops once it "
-             "is longer than 50 autocorrelation times; if the cap comes first its summary "
-             "says converged = false."),
+    mcmc: McmcOption = False,
+    mcmc_ar1: McmcAr1Option = False,
+    mcmc_max_steps: McmcMaxStepsOption = None,
     mcmc_budget: float | None = typer.Option(
         None, "--mcmc-budget", metavar="SECONDS",
         help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
@@ -242,29 +245,20 @@ def fit_command(
              "does not need goes to the later ones. A chain stops at 50 autocorrelation "
              "times, the step cap or its share, whichever comes first; stopped early, it says "
              "converged = false and a warning names it with its steps and tau."),
-    seed: int = typer.Option(0, "--seed", help="Seed of the global search and MCMC."),
-    only: list[str] = typer.Option([], "--only", metavar="NAME",
-                                   help="Fit only these relations (repeat or separate with "
-                                        "commas): CFz, CFx, CFy, CMz, RR, camber, sidewall, "
-                                        "MF."),
+    seed: SeedOption = 0,
+    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     nominal_pressure: float | None = typer.Option(
         None, "--nominal-pressure", metavar="PA",
         help="Nominal pressure [Pa] of a single characteristics CSV."),
     nominal_load: float | None = typer.Option(
         None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
                                                   "characteristics CSV."),
-    fittyp: int = typer.Option(61, "--fittyp", help="FITTYP of the written .tir: 61 or 62."),
-    form: list[str] = typer.Option([], "--form", metavar="REL=FORM",
-                                   help="Write this form of a relation whatever the data "
-                                        "choose (repeatable): CFx|CFy=linear_load|"
-                                        "quadratic_load, CMz=T1|T2, RR=old|new."),
-    hold: list[str] = typer.Option([], "--hold", metavar="NAME",
-                                   help="Hold this coefficient at its default in every "
-                                        "relation fit (repeatable), e.g. one the summary "
-                                        "reports poorly identified."),
+    fittyp: FittypOption = 61,
+    form: FormOption = [],  # noqa: B006
+    hold: HoldOption = [],  # noqa: B006
     bin_alpha: float | None = typer.Option(
         None, "--bin-alpha", metavar="DEG",
-        help="Bin width [deg] of dense slip-angle sweeps of trailer data: every sweep with at "
+        help="Bin width \\[deg] of dense slip-angle sweeps of trailer data: every sweep with at "
              "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
              "docs/procedures.md, 'Sweep binning', states the effect)."),
     bin_kappa: float | None = typer.Option(
@@ -288,12 +282,22 @@ def fit_command(
     # the CLI itself (python -c "import identify.fit.run" / "import identify.cli.app"), which
     # every other command (and --help) would pay
 
-    command = _command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
-                            nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
-                            mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin, no_segment)
+    command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
+                               nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
+                               mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
+                               no_segment)
     try:
-        check_fit_options(fittyp=fittyp, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
-                          mcmc_max_steps=mcmc_max_steps)
+        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
+            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
+            if v is not None}
+        # the settings as mfid batch makes them, plus mfid fit's own; fit_settings checks the
+        # shared options first, mfid fit's own are checked below
+        settings = fit_settings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
+                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp,
+                                form=form, hold=hold,
+                                mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
+                                               if math.isinf(mcmc_budget) else mcmc_budget),
+                                segment=not no_segment, **bins)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not mcmc_budget > 0:
@@ -305,16 +309,6 @@ def fit_command(
         for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
             if width is not None and not width > 0:
                 raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
-        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
-            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
-            if v is not None}
-        settings = FitSettings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, save_chains=mcmc,
-                               only=only_names(only), fittyp=fittyp,
-                               mcmc_max_steps=mcmc_max_steps or MAX_STEPS,
-                               mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
-                                              if math.isinf(mcmc_budget) else mcmc_budget),
-                               forms=only_names(form),
-                               hold=only_names(hold), segment=not no_segment, **bins)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

@@ -46,6 +46,8 @@ __all__ = ["BatchEvents", "BatchRun", "default_workers", "make_engine", "run_bat
 DASK_EXTRA = "pip install 'mfid[dask]'"
 TICK_S = 0.5
 """How often the progress is refreshed while tasks run [s]."""
+_NOT_REFITTED = "up to date, not refitted; "
+"""Before the message of a folder whose up-to-date fit failed (left out of the summary)."""
 
 
 def default_workers() -> int:
@@ -171,8 +173,8 @@ def _plan(folders: Sequence[str | Path], out_root: Path, reports: Path | None,
         if not force:
             fresh = freshness(folder, manifest, fit_dir, report, settings)
             if fresh.up_to_date and fresh.failed:  # not refitted: it would fail the same way
-                planned.append(TaskOutcome(name, tyre_id, FAILED, "up to date, not refitted; "
-                                           "fit did not converge: " + "; ".join(fresh.failed)))
+                planned.append(TaskOutcome(name, tyre_id, FAILED, _NOT_REFITTED
+                                           + "fit did not converge: " + "; ".join(fresh.failed)))
                 continue
             if fresh.up_to_date:
                 planned.append(TaskOutcome(name, tyre_id, UP_TO_DATE, fresh.reason))
@@ -210,7 +212,7 @@ def _run_tasks(engine: Engine, tasks: list[FitTask], retries: int, marker_dir: P
         while len(outcomes) < len(tasks):
             for task, result in engine.collect(TICK_S):
                 if isinstance(result, WorkerDied):
-                    remove_partial(task.tyre_id, task.out_root, task.reports)
+                    remove_partial(task)
                     starts[task] -= not result.started
                     deaths[task] += result.charged
                     if deaths[task] <= retries:
@@ -233,7 +235,7 @@ def _run_tasks(engine: Engine, tasks: list[FitTask], retries: int, marker_dir: P
         engine.close(cancel=True)
         for task in tasks:
             if task not in outcomes:
-                remove_partial(task.tyre_id, task.out_root, task.reports)
+                remove_partial(task)
         raise
     engine.close()
     return {dataclasses.replace(t, marker=None): o for t, o in outcomes.items()}
@@ -250,8 +252,8 @@ def _entries(outcomes: Sequence[TaskOutcome], out_root: Path) -> list[BatchEntry
                 fd = None
         # the summary is the state of the tyres, the same whether they were refitted now
         status, message = (OK, "") if o.status == UP_TO_DATE else (o.status, o.message)
-        if o.attempts == 0 and o.status == FAILED:
-            message = message.removeprefix("up to date, not refitted; ")
+        if o.status == FAILED:
+            message = message.removeprefix(_NOT_REFITTED)
         entries.append(BatchEntry(o.tyre_id, o.folder, status, message, fd))
     return entries
 

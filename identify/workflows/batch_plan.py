@@ -7,11 +7,12 @@ A folder is **up to date** (skipped unless ``--force``) when all of these hold:
 * fit.json was written by this mfid version with the same :class:`FitSettings` (seed, MCMC,
   ``--only``, FITTYP ...): fit.json records them, so "newer than the settings" is decidable;
 * its input files are those fit.json lists (tyre.toml, every run file, an unlisted
-  characteristics.csv), and every one that is newer than fit.json still has the SHA-256 that
-  fit.json recorded (a file touched but not changed does not refit; a file changed does).
+  characteristics.csv), and every one still has the SHA-256 that fit.json recorded (a file
+  touched but not changed does not refit; a file changed does, whatever its modification
+  time: a copy that keeps the source's older time, ``cp -p``, ``rsync -a``, is still seen).
 
-Only files newer than fit.json are hashed, so a second batch with nothing changed reads each
-folder's tyre.toml and fit.json and stats its files, nothing more.
+A second batch with nothing changed reads each folder's tyre.toml, fit.json and input files
+(to hash them), and writes nothing.
 """
 from __future__ import annotations
 
@@ -123,9 +124,10 @@ def freshness(folder: Path, manifest: Manifest, fit_dir: Path, report: Path | No
     if set(recorded) != current:
         return Freshness(False, "input files added or removed")
     for name in sorted(current):
-        changed = _mtime(folder / name)
-        if changed is None:
-            return Freshness(False, f"{name} missing")
-        if changed > stamp and sha256_file(folder / name) != recorded[name]:
+        try:
+            sha = sha256_file(folder / name)
+        except OSError:  # missing or unreadable: the fit says which, as mfid fit would
+            return Freshness(False, f"{name} missing or unreadable")
+        if sha != recorded[name]:
             return Freshness(False, f"{name} changed")
     return Freshness(True, "outputs newer than inputs and settings", tuple(run.failed))

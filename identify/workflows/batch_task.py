@@ -110,9 +110,9 @@ def worker_init() -> None:
     threadpool_limits(limits=1)
 
 
-def remove_partial(tyre_id: str, out_root: str | Path, reports: str | Path | None) -> list[Path]:
-    """Delete the temporary files an atomic writer left for one tyre when its process was
-    killed mid-write (``.<name>.XXXX.tmp`` in its fit directory and of its report).
+def remove_partial(task: FitTask) -> list[Path]:
+    """Delete the temporary files an atomic writer left for one task's tyre when its process
+    was killed mid-write (``.<name>.XXXX.tmp`` in its fit directory and of its report).
 
     Returns
     -------
@@ -120,11 +120,11 @@ def remove_partial(tyre_id: str, out_root: str | Path, reports: str | Path | Non
         The files deleted.
     """
     found = []
-    fit_dir = Path(out_root) / tyre_id
-    if fit_dir.is_dir():
-        found += [p for p in fit_dir.rglob(".*.tmp") if p.is_file()]
-    if reports is not None and Path(reports).is_dir():
-        found += [p for p in Path(reports).glob(f".{tyre_id}.pdf.*.tmp") if p.is_file()]
+    if task.fit_dir.is_dir():
+        found += [p for p in task.fit_dir.rglob(".*.tmp") if p.is_file()]
+    report = task.report_path
+    if report is not None and report.parent.is_dir():
+        found += [p for p in report.parent.glob(f".{report.name}.*.tmp") if p.is_file()]
     for path in found:
         try:
             path.unlink()
@@ -152,7 +152,7 @@ def fit_task(task: FitTask) -> TaskOutcome:
             Path(task.marker).write_text(f"{socket.gethostname()} {os.getpid()}\n")
         except OSError:  # the batch that submitted it is gone: the fit is still wanted
             pass
-    remove_partial(task.tyre_id, task.out_root, task.reports)
+    remove_partial(task)
     threads = 0
 
     def outcome(status: str, message: str = "") -> TaskOutcome:
