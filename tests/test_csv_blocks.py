@@ -65,6 +65,24 @@ def test_lines_in_messages_across_blocks(tmp_path, monkeypatch):
         problem.message
 
 
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_warning_lines_count_blank_lines(tmp_path, newline):
+    """pandas skips blank lines: a warning after them still names the sample's own line."""
+    path = tmp_path / "run.csv"
+    plain = _text(nan_row=30).replace("\n", newline).encode()
+    path.write_bytes(plain)
+    (ch,) = read_channels(path)
+    assert ch.first_line == 2  # lines and rows one to one: no line table
+    text = _text(nan_row=30, blank_after=10).replace("\n", newline)
+    path.write_bytes(text.replace(newline, newline * 2, 1).encode())  # and one after the header
+    warnings: list = []
+    (ch,) = read_channels(path)
+    channels_to_tidy(ch, warnings=warnings)
+    line = 1 + text.splitlines().index(plain.decode().splitlines()[31]) + 1  # data row 30
+    assert line == 34
+    assert {w.kind: w.line for w in warnings} == {"nan": line, "rows": line}
+
+
 def test_cleaning_does_not_write_the_channels(tmp_path):
     ch = trailer_channels(n=200)
     ch["FYW"] = ch["FYW"].copy()

@@ -23,11 +23,11 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
-from identify.io.csv_rows import RowError, walk_rows, walk_suspects
+from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text", "file_problem", "decode_problem", "read_utf8"]
+           "open_text", "file_problem", "decode_problem", "read_utf8", "row_lines"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -301,6 +301,28 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
     if problems.total == start:  # pandas refused something the row walk accepts
         problems.add(path, "cannot parse the file as a numeric CSV table")
     return None
+
+
+def row_lines(path: str | Path, rows: int) -> int | RowLines:
+    """Where the ``rows`` data rows of the CSV ``path`` (as read by :func:`read_numeric_csv`)
+    are: 2 (the line of the first row; row ``i`` on line ``2 + i``) when its lines are the
+    header and the rows one to one, else a :class:`~identify.io.csv_rows.RowLines` (a blank
+    line, which pandas skips, would put every later warning on the wrong line).
+
+    One pass over the bytes; only a file with blank lines is walked with the csv module."""
+    path = Path(path)
+    with _open_binary(path) as fh:
+        breaks, last = 0, b"\n"
+        for block in iter(lambda: fh.read(1 << 22), b""):
+            breaks, last = breaks + block.count(b"\n"), block[-1:]
+    if breaks + (last != b"\n") == rows + 1:
+        return 2
+    with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
+        try:
+            starts = row_starts(fh)
+        except RowError:  # read_numeric_csv parsed it: cannot happen
+            return 2
+    return RowLines(starts) if starts.size == rows else 2
 
 
 def _count_lines(path: Path) -> int:
