@@ -22,7 +22,7 @@ from identify.core.errors import InputError
 from identify.io.folder import load_folder
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
-from tests.measurement_cases import set_cell, trailer_channels, write_good_folder
+from tests.measurement_cases import edit, set_cell, trailer_channels, write_good_folder
 
 runner = CliRunner()
 TR = "trailer/cornering_p250.csv"
@@ -32,14 +32,6 @@ TDX = "trailer/cornering_p280.tdx"
 
 
 # ------------------------------------------------------------------ mutation helpers
-
-def edit(rel: str, old: str, new: str):
-    def apply(root: Path) -> None:
-        text = (root / rel).read_text()
-        assert old in text, (rel, old)
-        (root / rel).write_text(text.replace(old, new, 1))
-    return apply
-
 
 def edit_line(rel: str, line: int, fn):
     def apply(root: Path) -> None:
