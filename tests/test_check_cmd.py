@@ -87,6 +87,27 @@ def make_dir(rel: str):
     return apply
 
 
+def european(rel: str):
+    """The CSV as a European spreadsheet exports it: semicolons, decimal commas."""
+    def apply(root: Path) -> None:
+        text = (root / rel).read_text()
+        (root / rel).write_text(text.replace(",", ";").replace(".", ","))
+    return apply
+
+
+def rig_export(rel: str, line: int, column: str, value: str):
+    """Cell ``column`` of ``line`` set, then the CSV written as some rigs do: a byte-order
+    mark, CRLF line ends, a blank line after the header and one after line 4 (the cell's
+    line moves down by 2)."""
+    def apply(root: Path) -> None:
+        set_cell(rel, line, column, value)(root)
+        lines = (root / rel).read_text().splitlines()
+        lines[1:1] = [""]
+        lines[5:5] = [""]
+        (root / rel).write_bytes(("\ufeff" + "\r\n".join(lines) + "\r\n").encode())
+    return apply
+
+
 # ------------------------------------------------------------------ the corpus
 # (id, mutation, expected line; "..." at the end means "starts with")
 CASES = [
@@ -100,6 +121,9 @@ CASES = [
      f"{TR}:1: no data rows below the header"),
     ("csv-binary", write(TR, b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe"),
      f"{TR}:1: not a UTF-8 text file"),
+    ("csv-semicolons-decimal-commas", european(TR),
+     f"{TR}:1: the header is one column with semicolons in it: expected values separated by "
+     "commas, with a decimal point"),
     ("csv-duplicate-column", edit_line(TR, 1, lambda s: s.replace("FX,", "FYW,")),
      f"{TR}:1: FYW: duplicate column"),
     ("flatplank-ragged", edit_line(FP, 4, lambda s: s + ",7"),
@@ -193,6 +217,8 @@ CASES = [
 WARNING_CASES = [
     ("csv-nan", set_cell(TR, 8, "FZW", "nan"),
      f"{TR}:8: FZW: NaN/inf values in 1 stretch(es): FZW 1 (1 of 41 samples); set NaN"),
+    ("csv-bom-crlf-blank-lines", rig_export(TR, 8, "FZW", "nan"),
+     f"{TR}:10: FZW: NaN/inf values in 1 stretch(es): FZW 1 (1 of 41 samples); set NaN"),
     ("csv-empty-cell", set_cell(TR, 7, "FX", ""),
      f"{TR}:7: FX: NaN/inf values in 1 stretch(es): FX 1 (1 of 41 samples); set NaN"),
     ("hdf5-nan", h5_set("FYW", 3, np.nan),

@@ -230,10 +230,16 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
                      if first == "" else "blank first line: expected the header line", line=1)
         return None
     try:
-        return next(csv.reader([first]))
+        cells = next(csv.reader([first]))
     except csv.Error as exc:  # a header cell over the csv module's field limit
         problems.add(path, f"cannot parse the header: {exc}", line=1)
         return None
+    sep = next((name for c, name in ((";", "semicolons"), ("\t", "tabs")) if c in first), None)
+    if len(cells) == 1 and sep:  # else only "ragged row" on line 2: a European export
+        problems.add(path, f"the header is one column with {sep} in it: expected values "
+                           "separated by commas, with a decimal point", line=1)
+        return None
+    return cells
 
 
 def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
