@@ -97,8 +97,8 @@ def european(rel: str):
 
 def rig_export(rel: str, line: int, column: str, value: str):
     """Cell ``column`` of ``line`` set, then the CSV written as some rigs do: a byte-order
-    mark, CRLF line ends, a blank line after the header and one after line 4 (the cell's
-    line moves down by 2)."""
+    mark, CRLF line ends, a blank line after the header and one after line 4 (a cell's line
+    moves down by 1, or by 2 below line 4)."""
     def apply(root: Path) -> None:
         set_cell(rel, line, column, value)(root)
         lines = (root / rel).read_text().splitlines()
@@ -158,6 +158,8 @@ CASES = [
      f"{TR}:12: RUNTIME: time is not increasing: 0.1 after 0.9 (1 such sample(s))"),
     ("flatplank-time-repeats", set_cell(FP, 3, "time", "0.0"),
      f"{FP}:3: time: time is not increasing: 0.0 after 0.0 (1 such sample(s))"),
+    ("flatplank-time-repeats-rig-export", rig_export(FP, 3, "time", "0.0"),
+     f"{FP}:4: time: time is not increasing: 0.0 after 0.0 (1 such sample(s))"),
     ("hdf5-time-back", h5_set("RUNTIME", 5, 0.0),
      f"{H5}: RUNTIME: time is not increasing at sample 5: 0.0 after 0.4 (1 such sample(s))"),
     # manifest keys
