@@ -36,9 +36,9 @@ def test_blocks_give_the_whole_table(tmp_path, monkeypatch, compress, sep):
     text = _text(sep, nan_row=30, blank_after=10)
     path = tmp_path / "run.csv"
     path.write_bytes(gzip.compress(text.encode()) if compress else text.encode())
-    whole, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    whole, _, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
     monkeypatch.setattr(common, "BLOCK_ROWS", 7)  # blocks end inside the blank line, the NaN
-    blocks, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    blocks, _, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
     assert len(blocks) == N and list(blocks.columns) == list(whole.columns)
     for c in whole.columns:
         np.testing.assert_array_equal(blocks[c].to_numpy(), whole[c].to_numpy(), err_msg=c)
@@ -73,6 +73,9 @@ def test_warning_lines_count_blank_lines(tmp_path, newline):
     path.write_bytes(plain)
     (ch,) = read_channels(path)
     assert ch.first_line == 2  # lines and rows one to one: no line table
+    path.write_bytes(plain + newline.encode() * 3)
+    (ch,) = read_channels(path)
+    assert ch.first_line == 2  # blank lines at the end move no row
     text = _text(nan_row=30, blank_after=10).replace("\n", newline)
     path.write_bytes(text.replace(newline, newline * 2, 1).encode())  # and one after the header
     warnings: list = []

@@ -23,7 +23,7 @@ from identify.core.units import (
     to_si,
     unit_problem,
 )
-from identify.io.common import Problems, file_problem, read_numeric_csv, row_lines
+from identify.io.common import Problems, file_problem, read_numeric_csv
 from identify.io.csv_rows import RowLines
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5
 from identify.io.ttc import (
@@ -161,8 +161,7 @@ def read_channels(path: str | Path, *, run: str | None = None,
     else:
         table = read_numeric_csv(path, problems, allow_nan=True)
         raws = None if table is None else [(RawRun(run or path.stem, {
-            k: table[0][k].to_numpy() for k in table[0].columns}, table[1]),
-                                           row_lines(path, len(table[0])))]
+            k: table[0][k].to_numpy() for k in table[0].columns}, table[1]), table[2])]
     if raws is None:
         return None
     out = [_to_si(path, raw, line, dict(units or {}), problems) for raw, line in raws]
