@@ -158,3 +158,18 @@ def set_cell(rel: str, line: int, column: str, value: str):
         lines[line - 1] = ",".join(cells)
         (root / rel).write_text("\n".join(lines) + "\n")
     return apply
+
+
+def edit(rel: str, old: str | bytes, new: str | bytes, count: int = 1):
+    """A folder edit for the bad-input tests: the first ``count`` occurrences of ``old`` in
+    the file ``rel`` replaced by ``new`` (text, or bytes for bytes that are not UTF-8); the
+    file must hold ``old``."""
+    def apply(root: Path) -> None:
+        path = root / rel
+        data = path.read_bytes() if isinstance(old, bytes) else path.read_text()
+        assert old in data, (rel, old)
+        if isinstance(old, bytes):
+            path.write_bytes(data.replace(old, new, count))
+        else:
+            path.write_text(data.replace(old, new, count))
+    return apply

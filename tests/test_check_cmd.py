@@ -22,7 +22,7 @@ from identify.core.errors import InputError
 from identify.io.folder import load_folder
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
-from tests.measurement_cases import set_cell, trailer_channels, write_good_folder
+from tests.measurement_cases import edit, set_cell, trailer_channels, write_good_folder
 
 runner = CliRunner()
 TR = "trailer/cornering_p250.csv"
@@ -32,14 +32,6 @@ TDX = "trailer/cornering_p280.tdx"
 
 
 # ------------------------------------------------------------------ mutation helpers
-
-def edit(rel: str, old: str, new: str):
-    def apply(root: Path) -> None:
-        text = (root / rel).read_text()
-        assert old in text, (rel, old)
-        (root / rel).write_text(text.replace(old, new, 1))
-    return apply
-
 
 def edit_line(rel: str, line: int, fn):
     def apply(root: Path) -> None:
@@ -95,6 +87,27 @@ def make_dir(rel: str):
     return apply
 
 
+def european(rel: str):
+    """The CSV as a European spreadsheet exports it: semicolons, decimal commas."""
+    def apply(root: Path) -> None:
+        text = (root / rel).read_text()
+        (root / rel).write_text(text.replace(",", ";").replace(".", ","))
+    return apply
+
+
+def rig_export(rel: str, line: int, column: str, value: str):
+    """Cell ``column`` of ``line`` set, then the CSV written as some rigs do: a byte-order
+    mark, CRLF line ends, a blank line after the header and one after line 4 (a cell's line
+    moves down by 1, or by 2 below line 4)."""
+    def apply(root: Path) -> None:
+        set_cell(rel, line, column, value)(root)
+        lines = (root / rel).read_text().splitlines()
+        lines[1:1] = [""]
+        lines[5:5] = [""]
+        (root / rel).write_bytes(("\ufeff" + "\r\n".join(lines) + "\r\n").encode())
+    return apply
+
+
 # ------------------------------------------------------------------ the corpus
 # (id, mutation, expected line; "..." at the end means "starts with")
 CASES = [
@@ -108,6 +121,9 @@ CASES = [
      f"{TR}:1: no data rows below the header"),
     ("csv-binary", write(TR, b"\x89PNG\r\n\x1a\n\x00\x00\xff\xfe"),
      f"{TR}:1: not a UTF-8 text file"),
+    ("csv-semicolons-decimal-commas", european(TR),
+     f"{TR}:1: the header is one column with semicolons in it: expected values separated by "
+     "commas, with a decimal point"),
     ("csv-duplicate-column", edit_line(TR, 1, lambda s: s.replace("FX,", "FYW,")),
      f"{TR}:1: FYW: duplicate column"),
     ("flatplank-ragged", edit_line(FP, 4, lambda s: s + ",7"),
@@ -142,6 +158,8 @@ CASES = [
      f"{TR}:12: RUNTIME: time is not increasing: 0.1 after 0.9 (1 such sample(s))"),
     ("flatplank-time-repeats", set_cell(FP, 3, "time", "0.0"),
      f"{FP}:3: time: time is not increasing: 0.0 after 0.0 (1 such sample(s))"),
+    ("flatplank-time-repeats-rig-export", rig_export(FP, 3, "time", "0.0"),
+     f"{FP}:4: time: time is not increasing: 0.0 after 0.0 (1 such sample(s))"),
     ("hdf5-time-back", h5_set("RUNTIME", 5, 0.0),
      f"{H5}: RUNTIME: time is not increasing at sample 5: 0.0 after 0.4 (1 such sample(s))"),
     # manifest keys
@@ -201,6 +219,8 @@ CASES = [
 WARNING_CASES = [
     ("csv-nan", set_cell(TR, 8, "FZW", "nan"),
      f"{TR}:8: FZW: NaN/inf values in 1 stretch(es): FZW 1 (1 of 41 samples); set NaN"),
+    ("csv-bom-crlf-blank-lines", rig_export(TR, 8, "FZW", "nan"),
+     f"{TR}:10: FZW: NaN/inf values in 1 stretch(es): FZW 1 (1 of 41 samples); set NaN"),
     ("csv-empty-cell", set_cell(TR, 7, "FX", ""),
      f"{TR}:7: FX: NaN/inf values in 1 stretch(es): FX 1 (1 of 41 samples); set NaN"),
     ("hdf5-nan", h5_set("FYW", 3, np.nan),

@@ -36,9 +36,9 @@ def test_blocks_give_the_whole_table(tmp_path, monkeypatch, compress, sep):
     text = _text(sep, nan_row=30, blank_after=10)
     path = tmp_path / "run.csv"
     path.write_bytes(gzip.compress(text.encode()) if compress else text.encode())
-    whole, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    whole, _, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
     monkeypatch.setattr(common, "BLOCK_ROWS", 7)  # blocks end inside the blank line, the NaN
-    blocks, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
+    blocks, _, _ = read_numeric_csv(path, Problems(strict=True), allow_nan=True)
     assert len(blocks) == N and list(blocks.columns) == list(whole.columns)
     for c in whole.columns:
         np.testing.assert_array_equal(blocks[c].to_numpy(), whole[c].to_numpy(), err_msg=c)
@@ -63,6 +63,27 @@ def test_lines_in_messages_across_blocks(tmp_path, monkeypatch):
     (problem,) = problems.finish()
     assert problem.line == 51 and problem.key == "LONGVEL" and "not a number: 'x" in \
         problem.message
+
+
+@pytest.mark.parametrize("newline", ["\n", "\r\n"])
+def test_warning_lines_count_blank_lines(tmp_path, newline):
+    """pandas skips blank lines: a warning after them still names the sample's own line."""
+    path = tmp_path / "run.csv"
+    plain = _text(nan_row=30).replace("\n", newline).encode()
+    path.write_bytes(plain)
+    (ch,) = read_channels(path)
+    assert ch.first_line == 2  # lines and rows one to one: no line table
+    path.write_bytes(plain + newline.encode() * 3)
+    (ch,) = read_channels(path)
+    assert ch.first_line == 2  # blank lines at the end move no row
+    text = _text(nan_row=30, blank_after=10).replace("\n", newline)
+    path.write_bytes(text.replace(newline, newline * 2, 1).encode())  # and one after the header
+    warnings: list = []
+    (ch,) = read_channels(path)
+    channels_to_tidy(ch, warnings=warnings)
+    line = 1 + text.splitlines().index(plain.decode().splitlines()[31]) + 1  # data row 30
+    assert line == 34
+    assert {w.kind: w.line for w in warnings} == {"nan": line, "rows": line}
 
 
 def test_cleaning_does_not_write_the_channels(tmp_path):

@@ -28,7 +28,7 @@ from identify.io.common import Problems
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
 from tests.measurement_cases import set_cell as cell
-from tests.measurement_cases import trailer_channels, write_good_folder
+from tests.measurement_cases import edit, trailer_channels, write_good_folder
 from tests.ttc_cases import small_mat
 
 runner = CliRunner()
@@ -42,14 +42,6 @@ TR_CONDITIONS = "conditions = { pressure_Pa = 250000, load_N = 5000 }\n"
 
 
 # ------------------------------------------------------------------ mutations
-
-def edit(rel: str, old: str, new: str, count: int = 1):
-    def apply(root: Path) -> None:
-        text = (root / rel).read_text()
-        assert old in text, (rel, old)
-        (root / rel).write_text(text.replace(old, new, count))
-    return apply
-
 
 def column(rel: str, name: str, fn):
     def apply(root: Path) -> None:
@@ -130,14 +122,6 @@ def h5_dangling(grp) -> None:
 def h5_overflow(grp) -> None:
     grp["INFLPRES"].attrs["units"] = "kPa"
     grp["INFLPRES"][4] = 1e308
-
-
-def raw_edit(rel: str, old: bytes, new: bytes):
-    def apply(root: Path) -> None:
-        data = (root / rel).read_bytes()
-        assert old in data, (rel, old)
-        (root / rel).write_bytes(data.replace(old, new, 1))
-    return apply
 
 
 def overwrite(rel: str, offset: int, size: int = 64):
@@ -297,7 +281,7 @@ CASES = [
      ["INFLPRES: ", "constant 'nan' is not a finite number"]),
     ("tdx-overflow-after-unit", edit(TDX, "km/h      1 0 0", "km/h      1e307 0 0"), ROOT_CMD,
      TDX, ["LONGVEL: "]),
-    ("tdx-binary-in-data", raw_edit(TDX, b"**MEASURDATA\n", b"**MEASURDATA\n\xff"), ROOT_CMD,
+    ("tdx-binary-in-data", edit(TDX, b"**MEASURDATA\n", b"**MEASURDATA\n\xff"), ROOT_CMD,
      TDX, [":21: ", "cannot parse the **MEASURDATA section"]),
     # TTC files (convert reads one alone)
     ("ttc-mat-overflow-after-psi", ttc_mat_overflow,
@@ -368,6 +352,11 @@ CASES = [
      [":2: alpha: ", "not physical"]),
     ("points-speed-1e4", edit(PTS, "0.0,16.7,250000\n", "0.0,1e4,250000\n"), EVAL, PTS,
      [":2: Vx: ", "not physical"]),
+    ("points-blank-lines-then-bad-cell", edit(PTS, "250000\n4000,0.02,", "250000\n\n\n4000,x,"),
+     EVAL, PTS, [":5: kappa: ", "not a number: 'x'"]),
+    ("points-blank-line-then-implausible", edit(PTS, "250000\n4000,0.02,0.0,0.0,16.7,",
+                                                "250000\n\n4000,0.02,0.0,0.0,1e4,"),
+     EVAL, PTS, [":4: Vx: ", "not physical"]),
     ("points-not-utf8", raw_line(PTS, 3, b"4000,0.02,0.0,0.0,16.7,\xff"), EVAL, PTS,
      [":3: ", "not UTF-8 text"]),
     ("points-multiline-quoted", edit(PTS, "16.7,250000\n4000", '16.7,"25\n0000"\n4000'), EVAL,

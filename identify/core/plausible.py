@@ -115,18 +115,19 @@ def judge(quantity: str, value: float, *, what: str = "") -> Finding | None:
         return Finding("error", f"{name} {shown} is not physical (must be {rel}"
                                 f"{_fmt(band.error_low, band.unit)})")
     if band.error_high is not None and x > band.error_high:
-        hint = f"; {band.hint_high}" if band.hint_high else ""
         return Finding("error", f"{name} {shown} is not physical (at most "
-                                f"{_fmt(band.error_high, band.unit)}{hint})")
-    if band.warn_low is not None and x < band.warn_low:
-        hint = f"; {band.hint_low}" if band.hint_low else ""
-        return Finding("warning", f"{name} {shown} is unusually low (below "
-                                  f"{_fmt(band.warn_low, band.unit)}{hint})")
-    if band.warn_high is not None and x > band.warn_high:
-        hint = f"; {band.hint_high}" if band.hint_high else ""
-        return Finding("warning", f"{name} {shown} is unusually high (above "
-                                  f"{_fmt(band.warn_high, band.unit)}{hint})")
+                                f"{_fmt(band.error_high, band.unit)}{_hint(band.hint_high)})")
+    low = band.warn_low is not None and x < band.warn_low
+    if low or (band.warn_high is not None and x > band.warn_high):
+        bound, side, hint = ((band.warn_low, "low (below", band.hint_low) if low
+                             else (band.warn_high, "high (above", band.hint_high))
+        return Finding("warning", f"{name} {shown} is unusually {side} "
+                                  f"{_fmt(bound, band.unit)}{_hint(hint)})")
     return None
+
+
+def _hint(text: str) -> str:
+    return f"; {text}" if text else ""
 
 
 def judge_channel(quantity: str, values: np.ndarray, *, what: str = ""

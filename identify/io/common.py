@@ -23,11 +23,11 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
-from identify.io.csv_rows import RowError, walk_rows, walk_suspects
+from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
 __all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
-           "open_text", "file_problem", "decode_problem", "read_utf8"]
+           "open_text", "file_problem", "decode_problem", "read_utf8", "row_lines"]
 
 #: The first two bytes of every gzip stream (RFC 1952).
 GZIP_MAGIC = b"\x1f\x8b"
@@ -230,15 +230,21 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
                      if first == "" else "blank first line: expected the header line", line=1)
         return None
     try:
-        return next(csv.reader([first]))
+        cells = next(csv.reader([first]))
     except csv.Error as exc:  # a header cell over the csv module's field limit
         problems.add(path, f"cannot parse the header: {exc}", line=1)
         return None
+    sep = next((name for c, name in ((";", "semicolons"), ("\t", "tabs")) if c in first), None)
+    if len(cells) == 1 and sep:  # else only "ragged row" on line 2: a European export
+        problems.add(path, f"the header is one column with {sep} in it: expected values "
+                           "separated by commas, with a decimal point", line=1)
+        return None
+    return cells
 
 
 def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable[str] = (),
                      what: str = "channel", allow_nan: bool = False
-                     ) -> tuple[pd.DataFrame, dict[str, str]] | None:
+                     ) -> tuple[pd.DataFrame, dict[str, str], int | RowLines] | None:
     """Read a CSV of numbers with a header line (``NAME`` or ``NAME [unit]`` per column).
 
     Fast path: pandas' C parser straight into float64, in blocks (:func:`_parse_floats`).
@@ -249,9 +255,10 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
 
     Returns
     -------
-    (DataFrame, dict) or None
-        The columns as float64 under their names, and the units given in the header; None when
-        a problem was found (in non-strict mode).
+    (DataFrame, dict, int or RowLines) or None
+        The columns as float64 under their names, the units given in the header, and where
+        the rows are (:func:`row_lines`: ``lines + i`` is the line of row ``i``); None when a
+        problem was found (in non-strict mode).
     """
     path = Path(path)
     start = problems.total
@@ -276,10 +283,7 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
     try:
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
-            try:  # a machine-written file has no space after the commas: 25 % faster
-                frame = _parse_floats(path, skip_spaces=False)
-            except _PARSE_ERRORS:
-                frame = _parse_floats(path, skip_spaces=True)  # " nan", " ": as before
+            frame, lines = _parse_floats(path)
     except _PARSE_ERRORS:
         frame = None
     # column by column: frame.to_numpy() would copy the whole table (520 MB at 5e6 x 13)
@@ -296,17 +300,45 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
                 if not np.isfinite(x).all():
                     frame[c] = np.where(np.isfinite(x), x, np.nan)
         frame.columns = names
-        return (frame, header_units) if problems.total == start else None
+        return ((frame, header_units, row_lines(path, len(frame), lines))
+                if problems.total == start else None)
     _diagnose(path, len(names), names, problems, allow_nan)
     if problems.total == start:  # pandas refused something the row walk accepts
         problems.add(path, "cannot parse the file as a numeric CSV table")
     return None
 
 
+def row_lines(path: str | Path, rows: int, lines: int | None = None) -> int | RowLines:
+    """Where the ``rows`` data rows of the CSV ``path`` (as pandas reads it) are: 2 (the line
+    of the first row; row ``i`` on line ``2 + i``) when its lines are the header and the rows
+    one to one, else a :class:`~identify.io.csv_rows.RowLines` (a blank line, which pandas
+    skips, would put every later message on the wrong line).
+
+    ``lines`` is :func:`_count_lines` of the file when the caller has it (else one pass over
+    the bytes); only a file with blank lines between its rows is walked with the csv module.
+    """
+    path = Path(path)
+    if (_count_lines(path) if lines is None else lines) == rows + 1:
+        return 2
+    with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
+        try:
+            starts = row_starts(fh)
+        except RowError:  # pandas parsed the file: cannot happen
+            return 2
+    return RowLines(starts) if starts.size == rows else 2
+
+
 def _count_lines(path: Path) -> int:
-    """Line breaks in the (decompressed) file, plus one: at least its number of rows."""
+    """Lines of the (decompressed) file up to its last line that is not blank: more than its
+    number of rows (the header is one), and one more exactly when no blank line or quoted
+    cell over two lines lies between them."""
+    breaks = trailing = 0  # line breaks; those after the last byte other than CR/LF
     with _open_binary(path) as fh:
-        return 1 + sum(block.count(b"\n") for block in iter(lambda: fh.read(1 << 22), b""))
+        for block in iter(lambda: fh.read(1 << 22), b""):
+            breaks += block.count(b"\n")
+            text = len(block.rstrip(b"\r\n"))
+            trailing = block.count(b"\n", text) + (trailing if text == 0 else 0)
+    return breaks - trailing + 1
 
 
 #: What pandas raises for a file its C parser cannot read as float64 columns.
@@ -314,7 +346,7 @@ _PARSE_ERRORS = (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, Uni
                  OSError, EOFError)
 
 
-def _parse_floats(path: Path, skip_spaces: bool) -> pd.DataFrame:
+def _parse_floats(path: Path) -> tuple[pd.DataFrame, int]:
     """The whole CSV as float64 columns: pandas' C parser, :data:`BLOCK_ROWS` rows at a time,
     each block copied into one preallocated array per column.
 
@@ -323,17 +355,15 @@ def _parse_floats(path: Path, skip_spaces: bool) -> pd.DataFrame:
     one block. The arrays are sized by the file's line count (rows <= lines: a quoted cell may
     span lines); pages past the last row are never touched, so they take no memory.
 
-    ``skip_spaces`` (pandas' ``skipinitialspace``) is needed for a cell such as ``" nan"`` or
-    a quoted cell after a space; without it, a cell with leading spaces reads the same number
-    (the float conversion skips them) and anything else fails, so a parse that succeeds
-    without it is the parse with it.
+    ``skipinitialspace`` reads a cell such as ``" nan"`` or a quoted cell after a space.
+    Returns the table and the line count (:func:`_count_lines`).
     """
     capacity = _count_lines(path)
     columns: list[np.ndarray] = []
     names: list[str] = []
     rows = 0
     with pd.read_csv(path, header=0, dtype=np.float64, index_col=False,
-                     skipinitialspace=skip_spaces, encoding="utf-8-sig",
+                     skipinitialspace=True, encoding="utf-8-sig",
                      compression="gzip" if is_gzip(path) else None,
                      chunksize=BLOCK_ROWS) as reader:
         for block in reader:
@@ -347,7 +377,7 @@ def _parse_floats(path: Path, skip_spaces: bool) -> pd.DataFrame:
                 column[rows:rows + m] = block.iloc[:, j].to_numpy(dtype=np.float64)
             rows += m
     return pd.DataFrame({name: column[:rows] for name, column in zip(names, columns)},
-                        copy=False)
+                        copy=False), capacity
 
 
 def _diagnose(path: Path, width: int, names: list[str], problems: Problems,

@@ -22,7 +22,7 @@ import numpy as np
 
 from identify.core.errors import one_line
 
-__all__ = ["RowError", "walk_rows", "walk_suspects"]
+__all__ = ["RowError", "RowLines", "row_starts", "walk_rows", "walk_suspects"]
 
 Add = Callable[[int, "str | None", str, str], None]
 #: Problems a suspect walk holds back before it gives up (the full walk then lists them).
@@ -35,6 +35,31 @@ class RowError(Exception):
     def __init__(self, message: str, line: int) -> None:
         super().__init__(message)
         self.message, self.line = message, line
+
+
+class RowLines:
+    """The line of each data row of a CSV whose rows are not its lines one to one (a blank
+    line, a quoted cell over two lines): ``lines + row`` is the line of data row ``row``
+    (0-based), as ``first_line + row`` is for a plain file, so the callers that name a line
+    take either."""
+
+    def __init__(self, starts: np.ndarray) -> None:
+        self.starts = starts
+
+    def __add__(self, row: int) -> int:
+        return int(self.starts[row])
+
+    def __repr__(self) -> str:
+        return f"RowLines({self.starts.size} rows)"
+
+
+def row_starts(fh: TextIO) -> np.ndarray:
+    """The first line of every data row of the text ``fh`` (opened with ``newline=""``,
+    header first), counted as :func:`walk_rows` counts them: a blank line is no row."""
+    reader = csv.reader(fh)
+    rows = _rows(reader)
+    next(rows, None)
+    return np.fromiter((line for line, row in rows if row), dtype=np.int64)
 
 
 def _rows(reader):

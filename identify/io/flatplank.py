@@ -116,7 +116,7 @@ def read_flatplank(path: str | Path, *, a: float, b: float, run: str | None = No
                                f"Flatplank channel ({', '.join(RAW_COLUMNS)})", key=key)
     if table is None:
         return None
-    frame, header_units = table
+    frame, header_units, lines = table
     raw = {}
     for name, dim in RAW_COLUMNS.items():
         declared, in_file = units.get(name), header_units.get(name)
@@ -131,7 +131,7 @@ def read_flatplank(path: str | Path, *, a: float, b: float, run: str | None = No
         raw[name] = to_si(frame[name].to_numpy(), unit, dimension=dim)
     if problems.total > start:
         return None
-    check_increasing(problems, path, "time", raw["time"], 2)
+    check_increasing(problems, path, "time", raw["time"], lines)
     derived = hub_to_contact(raw["Gx1"], raw["Gx2"], raw["Gy"], raw["Gz1"], raw["Gz2"],
                              raw["phi_wheel"], raw["phi_plank"], raw["psi"],
                              raw["loaded_radius"], a=a, b=b)

@@ -11,7 +11,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.plausible import first_error
-from identify.io.common import decode_problem, file_problem
+from identify.io.common import decode_problem, file_problem, row_lines
 
 REQUIRED = ("Fz", "kappa", "alpha", "gamma", "Vx", "p")
 #: Column -> quantity of identify.core.plausible (p = 0 means the .tir's INFLPRES; a
@@ -83,11 +83,12 @@ def read_points(path: str | Path) -> pd.DataFrame:
             what = "empty cell" if cell == "" else (
                 f"{cell} is not allowed" if cell.lower().lstrip("+-") in
                 ("nan", "inf", "infinity") else f"not a number: '{cell}'")
-            raise InputError(path, what, line=row + 2, key=col)
+            raise InputError(path, what, line=row_lines(path, len(frame)) + row, key=col)
         out[col] = values
     for col, quantity in _PLAUSIBLE:  # after the numbers are read: the error bands in SI
         found = first_error(quantity, out[col].to_numpy(), what=col,
                             allow_zero=(col == "p"))
         if found is not None:
-            raise InputError(path, found[1].message, line=found[0] + 2, key=col)
+            raise InputError(path, found[1].message,
+                             line=row_lines(path, len(frame)) + found[0], key=col)
     return out

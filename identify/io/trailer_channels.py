@@ -24,6 +24,7 @@ from identify.core.units import (
     unit_problem,
 )
 from identify.io.common import Problems, file_problem, read_numeric_csv
+from identify.io.csv_rows import RowLines
 from identify.io.hdf5 import RawRun, is_hdf5, read_hdf5
 from identify.io.ttc import (
     TTC_TO_TYDEX,
@@ -85,7 +86,9 @@ def canonical(name: str, ttc: bool = False) -> str | None:
 class Channels:
     """The channels of one run [SI where the unit is known], before the axis conversion.
 
-    ``first_line`` is the line of the first sample in a text file (None for HDF5); ``axes`` is
+    ``first_line`` is the line of the first sample in a text file (None for HDF5;
+    ``first_line + i`` is the line of sample ``i``, a :class:`RowLines` when the file has
+    blank lines); ``axes`` is
     the axis system the file itself declares (HDF5 group attribute ``axes``; SAE for TTC
     files), if any; ``attrs`` holds what else the file says about itself (a TTC file's
     ``source``, ``testid``, ``tireid``; its ``format``); ``file_units`` the unit each channel
@@ -97,7 +100,7 @@ class Channels:
     units: Mapping[str, str]
     file: str
     long_names: Mapping[str, str] = field(default_factory=dict)
-    first_line: int | None = None
+    first_line: int | RowLines | None = None
     axes: str | None = None
     attrs: Mapping[str, str] = field(default_factory=dict)
     file_units: Mapping[str, str] = field(default_factory=dict)
@@ -158,7 +161,7 @@ def read_channels(path: str | Path, *, run: str | None = None,
     else:
         table = read_numeric_csv(path, problems, allow_nan=True)
         raws = None if table is None else [(RawRun(run or path.stem, {
-            k: table[0][k].to_numpy() for k in table[0].columns}, table[1]), 2)]
+            k: table[0][k].to_numpy() for k in table[0].columns}, table[1]), table[2])]
     if raws is None:
         return None
     out = [_to_si(path, raw, line, dict(units or {}), problems) for raw, line in raws]
@@ -184,7 +187,7 @@ def _from_tydex(tdx: TydexFile, run: str, problems: Problems) -> RawRun:
     return RawRun(run, data, units, names)
 
 
-def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, str],
+def _to_si(path: Path, raw: RawRun, first_line: int | RowLines | None, manifest: dict[str, str],
            problems: Problems) -> Channels:
     ttc = str(raw.attrs.get("format", "")).startswith("ttc") or is_ttc_naming(raw.data)
     known = set(raw.data) | {canonical(n, ttc) for n in raw.data}
@@ -230,7 +233,7 @@ def _to_si(path: Path, raw: RawRun, first_line: int | None, manifest: dict[str, 
 
 
 def _overflow(path: Path, name: str, raw: np.ndarray, si: np.ndarray, unit: str,
-              first_line: int | None, problems: Problems) -> None:
+              first_line: int | RowLines | None, problems: Problems) -> None:
     """A value finite as read but not in SI (``1e308 kPa``): the check after the conversion."""
     lost = np.flatnonzero(np.isfinite(raw) & ~np.isfinite(si))
     if lost.size:
