@@ -34,9 +34,10 @@ from scipy import optimize
 
 from identify.fit.problem import FitProblem
 
-__all__ = ["DISCOVERY", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STRICT", "CountingModel",
-           "Estimate", "Tolerances", "counted", "covariance", "fd_jacobian", "least_squares",
-           "polish", "problem_covariance", "pseudo_solve", "residual_jacobian"]
+__all__ = ["CLUSTER_KINDS", "DISCOVERY", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH",
+           "STRICT", "CountingModel", "Estimate", "Tolerances", "counted", "covariance",
+           "fd_jacobian", "jackknife_steps", "least_squares", "polish",
+           "problem_covariance", "pseudo_solve", "residual_jacobian", "standard_errors"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +102,12 @@ MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4)
 cost falls by less than 1e-4 s^2 over 5 iterations (chi^2 by < 2e-4: a small fraction of a
 standard error from the optimum). On a 93074-point TTC session the Mz0 solve from a candidate
 ran into its 100-evaluation budget with STRICT alone, its cost changing in the 8th digit."""
+
+LAPLACE = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60)
+"""The MCMC likelihood's maximum near the least-squares optimum (identify.fit.mcmc_laplace.
+likelihood_mode, with its own budget of 30 evaluations): a few Gauss-Newton steps, 1e-8
+relative (scipy's defaults); it only centres the Laplace proposals, which leave the posterior
+invariant whatever their centre."""
 
 DISCOVERY = Tolerances(xtol=1e-10, ftol=1e-10, gtol=1e-10, nfev_per_parameter=60,
                        interior=1e-9)
