@@ -36,7 +36,7 @@ from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH",
            "STRICT", "CountingModel", "Estimate", "Tolerances", "counted", "covariance",
-           "fd_jacobian", "jackknife_steps", "least_squares", "polish",
+           "fd_jacobian", "jackknife_covariance", "jackknife_steps", "least_squares", "polish",
            "problem_covariance", "pseudo_solve", "residual_jacobian", "standard_errors"]
 
 
@@ -367,6 +367,13 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     return steps.reshape(len(clusters), J.shape[1]) / scale
 
 
+def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
+    """The delete-one-cluster jackknife covariance (C - 1)/C sum_c d_c d_c^T of the C rows of
+    ``steps`` (C, k) (:func:`jackknife_steps`)."""
+    C = steps.shape[0]
+    return (C - 1) / C * (steps.T @ steps)
+
+
 def standard_errors(names: tuple[str, ...], cov: np.ndarray
                     ) -> tuple[dict[str, float], dict[str, float]]:
     """Standard errors ``{name: sd}`` and correlations ``{"a|b": r}`` (each pair once, in
@@ -423,9 +430,7 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     if clusters and kind not in CLUSTER_KINDS:
         raise ValueError(f"kind must be one of {CLUSTER_KINDS}, not {kind!r}")
     if clusters and kind == "jackknife":
-        steps = jackknife_steps(J, fun, clusters, upstream)
-        C = len(clusters)
-        return (C - 1) / C * (steps.T @ steps)
+        return jackknife_covariance(jackknife_steps(J, fun, clusters, upstream))
     bread = pseudo_solve(J.T @ J, np.eye(k))
     if clusters:
         C = len(clusters)

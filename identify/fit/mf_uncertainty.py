@@ -104,7 +104,7 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
         sub = [clusters[c] for c in used]
         own = np.zeros((n_sweeps, len(problem.free)))
         own[used] = engine.jackknife_steps(J, fun, sub, up)
-        cov = engine.covariance(J, fun, clusters=sub, kind="jackknife", upstream=up)
+        cov = engine.jackknife_covariance(own[used])
         for j, n in enumerate(problem.free):
             steps[n] = own[:, j]
         results.append(_with_covariance(r, problem.free, cov, used.size))
