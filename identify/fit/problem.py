@@ -136,6 +136,16 @@ class FitProblem:
         object.__setattr__(self, "_group_index", index)
         object.__setattr__(self, "_group_den", np.bincount(index, self.measured ** 2,
                                                            minlength=levels.size))
+        # the objective's weights, once: every residual evaluation multiplies by them (a
+        # pressure measured as all 0 gets an infinite weight, as before, without a warning
+        # for problems whose weights are never used)
+        with np.errstate(divide="ignore"):
+            weights = np.array(1.0 / np.asarray(self.sigma, dtype=float)
+                               if self.sigma is not None
+                               else group_weights(self.measured, self.pressure_bar),
+                               dtype=float)
+        weights.flags.writeable = False
+        object.__setattr__(self, "_weights", weights)
 
     # ----- parameter vectors -------------------------------------------------------------
     @property
@@ -188,9 +198,9 @@ class FitProblem:
             return np.asarray(self.model(self.values(x)), dtype=float)
 
     def weights(self) -> np.ndarray:
-        if self.sigma is not None:
-            return 1.0 / np.asarray(self.sigma, dtype=float)
-        return group_weights(self.measured, self.pressure_bar)
+        """The objective's weight of each point (read-only): 1/sigma, or per pressure
+        1/sqrt(sum A_meas^2) (identify.fit.metric.group_weights)."""
+        return self._weights
 
     def noise_weights(self) -> np.ndarray:
         """1 / (standard deviation of each point at sigma = 1) under the ``noise`` model.
