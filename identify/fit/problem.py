@@ -182,11 +182,13 @@ class FitProblem:
         order = np.argsort(index, kind="stable")
         return np.split(order, np.cumsum(np.bincount(index, minlength=C))[:-1])
 
-    def covariance_used(self) -> tuple[str, int]:
+    def covariance_used(self, jackknife_defined: bool = True) -> tuple[str, int]:
         """(the covariance the standard errors come from, its number of clusters):
         ``("sweep-jackknife", C)``, ``("iid", 0)`` or ``("iid-known-sigma", 0)``
-        (FitResult.covariance, .clusters)."""
-        clusters = self.clusters()
+        (FitResult.covariance, .clusters). ``jackknife_defined``: False when one sweep alone
+        determines a combination of the coefficients (identify.fit.engine.jackknife_defined):
+        iid then."""
+        clusters = self.clusters() if jackknife_defined else None
         if clusters is not None:
             return "sweep-jackknife", len(clusters)
         return ("iid-known-sigma" if self.sigma is not None else "iid"), 0
