@@ -34,9 +34,11 @@ from scipy import optimize
 
 from identify.fit.problem import FitProblem
 
-__all__ = ["DISCOVERY", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STRICT", "CountingModel",
-           "Estimate", "Tolerances", "counted", "covariance", "fd_jacobian", "least_squares",
-           "polish", "problem_covariance", "pseudo_solve", "residual_jacobian"]
+__all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
+           "NOISE_STATUS", "SEARCH", "STRICT", "CountingModel", "Estimate", "Tolerances",
+           "counted", "covariance", "covariance_of", "fd_jacobian", "jackknife_covariance",
+           "jackknife_defined", "jackknife_steps", "least_squares", "polish",
+           "problem_covariance", "pseudo_solve", "residual_jacobian", "standard_errors"]
 
 
 @dataclass(frozen=True)
@@ -101,6 +103,12 @@ MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4)
 cost falls by less than 1e-4 s^2 over 5 iterations (chi^2 by < 2e-4: a small fraction of a
 standard error from the optimum). On a 93074-point TTC session the Mz0 solve from a candidate
 ran into its 100-evaluation budget with STRICT alone, its cost changing in the 8th digit."""
+
+LAPLACE = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60)
+"""The MCMC likelihood's maximum near the least-squares optimum (identify.fit.mcmc_laplace.
+likelihood_mode, with its own budget of 30 evaluations): a few Gauss-Newton steps, 1e-8
+relative (scipy's defaults); it only centres the Laplace proposals, which leave the posterior
+invariant whatever their centre."""
 
 DISCOVERY = Tolerances(xtol=1e-10, ftol=1e-10, gtol=1e-10, nfev_per_parameter=60,
                        interior=1e-9)
@@ -360,6 +368,36 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     return steps.reshape(len(clusters), J.shape[1]) / scale
 
 
+ESSENTIAL_RTOL = 1e-8
+"""A cluster is essential (:func:`jackknife_defined`) when the smallest eigenvalue of the
+column-scaled G - G_c falls below this fraction of G's."""
+
+
+def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
+    """False when one cluster alone determines a combination of the coefficients: without it
+    the column-scaled normal matrix G - G_c is singular (its smallest eigenvalue below
+    ESSENTIAL_RTOL x G's), e.g. the only sweep at one inflation pressure with the pressure
+    terms free. The delete-one-cluster jackknife cannot see that cluster's noise (its step
+    has no component along the direction it alone determines) and comes out too small there
+    (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257); the covariance
+    is then the iid one. True for a singular G (nothing to lose)."""
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    scale = np.linalg.norm(J, axis=0)
+    Js = J / np.where(scale > 0, scale, 1.0)
+    G = Js.T @ Js
+    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
+    if not floor > 0:
+        return True
+    return all(np.linalg.eigvalsh(G - Js[i].T @ Js[i])[0] >= floor for i in clusters)
+
+
+def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
+    """The delete-one-cluster jackknife covariance (C - 1)/C sum_c d_c d_c^T of the C rows of
+    ``steps`` (C, k) (:func:`jackknife_steps`)."""
+    C = steps.shape[0]
+    return (C - 1) / C * (steps.T @ steps)
+
+
 def standard_errors(names: tuple[str, ...], cov: np.ndarray
                     ) -> tuple[dict[str, float], dict[str, float]]:
     """Standard errors ``{name: sd}`` and correlations ``{"a|b": r}`` (each pair once, in
@@ -416,9 +454,7 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     if clusters and kind not in CLUSTER_KINDS:
         raise ValueError(f"kind must be one of {CLUSTER_KINDS}, not {kind!r}")
     if clusters and kind == "jackknife":
-        steps = jackknife_steps(J, fun, clusters, upstream)
-        C = len(clusters)
-        return (C - 1) / C * (steps.T @ steps)
+        return jackknife_covariance(jackknife_steps(J, fun, clusters, upstream))
     bread = pseudo_solve(J.T @ J, np.eye(k))
     if clusters:
         C = len(clusters)
@@ -464,12 +500,14 @@ def residual_jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
     return fd_jacobian(problem.residuals, x, problem.bounds())
 
 
-def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
-                       fun: np.ndarray | None = None) -> np.ndarray:
+def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
+                  fun: np.ndarray | None = None) -> tuple[np.ndarray, str, int]:
     """:func:`covariance` of ``problem``'s free parameters at ``x``, as the problem asks
-    (``FitProblem.covariance``): the delete-one-sweep jackknife over ``problem.clusters()``,
-    else iid with sigma known when the problem's weights are 1/sigma (``problem.sigma`` set),
-    estimated from the residuals otherwise.
+    (``FitProblem.covariance``): the delete-one-sweep jackknife over ``problem.clusters()``
+    where it is defined (:func:`jackknife_defined`), else iid with sigma known when the
+    problem's weights are 1/sigma (``problem.sigma`` set), estimated from the residuals
+    otherwise; with the name of the one used and its number of clusters
+    (``FitProblem.covariance_used``: FitResult.covariance, .clusters).
 
     ``jac``/``fun``: the Jacobian of the weighted residuals and the residuals at ``x`` when the
     caller has them (the least-squares solver's); by default :func:`residual_jacobian` (exact or
@@ -477,8 +515,17 @@ def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | Non
     (a polish moved it; a start for MCMC)."""
     J = residual_jacobian(problem, x) if jac is None else jac
     r = problem.residuals(x) if fun is None else fun
-    return covariance(J, r, sigma_known=problem.sigma is not None,
-                      clusters=problem.clusters(), kind="jackknife")
+    clusters = problem.clusters()
+    defined = clusters is None or jackknife_defined(J, clusters)
+    cov = covariance(J, r, sigma_known=problem.sigma is not None,
+                     clusters=clusters if defined else None, kind="jackknife")
+    return (cov, *problem.covariance_used(jackknife_defined=defined))
+
+
+def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
+                       fun: np.ndarray | None = None) -> np.ndarray:
+    """The covariance of :func:`covariance_of` alone."""
+    return covariance_of(problem, x, jac, fun)[0]
 
 
 class CountingModel:

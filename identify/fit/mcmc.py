@@ -76,8 +76,7 @@ LAPLACE_SHARE = 0.5
 
 
 def _moves(name: str, laplace: LaplaceMove | None):
-    if name not in MOVES:
-        raise ValueError(f"moves must be one of {MOVES}, not {name!r}")
+    """emcee's moves for ``name`` (one of MOVES, checked by run_mcmc)."""
     if name == "stretch":
         return None  # emcee's default StretchMove
     if name == "de+laplace" and laplace is not None:
@@ -85,7 +84,7 @@ def _moves(name: str, laplace: LaplaceMove | None):
     return emcee.moves.DEMove()
 
 
-def _innovations(r: np.ndarray, phi: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, ...]:
+def _innovations(r: np.ndarray, phi: np.ndarray, starts: np.ndarray) -> np.ndarray:
     """AR(1) innovations along sweeps for residual rows r (W, n) and phi (W, 1)."""
     e = r.copy()
     e[:, 1:] = r[:, 1:] - phi * r[:, :-1]
@@ -165,7 +164,6 @@ class _Posterior:
         return np.column_stack([lp, x[:, list(self.reparam.index)], log_jac])
 
 
-
 @dataclass(frozen=True)
 class ChainProgress:
     """Where a chain stands, for a progress bar (``run_mcmc(progress=...)``).
@@ -175,7 +173,7 @@ class ChainProgress:
     steps : int              steps done
     max_steps : int          the step cap
     tau : float              largest autocorrelation time so far [steps]; NaN before the
-                             first estimate (after CHUNK steps)
+                             first estimate (after FIRST_CHECK steps)
     target : int             steps the chain is expected to run: 50 tau (the cap while tau is
                              unknown), at most the cap
     elapsed : float          [s] since the chain started
@@ -372,7 +370,6 @@ class ChainSession:
         self.tau = None
         self.seconds = 0.0
         self.tau_fn = None
-        self.move = None
 
 
 def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool = False,
@@ -452,9 +449,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     sampler = emcee.EnsembleSampler(nw, ndim, posterior, vectorize=True,
                                     moves=_moves(moves, move))
     sampler.random_state = np.random.RandomState(seed).get_state()
-    names = list(free) + ["log_sigma"] + (["phi"] if ar1 else [])
     if reparam is not None:  # the sampled coordinates and the coefficients mapped back
-        names += list(reparam.labels)
         idx = list(reparam.index)
 
         def tau_fn():

@@ -12,8 +12,8 @@ from typing import TYPE_CHECKING
 
 import emcee
 import numpy as np
-from scipy.optimize import least_squares
 
+from identify.fit.engine import LAPLACE, least_squares
 from identify.fit.mcmc_reparam import KyaRidge
 from identify.fit.problem import FitProblem
 
@@ -24,11 +24,21 @@ __all__ = ["LaplaceMove", "laplace", "laplace_start", "likelihood_mode", "sigma0
            "weighted_jacobian"]
 
 
-def sigma0(problem: FitProblem, xb: np.ndarray) -> float:
-    """RMS of the noise-weighted residuals at ``xb`` (the noise level's starting value)."""
-    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
-    r = r[np.isfinite(r)]
+MODE_NFEV = 30
+"""Budget of :func:`likelihood_mode`'s least-squares solve [residual evaluations]."""
+
+
+def _rms(r: np.ndarray) -> float:
+    """RMS of the noise-weighted residuals ``r`` (1 for none), at least 1e-12: the noise
+    level sigma at the optimum."""
     return max(float(np.sqrt(np.mean(r ** 2))) if r.size else 1.0, 1e-12)
+
+
+def sigma0(problem: FitProblem, xb: np.ndarray) -> float:
+    """RMS of the finite noise-weighted residuals at ``xb`` (the noise level's starting
+    value)."""
+    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
+    return _rms(r[np.isfinite(r)])
 
 
 def weighted_jacobian(posterior: _Posterior, x: np.ndarray,
@@ -45,8 +55,10 @@ def weighted_jacobian(posterior: _Posterior, x: np.ndarray,
 def likelihood_mode(posterior: _Posterior, xb: np.ndarray, h: np.ndarray) -> np.ndarray:
     """The maximum of the MCMC likelihood near the least-squares optimum ``xb`` (their
     weights can differ, e.g. the MF stages' sweep-relative noise): a few bounded Gauss-Newton
-    (trust-region) steps on the noise-weighted residuals; ``xb`` if that does not improve."""
-    ok = np.isfinite(weighted_jacobian(posterior, xb, h)[0])
+    (trust-region, identify.fit.engine.least_squares) steps on the noise-weighted residuals;
+    ``xb`` if that does not improve."""
+    ok = np.isfinite((posterior._predict(np.r_[xb, 0.0][None, :])[0] - posterior.meas)
+                     * posterior.w)
 
     def fun(x):
         pred = posterior._predict(np.r_[x, 0.0][None, :])[0]
@@ -58,8 +70,7 @@ def likelihood_mode(posterior: _Posterior, xb: np.ndarray, h: np.ndarray) -> np.
     lo, hi = posterior.lo, posterior.hi
     x0 = np.clip(xb, lo, hi)
     try:
-        sol = least_squares(fun, x0, jac=jac, bounds=(lo, hi), method="trf", max_nfev=30,
-                            x_scale="jac")
+        sol = least_squares(fun, x0, (lo, hi), LAPLACE, jac=jac, max_nfev=MODE_NFEV)
     except (ValueError, np.linalg.LinAlgError):
         return xb
     better = np.all(np.isfinite(sol.x)) and 2 * sol.cost < np.sum(fun(x0) ** 2)
@@ -83,7 +94,7 @@ def laplace(posterior: _Posterior, xb: np.ndarray,
     xb = likelihood_mode(posterior, xb, h)
     r, jac = weighted_jacobian(posterior, xb, h)
     ok = np.isfinite(r) & np.isfinite(jac).all(axis=1)
-    s0 = max(float(np.sqrt(np.mean(r[ok] ** 2))) if ok.any() else 1.0, 1e-12)
+    s0 = _rms(r[ok])
     jac = jac[ok]
     if reparam is not None:  # d x / d z = (d z / d x)^-1 at the optimum
         rows = np.concatenate([xb + np.diag(h), xb - np.diag(h)])

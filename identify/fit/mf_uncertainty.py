@@ -63,7 +63,8 @@ def _with_covariance(r: FitResult, free: tuple[str, ...], cov: np.ndarray,
 def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
     """``mf`` with every sweep-clustered stage's standard errors and correlations from the
     stacked delete-one-sweep jackknife (see module); stages with the iid covariance (too few
-    sweeps) and their coefficients are left as they are (their steps count as 0 downstream).
+    sweeps, or one sweep alone determines a combination: engine.jackknife_defined) and their
+    coefficients are left as they are (their steps count as 0 downstream).
 
     Parameters
     ----------
@@ -80,7 +81,8 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
         hold = {n: "held in the fit" for n in r.parameters if n not in r.free}
         sp = stage_problem(r.form, trailer, mf.params, free={r.form: list(r.parameters)},
                            hold=hold) if r.free else None
-        if sp is None or sp.problem.clusters() is None or sp.problem.free != r.free:
+        if (sp is None or r.covariance != "sweep-jackknife" or sp.problem.clusters() is None
+                or sp.problem.free != r.free):
             results.append(r)
             continue
         problem = sp.problem
@@ -104,7 +106,7 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
         sub = [clusters[c] for c in used]
         own = np.zeros((n_sweeps, len(problem.free)))
         own[used] = engine.jackknife_steps(J, fun, sub, up)
-        cov = engine.covariance(J, fun, clusters=sub, kind="jackknife", upstream=up)
+        cov = engine.jackknife_covariance(own[used])
         for j, n in enumerate(problem.free):
             steps[n] = own[:, j]
         results.append(_with_covariance(r, problem.free, cov, used.size))

@@ -191,7 +191,7 @@ class Diagnosis:
     cov : ndarray                  covariance of the free parameters (k, k)
     jacobian_source : str          "solver" (the least-squares solver's at its solution),
                                    "exact" (FitProblem.jacobian) or "central differences"
-    covariance : str               which covariance (FitProblem.covariance_used)
+    covariance : str               which covariance (engine.covariance_of)
     clusters : int                 its number of sweeps (0: iid)
     """
 
@@ -226,14 +226,16 @@ def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
             if g.size and g.min() <= 1e-7 * max(1.0, float(np.max(np.abs(g)))):
                 active.append(c.name)
     if not free:
-        cov, source = np.zeros((0, 0)), "solver"
+        cov, kind, clusters = np.zeros((0, 0)), *problem.covariance_used()
+        source = "solver"
     elif not out.polished:
-        cov = engine.problem_covariance(problem, xb, jac=out.lsq.jac, fun=out.lsq.fun)
+        cov, kind, clusters = engine.covariance_of(problem, xb, jac=out.lsq.jac,
+                                                   fun=out.lsq.fun)
         source = "solver"
     else:
-        cov = engine.problem_covariance(problem, xb)
+        cov, kind, clusters = engine.covariance_of(problem, xb)
         source = "exact" if problem.jacobian is not None else "central differences"
-    return Diagnosis(xb, at_bound, tuple(active), cov, source, *problem.covariance_used())
+    return Diagnosis(xb, at_bound, tuple(active), cov, source, kind, clusters)
 
 
 def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: int,

@@ -136,6 +136,16 @@ class FitProblem:
         object.__setattr__(self, "_group_index", index)
         object.__setattr__(self, "_group_den", np.bincount(index, self.measured ** 2,
                                                            minlength=levels.size))
+        # the objective's weights, once: every residual evaluation multiplies by them (a
+        # pressure measured as all 0 gets an infinite weight, as before, without a warning
+        # for problems whose weights are never used)
+        with np.errstate(divide="ignore"):
+            weights = np.array(1.0 / np.asarray(self.sigma, dtype=float)
+                               if self.sigma is not None
+                               else group_weights(self.measured, self.pressure_bar),
+                               dtype=float)
+        weights.flags.writeable = False
+        object.__setattr__(self, "_weights", weights)
 
     # ----- parameter vectors -------------------------------------------------------------
     @property
@@ -172,11 +182,13 @@ class FitProblem:
         order = np.argsort(index, kind="stable")
         return np.split(order, np.cumsum(np.bincount(index, minlength=C))[:-1])
 
-    def covariance_used(self) -> tuple[str, int]:
+    def covariance_used(self, jackknife_defined: bool = True) -> tuple[str, int]:
         """(the covariance the standard errors come from, its number of clusters):
         ``("sweep-jackknife", C)``, ``("iid", 0)`` or ``("iid-known-sigma", 0)``
-        (FitResult.covariance, .clusters)."""
-        clusters = self.clusters()
+        (FitResult.covariance, .clusters). ``jackknife_defined``: False when one sweep alone
+        determines a combination of the coefficients (identify.fit.engine.jackknife_defined):
+        iid then."""
+        clusters = self.clusters() if jackknife_defined else None
         if clusters is not None:
             return "sweep-jackknife", len(clusters)
         return ("iid-known-sigma" if self.sigma is not None else "iid"), 0
@@ -188,9 +200,9 @@ class FitProblem:
             return np.asarray(self.model(self.values(x)), dtype=float)
 
     def weights(self) -> np.ndarray:
-        if self.sigma is not None:
-            return 1.0 / np.asarray(self.sigma, dtype=float)
-        return group_weights(self.measured, self.pressure_bar)
+        """The objective's weight of each point (read-only): 1/sigma, or per pressure
+        1/sqrt(sum A_meas^2) (identify.fit.metric.group_weights)."""
+        return self._weights
 
     def noise_weights(self) -> np.ndarray:
         """1 / (standard deviation of each point at sigma = 1) under the ``noise`` model.
