@@ -10,9 +10,11 @@ from __future__ import annotations
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from identify.segment import Segmentation, SegmentSettings, segment_trailer
+from identify.segment.filters import revolution_average
 from tests.segment_cases import check, segmented
 from tests.ttc_cases import session
 
@@ -57,7 +59,33 @@ def test_revolution_average_removes_the_eccentricity_ripple(tmp_path):
     assert ripple(off) > 0.0015  # 0.8 % once per revolution: 0.8 % * 2 pi / 18 / sqrt(2)
     assert ripple(on) < 0.1 * ripple(off)
     removed = {f.name: f for f in on.segmentation.filters}["revolution average"]
-    assert removed.applied and removed.removed == 2 * 9 * 45  # half a window at both ends
+    assert removed.applied and removed.removed == 2 * 18 * 45  # n - 1 = 18 at both ends
+
+
+def test_revolution_average_leaves_a_fast_curved_sweep_in_place():
+    """A drive/brake sweep of 0.125/s through the peak of Fx = 3000 sin(1.6 atan(15 kappa)) N
+    with a 24 N once-per-revolution ripple, 18.7 samples a revolution at 100 Hz: a plain
+    one-revolution moving average (19 samples) is 29.7 N off the curve near the peak
+    (T^2/24 f''); the twiced filter over 18.7 samples 1.6 N (the fourth-order term), and it
+    lets 0.009 N of the ripple alone through (0.4 N would pass a window rounded to 19)."""
+    dt = 0.01
+    omega = 2 * np.pi / (18.7 * dt)
+    t = np.arange(0.0, 3.2, dt)
+    kappa = -0.2 + 0.125 * t
+
+    def fx(k):
+        return 3000.0 * np.sin(1.6 * np.arctan(15.0 * k))
+
+    ripple = 24.0 * np.cos(omega * t + 0.3)
+    frame = pd.DataFrame({"t": t, "kappa": kappa, "Fx": fx(kappa) + ripple,
+                          "omega": omega, "Vx": 11.1, "segment": 0})
+    out, count = revolution_average(frame, SegmentSettings(), dt)
+    assert count.removed == 2 * 18 and "18.7 samples" in count.note
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+    plain = frame[["kappa", "Fx"]].rolling(19, center=True).mean().dropna()
+    assert np.abs(plain["Fx"] - fx(plain["kappa"])).max() > 25.0
+    alone, _ = revolution_average(frame.assign(Fx=ripple), SegmentSettings(), dt)
+    assert np.abs(alone["Fx"]).max() < 0.05  # of 24 N
 
 
 def test_binning_gives_one_point_per_bin_and_sweep(sessions):
