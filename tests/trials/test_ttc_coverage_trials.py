@@ -27,9 +27,10 @@ import pytest
 from tests.bench_modules import load_bench
 
 SEEDS = tuple(range(10))
-POOLED_MIN = 0.85
-"""Pooled coverage the staged sweep jackknife reached on seeds 0-9 (812/910 = 0.89) less the
-binomial spread and a margin; the iid standard errors held 0.47."""
+POOLED_MIN = 0.90
+"""Pooled coverage on seeds 0-9 with the staged sweep jackknife and the twiced revolution
+average (846/910 = 0.93) less three times its binomial spread (0.0085); before the twiced
+filter 0.89, with iid standard errors 0.47."""
 
 
 @pytest.fixture(scope="module")
@@ -57,9 +58,9 @@ def test_forces_within_two_percent_and_pooled_coverage(tables, capsys):
 
 
 @pytest.mark.trials
-@pytest.mark.xfail(strict=True, reason="not met: 26 of 109 coefficients below 9/10, "
-                   "mostly biased by the data preparation (Fx0 PKX1 -1.85 %, 6.5 SE: the "
-                   "revolution average on fast slip sweeps), docs/intervals.md")
+@pytest.mark.xfail(strict=True, reason="not met: 18 of 109 coefficients below 9/10 "
+                   "(9.4 expected by chance); Fx0 PCX1/PEX1 spread 3.2 SE: two minima the "
+                   "noise cannot tell apart, bench/stage_valleys.py, docs/intervals.md")
 def test_every_identifiable_coefficient_inside_in_9_of_10_seeds(tables):
     _, t, _ = tables
     assert t["a_met"], sorted(t["failing"])

@@ -1,0 +1,94 @@
+"""Does an MF stage of a generated TTC fit have a second minimum as good as the one reported?
+
+Takes a folder kept by ``bench/ttc_truth.py --keep DIR`` (one seed: ``DIR/ttc-seedN``), builds
+the stage's points as ``mfid fit`` did (segmented, binned), and solves the stage again from the
+truth's coefficients (the other stages' at their fitted values). It prints the objective at
+the reported fit, at the truth, and at the minimum reached from the truth, and the named
+coefficients at each with the reported standard errors.
+
+When the minimum reached from the truth is as low as the reported one but far away in the
+named coefficients, the data hold two minima the noise cannot tell apart, and the reported
+(linearised) intervals describe only the one the search found (docs/intervals.md).
+
+    python bench/ttc_truth.py --seeds 2 --keep /tmp/tt
+    python bench/stage_valleys.py /tmp/tt/ttc-seed2 --stage Fx0 --names PCX1 PEX1 PEX4
+"""
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from identify.fit import engine
+from identify.fit.mf_stages import stage_problem
+from identify.fit.optimize import fit
+from identify.fit.run import FitSettings
+from identify.io.folder import load_folder
+from identify.io.tir import read_tir
+from identify.segment import SegmentSettings
+from identify.workflows.fit import _mf_trailer  # the table exactly as mfid fit builds it
+from identify.workflows.trailer_prep import prepare_trailer
+
+
+def _numbers(values) -> dict[str, float]:
+    return {k: float(v) for k, v in values.items() if isinstance(v, (int, float))}
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("seed_dir", help="a ttc-seedN folder kept by bench/ttc_truth.py --keep")
+    ap.add_argument("--stage", default="Fx0")
+    ap.add_argument("--names", nargs="+", default=["PCX1", "PEX1", "PEX4"])
+    args = ap.parse_args()
+    base = Path(args.seed_dir)
+    mset = load_folder(base / "folder")
+    settings = FitSettings()
+    td = prepare_trailer(mset, SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg,
+                                               bin_kappa=settings.bin_kappa),
+                         segment=settings.segment)
+    trailer = _mf_trailer(td, float(mset.manifest.tyre.nominal_load_N), settings, None)
+    fit_dir = next((base / "fits").iterdir())
+    fitted = _numbers(read_tir(next(fit_dir.glob("*.tir"))).values)
+    truth = _numbers(json.loads((base / "ttc" / "truth.json").read_text())["tir"])
+    reported = next(f for f in json.loads((fit_dir / "fit.json").read_text())["fits"]
+                    if f.get("relation") == "MF" and f.get("form") == args.stage)
+    free = {args.stage: list(reported["parameters"])}
+    sp = stage_problem(args.stage, trailer, fitted, free=free, hold={})
+    problem = sp.problem
+
+    def cost(values: dict[str, float]) -> float:
+        r = problem.residuals(np.array([values[n] for n in problem.free]))
+        return float(r @ r)
+
+    start = {**fitted, **{n: truth[n] for n in problem.free}}
+    again = fit(stage_problem(args.stage, trailer, start, free=free, hold={}).problem,
+                starts=np.array([[start[n] for n in problem.free]]))
+    rows = [("reported fit", fitted), ("truth", start), ("from the truth", again.parameters)]
+    c0 = cost(fitted)
+    print(f"{args.stage}: {problem.measured.size} points, {len(problem.free)} free; "
+          f"objective relative to the reported fit's")
+    print(f"{'':16s}{'objective':>11s}" + "".join(f"{n:>10s}" for n in args.names))
+    for label, values in rows:
+        print(f"{label:16s}{cost(values) / c0:11.5f}"
+              + "".join(f"{values[n]:10.4g}" for n in args.names))
+    print(f"{'reported sd':16s}{'':11s}"
+          + "".join(f"{reported['stderr'].get(n, float('nan')):10.2g}" for n in args.names))
+    # the difference in the units of the noise: chi^2 with iid noise (s^2 from the reported
+    # fit's residuals), and divided by the variance the reported intervals add over iid ones
+    # (their median ratio), which is what a 95 % region of the reported kind would allow
+    x = np.array([fitted[n] for n in problem.free])
+    r = problem.residuals(x)
+    s2 = float(r @ r) / (r.size - x.size)
+    iid = np.sqrt(np.diag(engine.covariance(engine.residual_jacobian(problem, x), r)))
+    inflation = float(np.median([(reported["stderr"][n] / sd) ** 2
+                                 for n, sd in zip(problem.free, iid) if sd > 0]))
+    dchi2 = (cost(again.parameters) - c0) / s2
+    print(f"from the truth - reported: {dchi2:+.1f} in iid chi^2; the reported intervals are "
+          f"{np.sqrt(inflation):.2f} x the iid ones (median), so {dchi2 / inflation:+.2f} on "
+          "their scale (a 95 % region of one coefficient: 3.84)")
+
+
+if __name__ == "__main__":
+    main()
