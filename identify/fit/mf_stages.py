@@ -56,7 +56,7 @@ from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
-from identify.fit.mf_constraints import FIT_MODE, stage_constraints
+from identify.fit.mf_constraints import stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import MFFit, point_columns
 from identify.fit.mf_search import (
@@ -85,6 +85,7 @@ from identify.fit.mf_stage_defs import (
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
+from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, defaults, spec
 from identify.model.state import OperatingState, prepare
 
