@@ -45,13 +45,14 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Callable, Collection, Mapping, Sequence
+from typing import Collection, Mapping, Sequence
 
 import lmfit
 import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from identify.core.progress import Progress
 from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE
 from identify.fit.mcmc import run_mcmc
@@ -94,9 +95,6 @@ __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "st
 
 MAX_ROUNDS = 2
 """Refinement re-fits per stage after the global fit (see _refine)."""
-
-Progress = Callable[[str], None]
-"""progress(text): one line per MF stage and sub-step (the workflow shows it; see module)."""
 
 
 @dataclass(frozen=True)
