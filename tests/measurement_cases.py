@@ -23,22 +23,30 @@ TRAILER_NAMES = ("RUNTIME", "LONGVEL", "WHROTSPD", "SLIPANGL", "LONGSLIP", "INCL
 FLATPLANK_NAMES = ("time", "Gx1", "Gx2", "Gy", "Gz1", "Gz2", "plank_x", "wheel_angle", "psi",
                    "hub_z", "phi_wheel", "phi_plank", "loaded_radius")
 
+# Files of the good folder (relative to it) that the bad-input tests edit
+FP = "flatplank/parking_p250_fz5000_s1.csv"
+TR = "trailer/cornering_p250.csv"
+H5 = "trailer/cornering_p220.h5"
+TDX = "trailer/cornering_p280.tdx"
+TAB = "tables/thesis.csv"
+PTS = "extra/points.csv"
+
 #: The manifest's runs, in order: ``key = value`` lines of each ``[[runs]]`` table
 RUNS = (
-    {"file": "flatplank/parking_p250_fz5000_s1.csv", "kind": "flatplank", "test": "parking",
+    {"file": FP, "kind": "flatplank", "test": "parking",
      "conditions": {"pressure_Pa": 250000, "load_N": 5000, "start_position": 1}},
     {"file": "flatplank/camber_p250_fz5000_s1_g5.csv", "kind": "flatplank", "test": "camber",
      "units": {"phi_plank": "deg"},
      "conditions": {"pressure_Pa": 250000, "load_N": 5000, "start_position": 1,
                     "gamma_deg": 5.0}},
-    {"file": "trailer/cornering_p250.csv", "kind": "trailer", "test": "cornering",
+    {"file": TR, "kind": "trailer", "test": "cornering",
      "axes": "ISO-W", "units": {"SLIPANGL": "deg", "INFLPRES": "kPa"},
      "conditions": {"pressure_Pa": 250000, "load_N": 5000}},
-    {"id": "cornering_p220", "file": "trailer/cornering_p220.h5", "kind": "trailer",
+    {"id": "cornering_p220", "file": H5, "kind": "trailer",
      "test": "cornering", "conditions": {"pressure_Pa": 220000, "load_N": 5000}},
-    {"file": "trailer/cornering_p280.tdx", "kind": "trailer", "test": "cornering", "axes": "SAE",
+    {"file": TDX, "kind": "trailer", "test": "cornering", "axes": "SAE",
      "conditions": {"pressure_Pa": 280000, "load_N": 5000}},
-    {"id": "thesis", "file": "tables/thesis.csv", "kind": "characteristics", "test": "any"},
+    {"id": "thesis", "file": TAB, "kind": "characteristics", "test": "any"},
 )
 
 TOML = """\
@@ -116,16 +124,16 @@ def write_good_folder(root: Path) -> Path:
     """Create the valid folder under ``root`` and return it."""
     root.mkdir(parents=True, exist_ok=True)
     (root / "tyre.toml").write_text(TOML)
-    write_csv(root / "flatplank" / "parking_p250_fz5000_s1.csv", flatplank_channels())
+    write_csv(root / FP, flatplank_channels())
     camber = flatplank_channels(phi_plank=np.radians(5.0), seed=2)
     camber["phi_plank"] = np.degrees(camber["phi_plank"])
     write_csv(root / "flatplank" / "camber_p250_fz5000_s1_g5.csv", camber)
     ch = trailer_channels(pressure=250000.0)
     ch["SLIPANGL"] = np.degrees(ch["SLIPANGL"])
     ch["INFLPRES"] = ch["INFLPRES"] / 1000.0
-    write_csv(root / "trailer" / "cornering_p250.csv", ch)
+    write_csv(root / TR, ch)
     h5 = trailer_channels(pressure=220000.0, seed=3)
-    write_hdf5(root / "trailer" / "cornering_p220.h5",
+    write_hdf5(root / H5,
                [RawRun("cornering_p220", h5, {"SLIPANGL": "rad", "INFLPRES": "Pa"})])
     sae = trailer_channels(pressure=280000.0, seed=4)
     for key in ("FYW", "FZW", "MYW", "MZW", "SLIPANGL"):
@@ -134,30 +142,38 @@ def write_good_folder(root: Path) -> Path:
     sae["LONGVEL"] = sae["LONGVEL"] * 3.6
     sae["SLIPANGL"] = np.degrees(sae["SLIPANGL"])
     sae["INFLPRES"] = sae["INFLPRES"] / 1e5
-    write_tydex(root / "trailer" / "cornering_p280.tdx", TydexFile(
+    write_tydex(root / TDX, TydexFile(
         (TydexEntry("MEASID", "Measurement ID", "", "cornering_p280"),), ("test file",), (),
         tuple(TydexChannel(k, k.lower(), units.get(k, "")) for k in sae),
         np.column_stack(list(sae.values()))))
     (root / "tables").mkdir(exist_ok=True)
-    (root / "tables" / "thesis.csv").write_text(CHARACTERISTICS)
+    (root / TAB).write_text(CHARACTERISTICS)
     (root / "characteristics.csv").write_text(EIGEN)
     (root / "extra").mkdir(exist_ok=True)
     shutil.copy(TIR, root / "extra" / "tyre.tir")
-    (root / "extra" / "points.csv").write_text(POINTS)
+    (root / PTS).write_text(POINTS)
     return root
+
+
+def rewrite_lines(rel: str, change):
+    """A folder edit for the bad-input tests: the lines of the text file ``rel`` (relative to
+    the folder) replaced by ``change(lines)``, written back with ``\n`` line ends."""
+    def apply(root: Path) -> None:
+        path = root / rel
+        path.write_text("\n".join(change(path.read_text().splitlines())) + "\n")
+    return apply
 
 
 def set_cell(rel: str, line: int, column: str, value: str):
     """A folder edit for the bad-input tests: cell ``column`` of 1-based ``line`` of the CSV
     ``rel`` (relative to the folder) set to ``value`` as text."""
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
+    def change(lines: list[str]) -> list[str]:
         col = lines[0].split(",").index(column)
         cells = lines[line - 1].split(",")
         cells[col] = value
         lines[line - 1] = ",".join(cells)
-        (root / rel).write_text("\n".join(lines) + "\n")
-    return apply
+        return lines
+    return rewrite_lines(rel, change)
 
 
 def edit(rel: str, old: str | bytes, new: str | bytes, count: int = 1):

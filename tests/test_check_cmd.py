@@ -22,31 +22,36 @@ from identify.core.errors import InputError
 from identify.io.folder import load_folder
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
-from tests.measurement_cases import edit, set_cell, trailer_channels, write_good_folder
+from tests.measurement_cases import (
+    FP,
+    H5,
+    TDX,
+    TR,
+    edit,
+    rewrite_lines,
+    set_cell,
+    trailer_channels,
+    write_good_folder,
+)
 
 runner = CliRunner()
-TR = "trailer/cornering_p250.csv"
-FP = "flatplank/parking_p250_fz5000_s1.csv"
-H5 = "trailer/cornering_p220.h5"
-TDX = "trailer/cornering_p280.tdx"
 
 
 # ------------------------------------------------------------------ mutation helpers
 
 def edit_line(rel: str, line: int, fn):
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
+    def change(lines: list[str]) -> list[str]:
         lines[line - 1] = fn(lines[line - 1])
-        (root / rel).write_text("\n".join(lines) + "\n")
-    return apply
+        return lines
+    return rewrite_lines(rel, change)
 
 
 def drop_column(rel: str, column: str):
-    def apply(root: Path) -> None:
-        rows = [r.split(",") for r in (root / rel).read_text().splitlines()]
+    def change(lines: list[str]) -> list[str]:
+        rows = [r.split(",") for r in lines]
         col = rows[0].index(column)
-        (root / rel).write_text("\n".join(",".join(r[:col] + r[col + 1:]) for r in rows) + "\n")
-    return apply
+        return [",".join(r[:col] + r[col + 1:]) for r in rows]
+    return rewrite_lines(rel, change)
 
 
 def write(rel: str, data: bytes | str):
@@ -67,10 +72,7 @@ def h5_two_groups(root: Path) -> None:
 
 
 def keep_lines(rel: str, count: int):
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
-        (root / rel).write_text("\n".join(lines[:count]) + "\n")
-    return apply
+    return rewrite_lines(rel, lambda lines: lines[:count])
 
 
 def remove(rel: str):

@@ -28,32 +28,36 @@ from identify.io.common import Problems
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
 from tests.measurement_cases import set_cell as cell
-from tests.measurement_cases import edit, trailer_channels, write_good_folder
+from tests.measurement_cases import (
+    H5,
+    PTS,
+    TAB,
+    TDX,
+    TR,
+    edit,
+    rewrite_lines,
+    trailer_channels,
+    write_good_folder,
+)
 from tests.ttc_cases import small_mat
 
 runner = CliRunner()
-TR = "trailer/cornering_p250.csv"
-H5 = "trailer/cornering_p220.h5"
-TDX = "trailer/cornering_p280.tdx"
-TAB = "tables/thesis.csv"
 TIR = "extra/tyre.tir"
-PTS = "extra/points.csv"
 TR_CONDITIONS = "conditions = { pressure_Pa = 250000, load_N = 5000 }\n"
 
 
 # ------------------------------------------------------------------ mutations
 
 def column(rel: str, name: str, fn):
-    def apply(root: Path) -> None:
-        lines = (root / rel).read_text().splitlines()
+    def change(lines: list[str]) -> list[str]:
         col = lines[0].split(",").index(name)
         out = [lines[0]]
         for line in lines[1:]:
             cells = line.split(",")
             cells[col] = repr(fn(float(cells[col])))
             out.append(",".join(cells))
-        (root / rel).write_text("\n".join(out) + "\n")
-    return apply
+        return out
+    return rewrite_lines(rel, change)
 
 
 def raw_line(rel: str, line: int, data: bytes):
@@ -65,12 +69,11 @@ def raw_line(rel: str, line: int, data: bytes):
 
 
 def tir_key(key: str, value: str):
-    def apply(root: Path) -> None:
-        lines = (root / TIR).read_text().splitlines()
+    def change(lines: list[str]) -> list[str]:
         i = next(i for i, x in enumerate(lines) if x.split("=")[0].strip() == key)
         lines[i] = f"{key} = {value}"
-        (root / TIR).write_text("\n".join(lines) + "\n")
-    return apply
+        return lines
+    return rewrite_lines(TIR, change)
 
 
 def both(*fns):

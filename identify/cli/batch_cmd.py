@@ -23,17 +23,7 @@ from rich.progress import (
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import fit_command_line
 from identify.cli.entry import Interrupted
-from identify.cli.fit_options import (
-    FittypOption,
-    FormOption,
-    HoldOption,
-    McmcAr1Option,
-    McmcMaxStepsOption,
-    McmcOption,
-    OnlyOption,
-    SeedOption,
-    fit_settings,
-)
+from identify.cli import fit_options as shared
 from identify.core.errors import MfidError
 from identify.workflows.batch import run_batch
 from identify.workflows.batch_task import BAD_INPUT, FAILED, LOST, OK, UP_TO_DATE
@@ -142,14 +132,14 @@ def batch_command(
                                      "out of memory)."),
     force: bool = typer.Option(False, "--force", help="Refit folders whose outputs are up to "
                                                       "date."),
-    mcmc: McmcOption = False,
-    mcmc_ar1: McmcAr1Option = False,
-    mcmc_max_steps: McmcMaxStepsOption = None,
-    seed: SeedOption = 0,
-    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
-    fittyp: FittypOption = 61,
-    form: FormOption = [],  # noqa: B006
-    hold: HoldOption = [],  # noqa: B006
+    mcmc: shared.McmcOption = False,
+    mcmc_ar1: shared.McmcAr1Option = False,
+    mcmc_max_steps: shared.McmcMaxStepsOption = None,
+    seed: shared.SeedOption = 0,
+    only: shared.OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
+    fittyp: shared.FittypOption = 61,
+    form: shared.FormOption = [],  # noqa: B006
+    hold: shared.HoldOption = [],  # noqa: B006
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.
@@ -166,9 +156,9 @@ def batch_command(
 
     events = RichBatchEvents()
     try:
-        settings = fit_settings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
-                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp,
-                                form=form, hold=hold)
+        settings = shared.fit_settings(
+            seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
+            fittyp=fittyp, form=form, hold=hold)
         run = run_batch([str(f) for f in folders], out_root=out,
                         reports=None if no_report else reports, settings=settings,
                         workers=workers, scheduler=scheduler, retries=retries, force=force,

@@ -27,17 +27,7 @@ from rich.text import Text
 from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
-from identify.cli.fit_options import (
-    FittypOption,
-    FormOption,
-    HoldOption,
-    McmcAr1Option,
-    McmcMaxStepsOption,
-    McmcOption,
-    OnlyOption,
-    SeedOption,
-    fit_settings,
-)
+from identify.cli import fit_options as shared
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
 from identify.fit.mcmc import BUDGET_S, ChainProgress
@@ -234,9 +224,9 @@ def fit_command(
                              help="Root of the fit directories: writes OUT/<tyre id>/."),
     reports: Path = typer.Option(Path("reports"), "--reports",
                                  help="Folder of the PDF reports: writes REPORTS/<tyre id>.pdf."),
-    mcmc: McmcOption = False,
-    mcmc_ar1: McmcAr1Option = False,
-    mcmc_max_steps: McmcMaxStepsOption = None,
+    mcmc: shared.McmcOption = False,
+    mcmc_ar1: shared.McmcAr1Option = False,
+    mcmc_max_steps: shared.McmcMaxStepsOption = None,
     mcmc_budget: float | None = typer.Option(
         None, "--mcmc-budget", metavar="SECONDS",
         help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
@@ -245,17 +235,17 @@ def fit_command(
              "does not need goes to the later ones. A chain stops at 50 autocorrelation "
              "times, the step cap or its share, whichever comes first; stopped early, it says "
              "converged = false and a warning names it with its steps and tau."),
-    seed: SeedOption = 0,
-    only: OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
+    seed: shared.SeedOption = 0,
+    only: shared.OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     nominal_pressure: float | None = typer.Option(
         None, "--nominal-pressure", metavar="PA",
         help="Nominal pressure [Pa] of a single characteristics CSV."),
     nominal_load: float | None = typer.Option(
         None, "--nominal-load", metavar="N", help="Nominal load [N] of a single "
                                                   "characteristics CSV."),
-    fittyp: FittypOption = 61,
-    form: FormOption = [],  # noqa: B006
-    hold: HoldOption = [],  # noqa: B006
+    fittyp: shared.FittypOption = 61,
+    form: shared.FormOption = [],  # noqa: B006
+    hold: shared.HoldOption = [],  # noqa: B006
     bin_alpha: float | None = typer.Option(
         None, "--bin-alpha", metavar="DEG",
         help="Bin width \\[deg] of dense slip-angle sweeps of trailer data: every sweep with at "
@@ -292,12 +282,12 @@ def fit_command(
             if v is not None}
         # the settings as mfid batch makes them, plus mfid fit's own; fit_settings checks the
         # shared options first, mfid fit's own are checked below
-        settings = fit_settings(seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1,
-                                mcmc_max_steps=mcmc_max_steps, only=only, fittyp=fittyp,
-                                form=form, hold=hold,
-                                mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
-                                               if math.isinf(mcmc_budget) else mcmc_budget),
-                                segment=not no_segment, **bins)
+        settings = shared.fit_settings(
+            seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
+            fittyp=fittyp, form=form, hold=hold,
+            mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
+                           if math.isinf(mcmc_budget) else mcmc_budget),
+            segment=not no_segment, **bins)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not mcmc_budget > 0:

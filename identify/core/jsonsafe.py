@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-__all__ = ["json_default", "json_float", "json_safe", "json_text"]
+__all__ = ["json_default", "json_float", "json_floats", "json_safe", "json_text"]
 
 
 def json_safe(value: Any) -> Any:
@@ -41,6 +41,11 @@ def json_safe(value: Any) -> Any:
 def json_float(x: Any) -> float | None:
     """One number for JSON: ``float(x)``, None for None, NaN or infinity."""
     return None if x is None else json_safe(float(x))
+
+
+def json_floats(values: Mapping[Any, Any]) -> dict[str, float | None]:
+    """A mapping of numbers for JSON: str keys, each value as :func:`json_float`."""
+    return {str(k): json_float(v) for k, v in values.items()}
 
 
 def json_text(doc: Any, *, indent: int = 1) -> str:

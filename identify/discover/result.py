@@ -16,16 +16,13 @@ from typing import Any, Mapping
 import numpy as np
 
 from identify.core.jsonsafe import json_float as _num
+from identify.core.jsonsafe import json_floats as _nums
 from identify.discover.noise import NoiseModel
 
 __all__ = ["CandidateRow", "Trial", "Step", "Accepted", "ProblemSummary", "Discovery",
            "SCHEMA"]
 
 SCHEMA = "mfid.discovery/1"
-
-
-def _nums(d: Mapping) -> dict:
-    return {str(k): _num(v) for k, v in d.items()}
 
 
 @dataclass(frozen=True)

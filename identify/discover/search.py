@@ -18,10 +18,11 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
+from identify.core.progress import Progress
 from identify.discover.conclude import conclusion, summaries
 from identify.discover.confirm import confirm
 from identify.discover.finish import final_accepted, headline, sign_note
@@ -37,8 +38,6 @@ from identify.fit.problem import FitProblem
 from threadpoolctl import threadpool_limits
 
 __all__ = ["Settings", "discover", "Progress"]
-
-Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)

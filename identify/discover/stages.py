@@ -28,15 +28,14 @@ from identify.discover.design import levels
 from identify.discover.drift import session_positions
 from identify.fit.problem import FitProblem
 from identify.model import aligning, lateral, longitudinal, moments
+from identify.model.modes import TRAILER_MODE
 from identify.model.parameters import bounds as table_bounds
 from identify.model.state import prepare
 import dataclasses
 
-__all__ = ["Stage", "STAGES", "TRAILER_MODE", "label_sweeps", "stage_problem", "add_parameter",
+__all__ = ["Stage", "STAGES", "label_sweeps", "stage_problem", "add_parameter",
            "sweep_shapes"]
 
-TRAILER_MODE = 111
-"""useMode of trailer data (limit checks on, as the simulator and MFeval's default)."""
 _TINY = 1e-6
 
 

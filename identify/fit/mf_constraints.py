@@ -36,11 +36,10 @@ import numpy as np
 from identify.fit.problem import Constraint
 from identify.model import lateral, longitudinal
 from identify.model.longitudinal import magic_cosine
+from identify.model.modes import FIT_MODE
 from identify.model.state import OperatingState, prepare, sgn1
 
 GRID_POINTS = 11
-FIT_MODE = 211
-"""useMode for fitting (docs/model.md, section 2): no limit checks, no low-speed blending."""
 
 
 @dataclass(frozen=True)

@@ -45,18 +45,19 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Callable, Collection, Mapping, Sequence
+from typing import Collection, Mapping, Sequence
 
 import lmfit
 import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from identify.core.progress import Progress
 from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
-from identify.fit.mf_constraints import FIT_MODE, stage_constraints
+from identify.fit.mf_constraints import stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import MFFit, point_columns
 from identify.fit.mf_search import (
@@ -85,6 +86,7 @@ from identify.fit.mf_stage_defs import (
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
+from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, defaults, spec
 from identify.model.state import OperatingState, prepare
 
@@ -93,9 +95,6 @@ __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "st
 
 MAX_ROUNDS = 2
 """Refinement re-fits per stage after the global fit (see _refine)."""
-
-Progress = Callable[[str], None]
-"""progress(text): one line per MF stage and sub-step (the workflow shows it; see module)."""
 
 
 @dataclass(frozen=True)

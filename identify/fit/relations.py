@@ -18,13 +18,13 @@ import pandas as pd
 from identify.fit.problem import Constraint, FitProblem
 from identify.model import moments, relations as rel
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 from identify.model.state import prepare
 from identify.model.parameters import bounds as table_bounds
 
 CMZ_MIN_LOAD_N = 500.0
 """CMz >= 0 is enforced from this load up to twice the largest measured load, at every
 pressure of the data (the thesis rejected a form that went negative below ~500 N)."""
-CAMBER_MODE = 211  # Flatplank camber runs are at crawl speed: no low-speed blending
 
 
 @dataclass(frozen=True)
@@ -323,7 +323,7 @@ def camber(chars, ctx, quantity: str, *, vx: float = 0.05,
     v2 = np.full(2 * n, vx)
 
     def model(v):
-        out = _evaluate_walkers({**t, **v}, output, fz2, zeros, zeros, g2, v2, p2, CAMBER_MODE)
+        out = _evaluate_walkers({**t, **v}, output, fz2, zeros, zeros, g2, v2, p2, FIT_MODE)
         return out[..., :n] - out[..., n:]
     return _problem("camber", quantity, P, model, d["value"], d["pi_bar"],
                       unit="N" if output == "Fy" else "N*m", extra=_extra(d, quantity))

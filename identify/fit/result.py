@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 
 from identify.core.jsonsafe import json_float as _num
+from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
 
 
@@ -94,7 +95,7 @@ class MCMCSummary:
                                            "seconds", "chain_file", "stopped")}
         d["reparametrised"] = list(self.reparametrised)
         for k in ("median", "q16", "q84", "q025", "q975", "tau", "correlations", "noise"):
-            d[k] = {n: _num(v) for n, v in getattr(self, k).items()}
+            d[k] = _nums(getattr(self, k))
         d["effective_samples"] = _num(self.n_samples)
         return json_safe(d)
 
@@ -205,9 +206,8 @@ class FitResult:
         """JSON-safe dict in the fit.json schema."""
         return json_safe({
             "relation": self.relation, "form": self.form, "objective": self.objective,
-            "parameters": {k: _num(v) for k, v in self.fitted.items()},
-            "fixed": {k: _num(v) for k, v in self.fixed.items()},
-            "stderr": {k: _num(v) for k, v in self.stderr.items()},
+            "parameters": _nums(self.fitted), "fixed": _nums(self.fixed),
+            "stderr": _nums(self.stderr),
             "bounds": {k: [_num(a), _num(b)] for k, (a, b) in self.bounds.items()},
             "at_bound": list(self.at_bound),
             "active_constraints": list(self.active_constraints),
@@ -217,7 +217,7 @@ class FitResult:
             "wls": _num(self.wls), "n_points": self.n_points, "converged": self.converged,
             "message": self.message, "n_starts": self.n_starts,
             "starts_at_best": self.starts_at_best,
-            "correlations": {k: _num(v) for k, v in self.correlations.items()},
+            "correlations": _nums(self.correlations),
             "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
             "identification": self.identification, "reasons": list(self.reasons),
             "held": dict(self.held),

@@ -70,7 +70,7 @@ def read_characteristics(path: str | Path, *, run: str | None = None,
     pandas.DataFrame or None
         None when problems were found (non-strict collector).
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     path = Path(path)
     start = problems.total
     text = read_utf8(path, problems)

@@ -80,6 +80,11 @@ class Problems:
         self._items: list[Problem] = []
         self._counts: dict[tuple[str | None, str], int] = {}
 
+    @classmethod
+    def or_strict(cls, problems: Problems | None) -> Problems:
+        """The caller's collector, or a strict one when it gave none (every reader's default)."""
+        return cls(strict=True) if problems is None else problems
+
     def add(self, file: str | Path | None, message: str, *, line: int | None = None,
             key: str | None = None, kind: str | None = None) -> None:
         """Record (or, when strict, raise) one problem."""

@@ -105,7 +105,7 @@ def read_flatplank(path: str | Path, *, a: float, b: float, run: str | None = No
     pandas.DataFrame or None
         None when problems were found (non-strict collector).
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     path = Path(path)
     units, conditions = dict(units or {}), dict(conditions or {})
     start = problems.total

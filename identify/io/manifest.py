@@ -218,7 +218,7 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
     Manifest or None
         None when problems were found (unless ``partial``) or the file is not valid TOML.
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     path = Path(path)
     file = str(path)
     start = problems.total

@@ -84,7 +84,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         Receives a :class:`~identify.io.quirks.DataWarning` per quirk found and cleaned.
         ``ch``'s arrays are never changed; the table shares those the cleaning leaves as read.
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     conditions = conditions or {}
     start = problems.total
     ttc = ch.ttc

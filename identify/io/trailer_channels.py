@@ -139,7 +139,7 @@ def read_channels(path: str | Path, *, run: str | None = None,
     problems : Problems, optional
         Collector; strict by default.
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     path = Path(path)
     start = problems.total
     why = file_problem(path)

@@ -120,7 +120,7 @@ def read_tydex(path: str | Path, problems: Problems | None = None, *,
     TydexFile or None
         None when problems were found (non-strict collector).
     """
-    problems = problems if problems is not None else Problems(strict=True)
+    problems = Problems.or_strict(problems)
     path = Path(path)
     start = problems.total
     try:

@@ -3,6 +3,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+FIT_MODE = 211
+"""useMode of the fits, of the Flatplank quantities and of every comparison with a fit: no limit
+checks, no low-speed blending, alpha* = alpha (docs/model.md, section 2). The plank rolls far
+below VXLOW: the low-speed reductions of the model are a numerical device there, not physics."""
+TRAILER_MODE = 111
+"""useMode of the trailer sweeps: limit checks on, as MFeval's default."""
+
 
 @dataclass(frozen=True)
 class UseMode:

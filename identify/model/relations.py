@@ -13,7 +13,9 @@ frozen dataclass per relation bundles its coefficients (``to_dict()`` is JSON-sa
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, fields
+from typing import ClassVar
 
 import numpy as np
 
@@ -30,6 +32,27 @@ __all__ = [
     "sidewall_scaled", "eigenfrequency", "rotta_membrane", "rotta_ring", "RING_MODES",
     "SidewallRing",
 ]
+
+
+class _Coefficients:
+    """Base of the relation dataclasses: the fields are the relation's coefficients, in the
+    order its functions take them after the operating point."""
+
+    def coefficients(self) -> tuple:
+        return tuple(getattr(self, f.name) for f in fields(self))
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+class _LoadPressureRelation(_Coefficients):
+    """A relation of load ``fz`` [N] and pressure increment ``dp`` [-]: calling it evaluates
+    ``function(fz, dp, *coefficients)`` (units in the function's docstring)."""
+
+    function: ClassVar[Callable]
+
+    def __call__(self, fz, dp):
+        return self.function(fz, dp, *self.coefficients())
 
 
 def _f(x):
@@ -129,7 +152,7 @@ def cfz_mf(rho, dp, vertical_stiffness, q_fz2, pfz1, r0, fz0):
 
 
 @dataclass(frozen=True)
-class VerticalQFz:
+class VerticalQFz(_Coefficients):
     """qFz vertical relation: qfz1 [N/m], qfz2 [N/m^2], qfz3 [-]."""
 
     qfz1: float
@@ -138,22 +161,19 @@ class VerticalQFz:
 
     def fz(self, rho, dp):
         """Fz [N] at deflection ``rho`` [m]."""
-        return fz_qfz(rho, dp, self.qfz1, self.qfz2, self.qfz3)
+        return fz_qfz(rho, dp, *self.coefficients())
 
     def cfz(self, rho, dp):
         """CFz [N/m] at deflection ``rho`` [m]."""
-        return cfz_qfz(rho, dp, self.qfz1, self.qfz2, self.qfz3)
+        return cfz_qfz(rho, dp, *self.coefficients())
 
     def rho(self, fz, dp):
         """Deflection [m] at load ``fz`` [N]."""
-        return rho_qfz(fz, dp, self.qfz1, self.qfz2, self.qfz3)
+        return rho_qfz(fz, dp, *self.coefficients())
 
     def cfz_at_load(self, fz, dp):
         """CFz [N/m] at load ``fz`` [N]."""
-        return cfz_qfz_at_load(fz, dp, self.qfz1, self.qfz2, self.qfz3)
-
-    def to_dict(self) -> dict:
-        return asdict(self)
+        return cfz_qfz_at_load(fz, dp, *self.coefficients())
 
 
 # --- CFx, CFy --------------------------------------------------------------------------------
@@ -169,18 +189,16 @@ def load_pressure_stiffness(fz, dp, nominal, p1, p2, p3, fz0):
 
 
 @dataclass(frozen=True)
-class LoadPressureStiffness:
-    """CFx or CFy relation: nominal [N/m], p1, p2, p3 [-], fz0 [N]."""
+class LoadPressureStiffness(_LoadPressureRelation):
+    """CFx or CFy relation: nominal [N/m], p1, p2, p3 [-], fz0 [N]; called: the stiffness [N/m]
+    at load ``fz`` [N] and pressure increment ``dp`` [-]."""
 
     nominal: float
     p1: float
     p2: float
     p3: float
     fz0: float
-
-    def __call__(self, fz, dp):
-        """Stiffness [N/m] at load ``fz`` [N] and pressure increment ``dp`` [-]."""
-        return load_pressure_stiffness(fz, dp, self.nominal, self.p1, self.p2, self.p3, self.fz0)
+    function = staticmethod(load_pressure_stiffness)
 
     def rebased(self, fz0: float) -> "LoadPressureStiffness":
         """The identical relation written with another reference load ``fz0`` [N].
@@ -194,9 +212,6 @@ class LoadPressureStiffness:
         p1 = (self.p1 * k + 2 * self.p2 * k * c) / ratio
         return LoadPressureStiffness(self.nominal * ratio, p1, self.p2 * k ** 2 / ratio, self.p3,
                                      fz0)
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 # --- CMz ---------------------------------------------------------------------------------------
@@ -212,23 +227,28 @@ def cmz_t2(fz, dp, nominal, p1, p2, p3, fz0):
     return nominal * (p1 * r + p2 * r ** 2) * (1 + p3 * _f(dp))
 
 
+class _YawStiffness(_LoadPressureRelation):
+    """A CMz form; ``to_dict`` names it (``form``)."""
+
+    form: ClassVar[str]
+
+    def to_dict(self) -> dict:
+        return {"form": self.form, **asdict(self)}
+
+
 @dataclass(frozen=True)
-class YawT1:
+class YawT1(_YawStiffness):
     """CMz form T1: nominal [N m/rad], p1 [-], fz0 [N]."""
 
     nominal: float
     p1: float
     fz0: float
-
-    def __call__(self, fz, dp):
-        return cmz_t1(fz, dp, self.nominal, self.p1, self.fz0)
-
-    def to_dict(self) -> dict:
-        return {"form": "T1", **asdict(self)}
+    function = staticmethod(cmz_t1)
+    form = "T1"
 
 
 @dataclass(frozen=True)
-class YawT2:
+class YawT2(_YawStiffness):
     """CMz form T2: nominal [N m/rad], p1, p2, p3 [-], fz0 [N]."""
 
     nominal: float
@@ -236,12 +256,8 @@ class YawT2:
     p2: float
     p3: float
     fz0: float
-
-    def __call__(self, fz, dp):
-        return cmz_t2(fz, dp, self.nominal, self.p1, self.p2, self.p3, self.fz0)
-
-    def to_dict(self) -> dict:
-        return {"form": "T2", **asdict(self)}
+    function = staticmethod(cmz_t2)
+    form = "T2"
 
 
 # --- cornering stiffness and relaxation length -------------------------------------------------
@@ -291,8 +307,8 @@ def sigma_chain(cfalpha, c_y, a):
 
 
 @dataclass(frozen=True)
-class CorneringStiffness:
-    """Kya relation: pky1, pky2, ppy1, ppy2, pky4 [-], fz0 [N]."""
+class CorneringStiffness(_LoadPressureRelation):
+    """Kya relation: pky1, pky2, ppy1, ppy2, pky4 [-], fz0 [N]; called: Kya [N/rad]."""
 
     pky1: float
     pky2: float
@@ -300,13 +316,7 @@ class CorneringStiffness:
     ppy2: float
     fz0: float
     pky4: float = 2.0
-
-    def __call__(self, fz, dp):
-        """Kya [N/rad]."""
-        return kya(fz, dp, self.pky1, self.pky2, self.ppy1, self.ppy2, self.fz0, self.pky4)
-
-    def to_dict(self) -> dict:
-        return asdict(self)
+    function = staticmethod(kya)
 
 
 # --- rolling resistance ------------------------------------------------------------------------

@@ -103,6 +103,27 @@ def rows_fitting(ax_height_in: float, fontsize: float) -> int:
     return max(1, int(ax_height_in / (fontsize * 1.55 / 72)) - 3)
 
 
+def table_pages(fd, name: str, title: str, subtitle: str, columns: Sequence[str],
+                rows: Sequence[Sequence[str]], widths: Sequence[float]) -> list[Page]:
+    """``rows`` as one table continued over as many full pages as it needs (none without rows).
+
+    Each page is ``(name, Figure)``, titled ``"title (i/n)"``; ``subtitle`` may name
+    ``{first}`` and ``{last}``, the page's first and last row (1-based).
+    """
+    per_page = rows_fitting(0.82 * PAGE[1], 7)
+    starts = range(0, len(rows), per_page)
+    pages = []
+    for i, start in enumerate(starts):
+        part = rows[start:start + per_page]
+        fig = new_page(f"{title} ({i + 1}/{len(starts)})",
+                       subtitle.format(first=start + 1, last=start + len(part)))
+        ax = fig.add_axes((0.04, 0.06, 0.92, 0.82))
+        draw_table(ax, columns, part, widths, fontsize=7)
+        footer(fig, fd)
+        pages.append((name, fig))
+    return pages
+
+
 def text_block(ax, lines: Sequence[str], fontsize: float = 8.5, colour: str = "black"):
     ax.set_axis_off()
     ax.text(0, 1, "\n".join(lines), fontsize=fontsize, va="top", ha="left",

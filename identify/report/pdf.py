@@ -17,7 +17,6 @@ fit directory gives the same PDF.
 from __future__ import annotations
 
 import io
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -25,6 +24,7 @@ from matplotlib.backends.backend_pdf import PdfPages
 from pypdf import PdfReader, PdfWriter
 
 from identify.core.errors import InputError
+from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir, read_fit_dir
@@ -34,8 +34,6 @@ from identify.report.mcmc_pages import mcmc_pages
 from identify.report.quality_pages import quality_pages
 from identify.report.trailer_pages import trailer_pages
 from identify.report.slip_pages import mf_slip_pages, slip_pages
-
-Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)

@@ -16,6 +16,7 @@ from identify.report.layout import (
     footer,
     new_page,
     rows_fitting,
+    table_pages,
     text_block,
 )
 
@@ -88,17 +89,8 @@ def quality_pages(fd: FitDir, notes: Sequence[str]) -> list[Page]:
     bx = fig.add_axes((0.48, 0.08, 0.48, 0.80))
     text_block(bx, lines[:60], fontsize=7.5)
     footer(fig, fd)
-    pages = [("data quality", fig)]
-    per_page = rows_fitting(0.82 * PAGE[1], 7)
-    parts = T.chunks(flags, per_page) if flags else []
-    for i, part in enumerate(parts):
-        lfig = new_page(f"Data flags ({i + 1}/{len(parts)})",
-                        f"flags {i * per_page + 1}-{i * per_page + len(part)} of {len(flags)}")
-        lax = lfig.add_axes((0.04, 0.06, 0.92, 0.82))
-        draw_table(lax, ["run", "test", "flag", "in the fit", "detail"],
-                   [[f["run"], f["test"], f["flag"], use.get(f["run"], "n/a"),
-                     f["detail"][:100]] for f in part],
-                   [0.24, 0.13, 0.08, 0.07, 0.48], fontsize=7)
-        footer(lfig, fd)
-        pages.append(("data flags", lfig))
-    return pages
+    flag_rows = [[f["run"], f["test"], f["flag"], use.get(f["run"], "n/a"), f["detail"][:100]]
+                 for f in flags]
+    return [("data quality", fig)] + table_pages(
+        fd, "data flags", "Data flags", f"flags {{first}}-{{last}} of {len(flags)}",
+        ["run", "test", "flag", "in the fit", "detail"], flag_rows, [0.24, 0.13, 0.08, 0.07, 0.48])

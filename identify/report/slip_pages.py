@@ -20,12 +20,10 @@ from matplotlib.lines import Line2D
 
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 from identify.report.curves import N_DENSE, camber_sweeps, levels, slip_sweeps
 from identify.report.layout import STYLES, Page, footer, load_colours, new_page
 from identify.report.tables import num
-
-MF_MODE = 211
-"""useMode of the MF slip curves (limit checks off, alpha* = alpha), as the fits use."""
 
 
 @dataclass(frozen=True)
@@ -102,7 +100,7 @@ def mf_slip_pages(fd: FitDir) -> tuple[list[SlipPage], list[str]]:
         arr = (lambda v: np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy())
         with np.errstate(all="ignore"):
             res = evaluate(P, arr(fz), arr(k), arr(a), np.deg2rad(arr(g_deg)), arr(vx),
-                           p=arr(p_bar * 1e5), mode=MF_MODE)
+                           p=arr(p_bar * 1e5), mode=FIT_MODE)
         return {o: np.asarray(res[o], dtype=float) for o in out}
 
     def page(title, quantity, xname, xlabel, ylabel, xrange, pure, to_x):

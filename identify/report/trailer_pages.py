@@ -13,16 +13,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from identify.io.fitdir import FitDir
-from identify.report import tables as T
-from identify.report.layout import (
-    PAGE,
-    Page,
-    draw_table,
-    footer,
-    new_page,
-    rows_fitting,
-    text_block,
-)
+from identify.report.layout import Page, draw_table, footer, new_page, table_pages, text_block
 
 __all__ = ["segment_lines", "trailer_pages", "warning_rows"]
 
@@ -122,17 +113,8 @@ def trailer_pages(fd: FitDir) -> list[Page]:
     cx = fig.add_axes((0.52, 0.06, 0.44, 0.40))
     text_block(cx, segment_lines(quality)[:34], fontsize=7)
     footer(fig, fd)
-    pages = [("data quality: trailer", fig)]
-    rows = warning_rows(quality)
-    per_page = rows_fitting(0.82 * PAGE[1], 7)
-    parts = T.chunks(rows, per_page) if rows else []
-    for i, part in enumerate(parts):
-        wfig = new_page(f"Loading warnings ({i + 1}/{len(parts)})",
-                        "usable data, cleaned while loading; count = samples concerned of the "
-                        "run's samples (gaps: the number of gaps)")
-        wax = wfig.add_axes((0.04, 0.06, 0.92, 0.82))
-        draw_table(wax, ["run", "kind", "channels", "count", "action", "detail"], part,
-                   [0.11, 0.08, 0.2, 0.1, 0.11, 0.4], fontsize=7)
-        footer(wfig, fd)
-        pages.append(("loading warnings", wfig))
-    return pages
+    return [("data quality: trailer", fig)] + table_pages(
+        fd, "loading warnings", "Loading warnings",
+        "usable data, cleaned while loading; count = samples concerned of the run's samples "
+        "(gaps: the number of gaps)", ["run", "kind", "channels", "count", "action", "detail"],
+        warning_rows(quality), [0.11, 0.08, 0.2, 0.1, 0.11, 0.4])

@@ -17,8 +17,17 @@ __all__ = ["CONDITION_UNITS", "FilterCount", "Level", "Segment", "Segmentation"]
 CONDITION_UNITS = {"Fz": "N", "p": "Pa", "gamma": "rad", "Vx": "m/s", "alpha": "rad"}
 
 
+class _Record:
+    """Base of the flat records: ``to_dict`` gives the fields in order, a mapping as a dict."""
+
+    def to_dict(self) -> dict[str, Any]:
+        """A JSON-safe dict."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)}
+        return {k: dict(v) if isinstance(v, Mapping) else v for k, v in out.items()}
+
+
 @dataclass(frozen=True)
-class Level:
+class Level(_Record):
     """One quasi-steady level of a condition channel (SI).
 
     Attributes
@@ -46,13 +55,9 @@ class Level:
     segments: int
     samples: int
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
-
 
 @dataclass(frozen=True)
-class Segment:
+class Segment(_Record):
     """A stretch of one run at quasi-steady conditions, or a warm-up or transition.
 
     Attributes
@@ -92,15 +97,9 @@ class Segment:
         object.__setattr__(self, "levels", MappingProxyType(dict(self.levels)))
         object.__setattr__(self, "medians", MappingProxyType(dict(self.medians)))
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        out["levels"], out["medians"] = dict(self.levels), dict(self.medians)
-        return out
-
 
 @dataclass(frozen=True)
-class FilterCount:
+class FilterCount(_Record):
     """One named filter and how many samples it removed.
 
     ``applied`` is False (with ``note`` saying why) when the data lack what the filter needs.
@@ -111,10 +110,6 @@ class FilterCount:
     remaining: int
     applied: bool
     note: str
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return {f.name: getattr(self, f.name) for f in fields(self)}
 
 
 @dataclass(frozen=True)

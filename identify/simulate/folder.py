@@ -21,6 +21,7 @@ import pandas as pd
 
 from identify.core.version import __version__
 from identify.core.errors import InputError
+from identify.model.modes import FIT_MODE, TRAILER_MODE
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng
 from identify.simulate.coefficients import Relations, relations_from_tir
@@ -28,7 +29,7 @@ from identify.simulate.flatplank import locked_hub_runs, parking_runs, vertical_
 from identify.simulate.flatplank_rolling import camber_runs, free_rolling_runs, relaxation_runs
 from identify.simulate.grid import GRIDS, Grid
 from identify.simulate.manifest import manifest_text
-from identify.simulate.model import FLATPLANK_MODE, TRAILER_MODE, Run, TyreModel
+from identify.simulate.model import Run, TyreModel
 from identify.simulate.rig import DEFAULT_RIG, Rig
 from identify.simulate.trailer import trailer_runs
 from identify.simulate.truth import characteristics
@@ -230,7 +231,7 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
     truth = {
         "generator": "identify.simulate", "mfid_version": __version__, "seed": art.seed,
         "artefacts": art.to_dict(), "grid": grid.to_dict(), "rig": rig.to_dict(),
-        "model_modes": {"flatplank": FLATPLANK_MODE, "trailer": TRAILER_MODE},
+        "model_modes": {"flatplank": FIT_MODE, "trailer": TRAILER_MODE},
         "fittyp": int(base["FITTYP"]), "tir": base,
         "hidden": {**hidden_tir, **{k: float(v) for k, v in (hide or {}).items() if "." in k}},
         "relations": recorded.to_dict(), "characteristics": truth_rows,

@@ -12,17 +12,12 @@ from typing import Mapping
 import numpy as np
 
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 from identify.model.relations import dpi as _dpi
 from identify.simulate.coefficients import Relations
 from identify.simulate.rig import Rig
 
-__all__ = ["TyreModel", "Run", "FLATPLANK_MODE", "TRAILER_MODE"]
-
-#: useMode for Flatplank quantities: no limit checks (the plank speed is far below VXLOW, and
-#: the low-speed reductions of the model are a numerical device, not Flatplank physics).
-FLATPLANK_MODE = 211
-#: useMode of the trailer sweeps (limit checks on, as MFeval's default).
-TRAILER_MODE = 111
+__all__ = ["TyreModel", "Run"]
 
 
 @dataclass(frozen=True)
@@ -103,7 +98,7 @@ class TyreModel:
         """Loaded radius [m]: the free radius R0 Q_RE0 minus the deflection."""
         return self.r0 * float(self.params["Q_RE0"]) - self.rho(fz, p_bar)
 
-    def mf(self, fz, p_bar, alpha=0.0, gamma=0.0, kappa=0.0, vx=None, mode=FLATPLANK_MODE):
+    def mf(self, fz, p_bar, alpha=0.0, gamma=0.0, kappa=0.0, vx=None, mode=FIT_MODE):
         """Magic Formula outputs (dict of arrays) broadcast over the arguments.
 
         ``fz`` [N], ``p_bar`` [bar], ``alpha``, ``gamma`` [rad], ``kappa`` [-], ``vx`` [m/s]

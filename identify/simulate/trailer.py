@@ -9,8 +9,9 @@ from __future__ import annotations
 
 import numpy as np
 
+from identify.model.modes import TRAILER_MODE
 from identify.simulate.grid import Grid
-from identify.simulate.model import TRAILER_MODE, Run, TyreModel
+from identify.simulate.model import Run, TyreModel
 
 __all__ = ["trailer_runs", "TRAILER_CHANNELS", "TRAILER_NOISY"]
 

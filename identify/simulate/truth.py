@@ -8,9 +8,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from identify.model.modes import TRAILER_MODE
 from identify.model.relations import RING_MODES
 from identify.simulate.grid import Grid
-from identify.simulate.model import TRAILER_MODE, TyreModel
+from identify.simulate.model import TyreModel
 
 __all__ = ["UNITS", "characteristics", "eigenfrequency_rows"]
 

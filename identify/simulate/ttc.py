@@ -26,10 +26,11 @@ import scipy.io
 
 from identify.core.errors import InputError
 from identify.core.version import __version__
+from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import run_rng
 from identify.simulate.coefficients import DEFAULT_RELATIONS
 from identify.simulate.folder import _move_into_place, _numeric_params, _prepare_target
-from identify.simulate.model import TRAILER_MODE, TyreModel
+from identify.simulate.model import TyreModel
 from identify.simulate.rig import DEFAULT_RIG
 from identify.simulate.ttc_plan import RATE, programme, session_plan
 from identify.simulate.ttc_quirks import IMPLAUSIBLE, inject, make_implausible

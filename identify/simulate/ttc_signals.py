@@ -26,8 +26,9 @@ from scipy.signal import lfilter
 
 from identify.core.units import to_si
 from identify.io.ttc import TTC_CHANNELS
+from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import ar1_unit
-from identify.simulate.model import TRAILER_MODE, TyreModel
+from identify.simulate.model import TyreModel
 from identify.simulate.ttc_plan import KIND_CODES, RATE, Programme
 
 __all__ = ["AMBIENT_C", "actual_conditions", "to_file_units", "ttc_channels"]

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,6 +19,7 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.core.names import name_problem
 from identify.core.jsonsafe import json_text
+from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.discover.library import load_library
 from identify.discover.problems import (
@@ -47,8 +47,6 @@ from identify.segment import SegmentSettings, segment_trailer
 from identify.simulate import default_tir_path
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
-
-Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)

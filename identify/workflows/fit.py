@@ -21,6 +21,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.names import name_problem
+from identify.core.progress import Progress
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
@@ -45,7 +46,6 @@ from identify.workflows.trailer_prep import prepare_trailer
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
 
-Progress = Callable[[str], None]
 ChainProgressFn = Callable[[str, ChainProgress], None]
 """Called with a chain's name (``MF_Fy0``, ``CFy_relaxation``) and where it stands."""
 

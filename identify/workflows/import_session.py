@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import shutil
 import tempfile
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -37,6 +37,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.names import safe_name
+from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.io.common import Problems, sha256_file
 from identify.io.manifest import MANIFEST_NAME
@@ -155,7 +156,7 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
                    nominal_load_N: float | None = None, unloaded_radius_m: float | None = None,
                    units: Mapping[str, str] | None = None, axes: str | None = None,
                    overwrite: bool = False, command: str = "mfid import",
-                   progress: Callable[[str], None] | None = None) -> ImportResult:
+                   progress: Progress | None = None) -> ImportResult:
     """Import trailer files into a new measurement folder ``out`` (see the module notes).
 
     Raises

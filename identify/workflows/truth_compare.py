@@ -29,15 +29,13 @@ import pandas as pd
 
 from identify.model import relations as rel
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 
 __all__ = ["FORCE_TOLERANCE_PCT", "STIFFNESS_TOLERANCE_PCT", "QuantityError",
            "TruthComparison", "compare_to_truth", "cmz"]
 
 FORCE_TOLERANCE_PCT = 1.0
 STIFFNESS_TOLERANCE_PCT = 2.0
-MODE = 211
-"""useMode of the comparison: limit checks off (the two files' validity limits differ),
-alpha* = alpha, as the fits."""
 FLATPLANK_SPEED = 0.05
 """Rolling speed of the stiffness evaluation [m/s] (Flatplank crawl speed)."""
 GRID = (9, 7)
@@ -156,9 +154,9 @@ def compare_to_truth(fitted: Mapping[str, float], truth: Mapping[str, float],
                                                   "Vx_mps", "pi_bar")]
         fz, kappa, alpha, gamma_deg, vx, pi = (np.nan_to_num(c) for c in cols)
         args = (fz, kappa, alpha, np.deg2rad(gamma_deg), vx)
-        with np.errstate(all="ignore"):
-            a = evaluate(F, *args, p=pi * 1e5, mode=MODE)[name]
-            b = evaluate(T, *args, p=pi * 1e5, mode=MODE)[name]
+        with np.errstate(all="ignore"):  # no limit checks: the two files' limits differ
+            a = evaluate(F, *args, p=pi * 1e5, mode=FIT_MODE)[name]
+            b = evaluate(T, *args, p=pi * 1e5, mode=FIT_MODE)[name]
         out.append(_error(name, a, b, FORCE_TOLERANCE_PCT,
                           f"{len(rows)} MF points of the {quantity} stages"))
     for name, quantity in STIFFNESSES.items():
@@ -179,8 +177,8 @@ def compare_to_truth(fitted: Mapping[str, float], truth: Mapping[str, float],
             zeros = np.zeros_like(fz_g)
             v = np.full_like(fz_g, FLATPLANK_SPEED)
             with np.errstate(all="ignore"):
-                a = evaluate(F, fz_g, zeros, zeros, zeros, v, p=p_g, mode=MODE)[_OUTPUT[name]]
-                b = evaluate(T, fz_g, zeros, zeros, zeros, v, p=p_g, mode=MODE)[_OUTPUT[name]]
+                a = evaluate(F, fz_g, zeros, zeros, zeros, v, p=p_g, mode=FIT_MODE)[_OUTPUT[name]]
+                b = evaluate(T, fz_g, zeros, zeros, zeros, v, p=p_g, mode=FIT_MODE)[_OUTPUT[name]]
         out.append(_error(name, np.asarray(a, float), np.asarray(b, float),
                           STIFFNESS_TOLERANCE_PCT, where))
     return TruthComparison(tuple(out))
