@@ -201,10 +201,10 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
     if stage == "Fy0":
         # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (docs/model.md,
         # section 6); the combined expression is evaluated only where kappa != 0
-        fy = lateral.fy0(P, s, xp=xp).fy0
-        if xp is not np:
-            return xp.where(s.kappa != 0, lateral.fy_combined(
-                P, s, lateral.fy0(P, s, xp=xp), xp).fy, fy)
+        pure = lateral.fy0(P, s, xp=xp)
+        fy = pure.fy0
+        if xp is not np:  # one pure-slip evaluation for both (traced once)
+            return xp.where(s.kappa != 0, lateral.fy_combined(P, s, pure, xp).fy, fy)
         slip, s_slip = inputs["slip"], inputs["s_slip"]
         if slip.size:
             fy = np.array(fy, copy=True)
