@@ -84,6 +84,14 @@ identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
 max(|value|, 1e-3)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
+MERGE_CHI2 = 1.0
+"""A start of the search is stopped once it has reached an earlier start's end point x_e: its
+iterate x within MERGE_CHI2 of x_e in chi^2, ||J_e (x - x_e)||^2 <= MERGE_CHI2 s^2 (J_e the
+solver's Jacobian of the weighted residuals at x_e, s^2 = r^T r / (n - k) there), at a cost
+0.5 r^T r no more than 0.5 MERGE_CHI2 s^2 above x_e's: within a standard error of that optimum,
+in its basin, where the solve would end (its own stop is a chi^2 change below 0.02 over 5
+iterations, which the last iterations of a start along a flat valley took tens of evaluations
+to reach). The start then counts as ending at x_e (the same candidate)."""
 
 
 def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:
@@ -169,14 +177,42 @@ class Search:
     converged: bool = True
 
 
+class _Reached:
+    """engine.least_squares ``stop``: the message of a start that has reached one of the end
+    points of the earlier starts (see MERGE_CHI2), recorded in ``into`` (its index)."""
+
+    def __init__(self, ends: list[engine.Estimate], n_free: int):
+        self.ends = [(j, e.x, e.jac, e.cost, 2.0 * e.cost / max(e.fun.size - n_free, 1))
+                     for j, e in enumerate(ends)
+                     if e.success and e.jac is not None and e.jac.shape[1] == n_free]
+        self.into: int | None = None
+
+    def __call__(self, x: np.ndarray, cost: float) -> str | None:
+        for j, xe, Je, ce, s2 in self.ends:
+            if cost <= ce + 0.5 * MERGE_CHI2 * s2:
+                d = Je @ (x - xe)
+                if d @ d <= MERGE_CHI2 * s2:
+                    self.into = j
+                    return f"reached the end point of start {j + 1}"
+        return None
+
+
 def search(problem: FitProblem, starts: np.ndarray) -> Search:
     """Solve every start by least squares on ``problem`` (the stage's subsample) with the
-    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module)."""
+    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module). A
+    start that reaches an earlier one's end point stops there and ends at it (MERGE_CHI2)."""
     problem, counter = engine.counted(problem)
     jac = problem.residual_jacobian if problem.jacobian is not None else None
-    ends = [engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
-                                 max_nfev=SEARCH_NFEV) for x0 in np.atleast_2d(starts)]
-    objs = np.array([problem.objective_value(e.x) for e in ends])
+    ends: list[engine.Estimate] = []
+    for x0 in np.atleast_2d(starts):
+        reached = _Reached(ends, len(problem.free))
+        end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
+                                   max_nfev=SEARCH_NFEV, stop=reached if reached.ends else None)
+        ends.append(end if reached.into is None else dataclasses.replace(
+            ends[reached.into], message=end.message, nfev=end.nfev, njev=end.njev))
+    # 0.5 r^T r at each end point: the solver's cost there (weighted least squares)
+    objs = np.array([e.cost if problem.objective == "wls" else problem.objective_value(e.x)
+                     for e in ends])
     objs = np.where(np.isfinite(objs), objs, np.inf)
     order = np.argsort(objs, kind="stable")
     best = objs[order[0]]
