@@ -270,7 +270,9 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
            bounds: tuple[np.ndarray, np.ndarray], tol: Tolerances = STRICT, *,
            constraints: Callable[[np.ndarray], np.ndarray] | None = None,
            gradient: Callable[[np.ndarray], np.ndarray] | None = None,
-           metric: np.ndarray | None = None) -> Estimate:
+           metric: np.ndarray | None = None,
+           local_constraints: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]]
+           | None = None) -> Estimate:
     """SLSQP on a scalar objective from ``x1`` with bounds and inequality constraints.
 
     The variables are scaled by max(|x1|, 1e-3) (SLSQP is sensitive to scaling), or, given a
@@ -297,6 +299,12 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
         variables that is this metric, so that the first step is a Gauss-Newton step instead
         of a gradient step (on the sample's Fx and Fy stages SLSQP took 26-27 iterations from
         the identity in the x scaling). Finite bounds become linear constraints.
+    local_constraints : callable, optional
+        x -> a function equal to ``constraints`` near x (FitProblem.local_constraints). With a
+        ``metric``, the constraints' Jacobian is then SLSQP's own forward differences (the
+        same steps, scipy.optimize.approx_fprime) of that function at each iterate: on the MF
+        validity grid it evaluates the few grid points that set each minimum instead of
+        thousands, 1 + k times per iteration.
     """
     lo, hi = (np.asarray(b, dtype=float) for b in bounds)
     T = None if metric is None else _whitening(metric)
@@ -323,7 +331,14 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
                                                    (hi - to_x(z))[upper]])),
                  "jac": (lambda z: rows)}] if rows.shape[0] else []
         if constraints is not None:
-            cons.append({"type": "ineq", "fun": (lambda z: constraints(to_x(z)))})
+            con = {"type": "ineq", "fun": (lambda z: constraints(to_x(z)))}
+            if local_constraints is not None:
+                def con_jac(z):
+                    near = local_constraints(to_x(z))
+                    return np.atleast_2d(optimize.approx_fprime(
+                        z, lambda z1: near(to_x(z1)), _SLSQP_STEP))
+                con["jac"] = con_jac
+            cons.append(con)
         grad = ((lambda z: T.T @ np.asarray(gradient(to_x(z)))) if gradient is not None
                 else None)
         box = None
@@ -342,6 +357,10 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
                     njev=int(getattr(out, "njev", 0) or 0), status=status,
                     message=str(out.message), success=bool(out.success),
                     active_mask=np.where(x <= lo, -1, np.where(x >= hi, 1, 0)))
+
+
+_SLSQP_STEP = float(np.sqrt(np.finfo(float).eps))
+"""SLSQP's finite-difference step in its variables (scipy's default ``eps``)."""
 
 
 def _whitening(metric: np.ndarray) -> np.ndarray | None:
