@@ -156,19 +156,21 @@ def stage_inputs(stage: str, base: Values, s: OperatingState,
         return {"fx0": longitudinal.fx0(base, s).fx0}
     if stage == "Fy0":
         return {}
+    # each stage computes only the forces it uses (Mx no longitudinal, My no lateral one), so
+    # that it reads only the coefficients it depends on (identify.fit.mf_uncertainty)
+    if stage == "My":
+        return {"fx": longitudinal.gx_alpha(base, s) * longitudinal.fx0(base, s).fx0}
     pure = lateral.fy0(base, s)
     if stage == "Fy":
         return {"pure": pure}
     fy = lateral.fy_combined(base, s, pure)
-    lon = longitudinal.fx0(base, s)
-    fx = longitudinal.gx_alpha(base, s) * lon.fx0
-    if stage in ("Mz0", "Mz"):
-        return {"pure": pure, "pure0": lateral.fy0(base, s, zero_camber=True), "fy": fy,
-                "fx": fx, "kxk": lon.kxk}
     if stage == "Mx":
         return {"fy": fy.fy}
-    if stage == "My":
-        return {"fx": fx}
+    if stage in ("Mz0", "Mz"):
+        lon = longitudinal.fx0(base, s)
+        fx = longitudinal.gx_alpha(base, s) * lon.fx0
+        return {"pure": pure, "pure0": lateral.fy0(base, s, zero_camber=True), "fy": fy,
+                "fx": fx, "kxk": lon.kxk}
     raise ValueError(f"unknown MF stage {stage!r}")
 
 
