@@ -245,11 +245,44 @@ def stage_model(stage: str, base: Values, s: OperatingState,
         values -> prediction of the stage's quantity at every point [N or N m]. ``values`` may
         hold floats or arrays of shape (walkers, 1) (then the result is (walkers, points)).
     """
-    inputs = stage_inputs(stage, base, s, omega)
-    if stage == "Fy0":
-        slip = np.flatnonzero(s.kappa != 0)
-        inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
+    inputs = _model_inputs(stage, base, s, omega)
 
     def model(values: Values) -> np.ndarray:
         return stage_predict(stage, {**base, **values}, s, inputs)
     return model
+
+
+def _model_inputs(stage: str, base: Values, s: OperatingState,
+                  omega: np.ndarray | None) -> dict[str, object]:
+    """:func:`stage_inputs`, and for Fy0 the points with kappa != 0 (see stage_predict)."""
+    inputs = stage_inputs(stage, base, s, omega)
+    if stage == "Fy0":
+        slip = np.flatnonzero(s.kappa != 0)
+        inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
+    return inputs
+
+
+class _Reads(dict):
+    """A parameter mapping that records the names read from it (``names_read``)."""
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.names_read: set[str] = set()
+
+    def __getitem__(self, key):
+        self.names_read.add(key)
+        return super().__getitem__(key)
+
+    def get(self, key, default=None):
+        self.names_read.add(key)
+        return super().get(key, default)
+
+
+def names_read(stage: str, values: Values, s: OperatingState,
+               omega: np.ndarray | None = None) -> set[str]:
+    """The parameter names that the prediction of ``stage`` at ``values`` (every .tir value)
+    reads, its inputs' equations included. The prediction cannot depend on any other name:
+    changing one leaves the same arithmetic on the same numbers."""
+    P = _Reads(values)
+    stage_predict(stage, P, s, _model_inputs(stage, P, s, omega))
+    return P.names_read
