@@ -244,3 +244,16 @@ def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, 
     got = _upstream_jacobian(sp, x, truth, names)
     np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
     assert np.all(got[:, [j for j, n in enumerate(names) if n not in read]] == 0)
+
+
+@needs_jax
+def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch):
+    """stage_jacobian passes the held values the equations read (Fy0 under JAX: the
+    combined-slip ones too); a set that misses one falls back to every value."""
+    sp = stage_problem("Fy0", data, truth, screen=False)
+    others = mf_jacobian._read_others("Fy0", truth, sp.state, sp.omega)
+    assert "RVY1" in others and "QSX1" not in others and "PKY1" not in others
+    J = sp.problem.model_jacobian()
+    monkeypatch.setattr(mf_jacobian, "_read_others", lambda *a: ("FNOMIN",))
+    again = stage_problem("Fy0", data, truth, screen=False).problem.model_jacobian()
+    np.testing.assert_allclose(again, J, rtol=1e-13, atol=0)
