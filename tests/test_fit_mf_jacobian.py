@@ -257,3 +257,18 @@ def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monke
     monkeypatch.setattr(mf_jacobian, "_read_others", lambda *a: ("FNOMIN",))
     again = stage_problem("Fy0", data, truth, screen=False).problem.model_jacobian()
     np.testing.assert_allclose(again, J, rtol=1e-13, atol=0)
+
+
+@needs_jax
+def test_a_start_on_an_earlier_path_stops_there(truth, data, exact):
+    """With the exact Jacobian a start that joins an earlier start's path (here: the same
+    start again, whose first iterate is the earlier one's) ends at that start's end point."""
+    noisy = add_noise(data, 8)
+    p = stage_problem("Fy0", noisy, _perturb(truth, STAGES["Fy0"].coefficients, seed=6),
+                      screen=False).problem
+    assert p.jacobian is not None
+    one = search(p, p.x0()[None, :])
+    twice = search(p, np.vstack([p.x0(), p.x0()]))
+    assert twice.starts_at_best == 2 and len(twice.candidates) == 1
+    np.testing.assert_array_equal(twice.candidates[0], one.candidates[0])
+    assert twice.nfev <= one.nfev + 3
