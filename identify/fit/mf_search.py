@@ -9,7 +9,8 @@ the carried-forward values (+/-0.05 where both are 0).
 Search, then solve (:func:`search`): every start is solved by least squares (SEARCH
 tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUBSAMPLE points
 (all points when there are fewer), where a start costs SUBSAMPLE/points of what it would on
-all of them; only the distinct end points whose subsample objective is within CANDIDATE_RTOL
+all of them, and a start that reaches an earlier start's end point or path stops there
+(MERGE_CHI2); only the distinct end points whose subsample objective is within CANDIDATE_RTOL
 of the best (at most MAX_CANDIDATES) go on. On large data each candidate is carried up a
 ladder of subsamples LADDER times larger each (:func:`ladder_sizes`; the optimum of 4096 of 93074
 noisy points can lie 15 % away in a flat direction, where the solver on all points crawls for
