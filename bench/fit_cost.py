@@ -48,6 +48,26 @@ branch 214 and 209: 2.9x ddb9f71, 1.0-1.14x main. After merging main (787ab4d, l
 9.4): the sample 138 (wall 196), ``--ttc 0`` 207 (wall 303; 75 evaluations of every one of
 the 135111 samples, binning included).
 
+Measured 2026-11-24 05:18-05:19 UTC, load average 1.0-1.1, two rounds, each main at d022d60
+(``git archive d022d60`` into /tmp, ``PYTHONPATH=/tmp/fitcost-before python bench/fit_cost.py
+--label d022d60``: this script on that code) and then this branch (f41bdf6), back to back:
+the bundled sample 139 and 132 -> 116 and 112 (cpu 137, 131 -> 117, 113); ``--ttc 0`` 208 and
+206 -> 177 and 180 (cpu 211, 208 -> 180, 181). Per stage (round 2, sample / TTC): Fy0 429 ->
+314 / 480 -> 369, Fy 178 -> 135 / 244 -> 177, Fx 93 -> 80 / 129 -> 115, the others within the
+rounds' spread. The staged jackknife (``jackknife`` line, after the stages in mfid fit, not in
+the total) 48 -> 17 on the sample and 65 -> 32 on the TTC session; stages and jackknife
+together 180 -> 130 and 271 -> 212. Every fitted value the same (bit-identical but for the
+search's merged starts: thesis errors per pressure within 1e-7 percentage points, coefficients
+within 4e-6 of their standard errors, standard errors within 1.3e-5 relative, mfid fit
+--no-report before and after). Against ddb9f71's 351 and 612 (earlier rounds, not this one):
+3.1x and 3.4x, short of the issue's 5x. What the remaining ~115 evaluations of the sample are,
+from step timings of one run: importing JAX 0.3 s (~13 evaluations, in the first stage's
+time), tracing and loading each exact-Jacobian stage's compiled function 0.05-0.15 s (~20
+together), the Fy0 and Mz0 searches on the subsample (~25; a curved valley the trust region
+crawls along), their solves on all points and re-fits (~20); on the TTC session also the
+binning before the stages (identify.segment.filters.revolution_average, ~15) and the Fy
+stage's two candidates, both polished to the same constrained optimum (~15).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
@@ -77,6 +97,10 @@ try:
     from identify.io.folder import load_folder  # noqa: E402
 except ImportError:  # versions before the io layer
     from identify.load.folder import load_folder  # noqa: E402
+try:
+    from identify.fit.mf_uncertainty import propagate  # noqa: E402
+except ImportError:  # versions before the staged jackknife
+    propagate = None
 
 ROOT = Path(__file__).resolve().parents[1]
 FOLDER = ROOT / "measurements" / "sample-225-50R17"
@@ -175,6 +199,11 @@ def main() -> None:
         mf = fit_mf(table, base)
         total_fit = time.perf_counter() - t0
         total_cpu = time.process_time() - c0
+        jk_fit = None
+        if propagate is not None:  # the staged jackknife mfid fit runs next (not in total)
+            t1 = time.perf_counter()
+            propagate(table, mf)
+            jk_fit = time.perf_counter() - t1
     if args.save_table:
         table.to_pickle(args.save_table)
     if tmp is not None:
@@ -201,6 +230,10 @@ def main() -> None:
               f"{r.message[:60]}")
     print(f"{'total':9} {sum(x['points'] for x in rows):7d} {total_fit:8.2f} "
           f"{1e3 * all_eval:8.2f} {total_fit / all_eval:9.0f}")
+    if jk_fit is not None:
+        print(f"{'jackknife':9} {sum(x['points'] for x in rows):7d} {jk_fit:8.2f} "
+              f"{1e3 * all_eval:8.2f} {jk_fit / all_eval:9.0f}  (the staged jackknife after the "
+              f"stages, identify.fit.mf_uncertainty.propagate; not in total)")
     cpu_eval = sum(evaluation_seconds(mf.params, mf.points[r.form], time.process_time)
                    for r in mf.results)
     print(f"{'cpu':9} {sum(x['points'] for x in rows):7d} {total_cpu:8.2f} "
@@ -218,6 +251,9 @@ def main() -> None:
                                          "samples_eval_s": every,
                                          "samples_ratio": total_fit / every,
                                          "total_cpu_s": total_cpu, "eval_cpu_s": cpu_eval,
+                                         "jackknife_s": jk_fit,
+                                         "jackknife_ratio": (None if jk_fit is None
+                                                             else jk_fit / all_eval),
                                          "cpu_ratio": total_cpu / cpu_eval}, indent=1))
 
 

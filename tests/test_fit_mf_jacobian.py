@@ -159,3 +159,116 @@ def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
     near = x + 1e-9 * np.maximum(np.abs(x), 1e-3)
     assert len(prune(p, [x, near])) == 2
 
+
+
+def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
+    """mf_search.MERGE_CHI2: a second start at the first one's end point stops after one
+    iteration and ends at it (one candidate, both starts at the best value)."""
+    noisy = add_noise(data, 6)
+    p = stage_problem("Fx0", noisy,
+                      _perturb(truth, STAGES["Fx0"].coefficients, seed=4)).problem
+    one = search(p, p.x0()[None, :])
+    end = one.candidates[0]
+    both = search(p, np.vstack([p.x0(), end * (1 + 1e-7)]))
+    assert both.n_starts == 2 and both.starts_at_best == 2 and len(both.candidates) == 1
+    np.testing.assert_array_equal(both.candidates[0], end)
+    # the second start: one iteration (finite-difference Jacobians here: k + 1 evaluations
+    # each), not a solve
+    assert both.nfev <= one.nfev + 3 * (len(p.free) + 1)
+
+
+def test_least_squares_stop_callable_ends_the_solve():
+    from identify.fit import engine
+
+    seen = []
+
+    def stop(x, cost):
+        seen.append(cost)
+        return "enough" if len(seen) == 2 else None
+
+    est = engine.least_squares(lambda x: np.array([x[0] - 1.0, 10 * (x[1] - x[0] ** 2)]),
+                               np.array([-1.2, 1.0]), (np.full(2, -5.0), np.full(2, 5.0)),
+                               stop=stop)
+    assert est.status == engine.STOP_STATUS and est.message == "enough" and est.success
+    assert len(seen) == 2 and est.cost == seen[-1]
+
+
+@pytest.mark.parametrize("stage", ["Fy0", "Mz0", "Fx0"])
+def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth):
+    """Constraint.local: the polish's forward differences of the validity margins on the grid
+    points near each load's minimum are those on the whole grid."""
+    from scipy.optimize import approx_fprime
+
+    from identify.fit.mf_constraints import stage_constraints
+
+    start = _perturb(truth, STAGES[stage].coefficients, seed=5)
+    names = [n for n in STAGES[stage].coefficients if n in start]
+    cons = stage_constraints(stage, start, lambda v: {**start, **v}, [2.0e5, 2.5e5])
+    assert cons and all(c.local is not None for c in cons)
+    x = np.array([start[n] for n in names])
+
+    def whole(x1):
+        v = dict(zip(names, x1))
+        return np.concatenate([c.fun(v) for c in cons])
+    near = [c.local(dict(zip(names, x))) for c in cons]
+
+    def local(x1):
+        v = dict(zip(names, x1))
+        return np.concatenate([f(v) for f in near])
+    np.testing.assert_array_equal(local(x), whole(x))
+    # steps of 1e-8 relative, as SLSQP's in its whitened variables
+    eps = 1e-8 * np.maximum(np.abs(x), 1e-3)
+    np.testing.assert_array_equal(approx_fprime(x, local, eps), approx_fprime(x, whole, eps))
+
+
+def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, data):
+    """The staged jackknife's d residuals / d (earlier stages' coefficients): batched, and
+    exactly zero for names the stage does not read (Mx reads no longitudinal coefficient)."""
+    from identify.fit import engine
+    from identify.fit.mf_stage_defs import names_read, stage_model
+    from identify.fit.mf_uncertainty import _upstream_jacobian
+
+    sp = stage_problem("Mx", data, truth)
+    p = sp.problem
+    x = p.x0()
+    names = [n for n in STAGES["Fy0"].coefficients + STAGES["Fx0"].coefficients
+             if n in truth][:40]
+    read = names_read("Mx", {**truth, **p.values(x)}, sp.state, sp.omega)
+    assert "PKY1" in read and "PKX1" not in read
+
+    def residuals(phi):
+        base = {**truth, **dict(zip(names, (float(v) for v in phi)))}
+        model = stage_model("Mx", base, sp.state, sp.omega)
+        return (np.asarray(model(p.values(x))) - p.measured) * p.weights()
+    ref = engine.fd_jacobian(residuals, np.array([float(truth[n]) for n in names]))
+    got = _upstream_jacobian(sp, x, truth, names)
+    np.testing.assert_allclose(got, ref, rtol=1e-12, atol=1e-12 * np.max(np.abs(ref)))
+    assert np.all(got[:, [j for j, n in enumerate(names) if n not in read]] == 0)
+
+
+@needs_jax
+def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch):
+    """stage_jacobian passes the held values the equations read (Fy0 under JAX: the
+    combined-slip ones too); a set that misses one falls back to every value."""
+    sp = stage_problem("Fy0", data, truth, screen=False)
+    others = mf_jacobian._read_others("Fy0", truth, sp.state, sp.omega)
+    assert "RVY1" in others and "QSX1" not in others and "PKY1" not in others
+    J = sp.problem.model_jacobian()
+    monkeypatch.setattr(mf_jacobian, "_read_others", lambda *a: ("FNOMIN",))
+    again = stage_problem("Fy0", data, truth, screen=False).problem.model_jacobian()
+    np.testing.assert_allclose(again, J, rtol=1e-13, atol=0)
+
+
+@needs_jax
+def test_a_start_on_an_earlier_path_stops_there(truth, data, exact):
+    """With the exact Jacobian a start that joins an earlier start's path (here: the same
+    start again, whose first iterate is the earlier one's) ends at that start's end point."""
+    noisy = add_noise(data, 8)
+    p = stage_problem("Fy0", noisy, _perturb(truth, STAGES["Fy0"].coefficients, seed=6),
+                      screen=False).problem
+    assert p.jacobian is not None
+    one = search(p, p.x0()[None, :])
+    twice = search(p, np.vstack([p.x0(), p.x0()]))
+    assert twice.starts_at_best == 2 and len(twice.candidates) == 1
+    np.testing.assert_array_equal(twice.candidates[0], one.candidates[0])
+    assert twice.nfev <= one.nfev + 3

@@ -35,7 +35,8 @@ from scipy import optimize
 from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
-           "NOISE_STATUS", "SEARCH", "STRICT", "CountingModel", "Estimate", "Tolerances",
+           "NOISE_STATUS", "SEARCH", "STOP_STATUS", "STRICT", "CountingModel", "Estimate",
+           "Tolerances",
            "counted", "covariance", "covariance_of", "fd_jacobian", "jackknife_covariance",
            "jackknife_defined", "jackknife_steps", "least_squares", "polish",
            "problem_covariance", "pseudo_solve", "residual_jacobian", "standard_errors"]
@@ -163,7 +164,8 @@ def _interior(x0: np.ndarray, lo: np.ndarray, hi: np.ndarray, frac: float) -> np
 def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
                   bounds: tuple[np.ndarray, np.ndarray], tol: Tolerances = STRICT, *,
                   jac: Callable[[np.ndarray], np.ndarray] | None = None,
-                  max_nfev: int | None = None) -> Estimate:
+                  max_nfev: int | None = None,
+                  stop: Callable[[np.ndarray, float], str | None] | None = None) -> Estimate:
     """Minimise 0.5 ||residuals(x)||^2 within ``bounds`` (trust-region reflective).
 
     Parameters
@@ -179,6 +181,10 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
         x -> d r / d x, (n, k): an exact Jacobian. Default: scipy's forward differences.
     max_nfev : int, optional
         Budget of residual evaluations; default ``tol.budget(k)``.
+    stop : callable, optional
+        stop(x, cost) after every iteration: a message ends the solve there (status
+        STOP_STATUS, e.g. a multi-start's start that has reached another start's end point,
+        identify.fit.mf_search.search); None goes on. Needs scipy >= 1.16; ignored before.
     """
     lo, hi = (np.asarray(b, dtype=float) for b in bounds)
     x0 = _interior(x0, lo, hi, tol.interior)
@@ -188,16 +194,18 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
                         nfev=1, njev=0, status=1, message="nothing to fit", success=True,
                         active_mask=np.zeros(0, dtype=int))
     extra = {}
-    stop = None
-    if tol.noise_ftol > 0 and _HAS_CALLBACK:
-        stop = _NoiseStop(tol, x0.size)
-        extra["callback"] = stop
+    noise = _NoiseStop(tol, x0.size) if tol.noise_ftol > 0 else None
+    caller = _Stop(noise, stop)
+    if (noise is not None or stop is not None) and _HAS_CALLBACK:
+        extra["callback"] = caller
     res = optimize.least_squares(residuals, x0, jac=jac if jac is not None else "2-point",
                                  bounds=(lo, hi), method="trf", x_scale="jac",
                                  xtol=tol.xtol, ftol=tol.ftol, gtol=tol.gtol,
                                  max_nfev=tol.budget(x0.size, max_nfev), **extra)
     status, message = int(res.status), str(res.message)
-    if stop is not None and stop.fired:
+    if caller.message is not None:
+        status, message = STOP_STATUS, caller.message
+    elif noise is not None and noise.fired:
         status = NOISE_STATUS
         message = (f"the cost fell by less than {tol.noise_ftol:g} x the residual variance "
                    f"over {tol.noise_window} iterations")
@@ -210,6 +218,24 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
 _HAS_CALLBACK = "callback" in inspect.signature(optimize.least_squares).parameters
 NOISE_STATUS = 5
 """Estimate.status of a least-squares solve stopped by Tolerances.noise_ftol."""
+STOP_STATUS = 6
+"""Estimate.status of a least-squares solve ended by its ``stop`` callable."""
+
+
+class _Stop:
+    """scipy least_squares callback: the noise stop, then the caller's ``stop``."""
+
+    def __init__(self, noise: _NoiseStop | None, stop):
+        self.noise, self.stop, self.message = noise, stop, None
+
+    def __call__(self, intermediate_result) -> None:
+        if self.stop is not None:
+            self.message = self.stop(np.asarray(intermediate_result.x),
+                                     float(intermediate_result.cost))
+            if self.message is not None:
+                raise StopIteration
+        if self.noise is not None:
+            self.noise(intermediate_result)
 
 
 class _NoiseStop:
@@ -244,7 +270,9 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
            bounds: tuple[np.ndarray, np.ndarray], tol: Tolerances = STRICT, *,
            constraints: Callable[[np.ndarray], np.ndarray] | None = None,
            gradient: Callable[[np.ndarray], np.ndarray] | None = None,
-           metric: np.ndarray | None = None) -> Estimate:
+           metric: np.ndarray | None = None,
+           local_constraints: Callable[[np.ndarray], Callable[[np.ndarray], np.ndarray]]
+           | None = None) -> Estimate:
     """SLSQP on a scalar objective from ``x1`` with bounds and inequality constraints.
 
     The variables are scaled by max(|x1|, 1e-3) (SLSQP is sensitive to scaling), or, given a
@@ -271,6 +299,12 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
         variables that is this metric, so that the first step is a Gauss-Newton step instead
         of a gradient step (on the sample's Fx and Fy stages SLSQP took 26-27 iterations from
         the identity in the x scaling). Finite bounds become linear constraints.
+    local_constraints : callable, optional
+        x -> a function equal to ``constraints`` near x (FitProblem.local_constraints). With a
+        ``metric``, the constraints' Jacobian is then SLSQP's own forward differences (the
+        same steps, scipy.optimize.approx_fprime) of that function at each iterate: on the MF
+        validity grid it evaluates the few grid points that set each minimum instead of
+        thousands, 1 + k times per iteration.
     """
     lo, hi = (np.asarray(b, dtype=float) for b in bounds)
     T = None if metric is None else _whitening(metric)
@@ -297,7 +331,14 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
                                                    (hi - to_x(z))[upper]])),
                  "jac": (lambda z: rows)}] if rows.shape[0] else []
         if constraints is not None:
-            cons.append({"type": "ineq", "fun": (lambda z: constraints(to_x(z)))})
+            con = {"type": "ineq", "fun": (lambda z: constraints(to_x(z)))}
+            if local_constraints is not None:
+                def con_jac(z):
+                    near = local_constraints(to_x(z))
+                    return np.atleast_2d(optimize.approx_fprime(
+                        z, lambda z1: near(to_x(z1)), _SLSQP_STEP))
+                con["jac"] = con_jac
+            cons.append(con)
         grad = ((lambda z: T.T @ np.asarray(gradient(to_x(z)))) if gradient is not None
                 else None)
         box = None
@@ -316,6 +357,10 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
                     njev=int(getattr(out, "njev", 0) or 0), status=status,
                     message=str(out.message), success=bool(out.success),
                     active_mask=np.where(x <= lo, -1, np.where(x >= hi, 1, 0)))
+
+
+_SLSQP_STEP = float(np.sqrt(np.finfo(float).eps))
+"""SLSQP's finite-difference step in its variables (scipy's default ``eps``)."""
 
 
 def _whitening(metric: np.ndarray) -> np.ndarray | None:

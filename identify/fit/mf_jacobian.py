@@ -31,7 +31,13 @@ from typing import Callable, Mapping
 
 import numpy as np
 
-from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
+from identify.fit.mf_stage_defs import (
+    STAGES,
+    names_read,
+    stage_inputs,
+    stage_predict,
+    subset_state,
+)
 from identify.model.lateral import CombinedLateral, PureLateral
 from identify.model.state import OperatingState
 
@@ -81,7 +87,10 @@ def _jax():
         try:
             os.makedirs(cache, exist_ok=True)
             jax.config.update("jax_compilation_cache_dir", cache)
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.2)
+            # every stage's function: with only the values it reads, the Fx, Fy, Mx and My
+            # ones compile in 0.05-0.15 s, below JAX's default 1 s and the 0.2 s set here
+            # before, and were compiled again in every run
+            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.02)
         except OSError:  # no writable cache: compile every run
             pass
     for cls, meta in ((OperatingState, ("mode",)), (PureLateral, ()), (CombinedLateral, ())):
@@ -107,9 +116,9 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
 
 @functools.cache
 def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
-    """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
-    parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
-    compiles it again only for a new chunk structure)."""
+    """(jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
+    parameters a vector in ``others`` order; ``others``): one per stage and parameter set per
+    process (JAX compiles it again only for a new chunk structure)."""
     jax, jnp = _jax()
 
     def predict(theta, fixed, s, inputs):
@@ -117,7 +126,22 @@ def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]
         P.update(zip(coefficients, theta))
         return stage_predict(stage, P, s, inputs, xp=jnp)
 
-    return jax.jit(jax.jacfwd(predict))
+    return jax.jit(jax.jacfwd(predict)), others
+
+
+def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
+                 omega: np.ndarray | None) -> tuple[str, ...]:
+    """The names of ``base`` besides the stage's coefficients that its equations read
+    (mf_stage_defs.names_read on a few points; Fy0 under JAX evaluates the combined-slip
+    expression at every point, so the Fy stage's reads are added), in ``base`` order."""
+    few = np.arange(min(int(s.fz.size), 8))
+    sub = subset_state(s, few)
+    w = None if omega is None else np.asarray(omega)[few]
+    read = names_read(stage, base, sub, w)
+    if stage == "Fy0":
+        read |= names_read("Fy", base, sub, w)
+    own = set(STAGES[stage].coefficients)
+    return tuple(k for k in base if k not in own and k in read)
 
 
 def _chunk(tree, index: np.ndarray, n: int):
@@ -163,8 +187,10 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         exact = use_exact(n, len(coefficients))
     if not exact or not available():
         return None
-    others = tuple(k for k in base if k not in set(coefficients))
-    fn = _compiled(stage, coefficients, others)
+    # the held values the equations read, not all ~260 (tracing a slice per value cost the
+    # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
+    state = [_compiled(stage, coefficients, _read_others(stage, base, s, omega))]
+    fixed = [np.array([float(base[k]) for k in state[0][1]])]
     inputs = stage_inputs(stage, base, s, omega)
     starts = range(0, n, CHUNK)
     # device copies of each chunk's points, made once (the last chunk padded with its first
@@ -175,7 +201,17 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         pad = np.concatenate([index, np.full(CHUNK - index.size, a)])
         chunks.append((index.size, _chunk(s, pad, n), _chunk(inputs, pad, n)))
     position = {c: j for j, c in enumerate(coefficients)}
-    fixed = np.array([float(base[k]) for k in others])
+
+    def call(theta, sc, ic):
+        try:
+            return state[0][0](theta, fixed[0], sc, ic)
+        except KeyError:  # a held value the set above missed (traced on the first call)
+            every = tuple(k for k in base if k not in set(coefficients))
+            if state[0][1] == every:
+                raise
+            state[0] = _compiled(stage, coefficients, every)
+            fixed[0] = np.array([float(base[k]) for k in every])
+            return state[0][0](theta, fixed[0], sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
         unknown = [m for m in names if m not in position]
@@ -185,7 +221,7 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         cols = [position[m] for m in names]
         out = np.empty((n, len(names)))
         for a, (size, sc, ic) in zip(starts, chunks):
-            J = np.asarray(fn(theta, fixed, sc, ic))
+            J = np.asarray(call(theta, sc, ic))
             out[a:a + size] = J[:size, cols]
         return out
     return jacobian

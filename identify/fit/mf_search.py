@@ -9,7 +9,8 @@ the carried-forward values (+/-0.05 where both are 0).
 Search, then solve (:func:`search`): every start is solved by least squares (SEARCH
 tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUBSAMPLE points
 (all points when there are fewer), where a start costs SUBSAMPLE/points of what it would on
-all of them; only the distinct end points whose subsample objective is within CANDIDATE_RTOL
+all of them, and a start that reaches an earlier start's end point or path stops there
+(MERGE_CHI2); only the distinct end points whose subsample objective is within CANDIDATE_RTOL
 of the best (at most MAX_CANDIDATES) go on. On large data each candidate is carried up a
 ladder of subsamples LADDER times larger each (:func:`ladder_sizes`; the optimum of 4096 of 93074
 noisy points can lie 15 % away in a flat direction, where the solver on all points crawls for
@@ -84,6 +85,19 @@ identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
 max(|value|, 1e-3)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
+MERGE_CHI2 = 1.0
+"""A start of the search is stopped once it has reached an earlier start's end point x_e: its
+iterate x within MERGE_CHI2 of x_e in chi^2, ||J_e (x - x_e)||^2 <= MERGE_CHI2 s^2 (J_e the
+solver's Jacobian of the weighted residuals at x_e, s^2 = r^T r / (n - k) there), at a cost
+0.5 r^T r no more than 0.5 MERGE_CHI2 s^2 above x_e's: within a standard error of that optimum,
+in its basin, where the solve would end (its own stop is a chi^2 change below 0.02 over 5
+iterations, which the last iterations of a start along a flat valley took tens of evaluations
+to reach). The start then counts as ending at x_e (the same candidate). With the exact
+Jacobian, the same test against every iterate x_t of the earlier starts' paths, in the metric
+of the Jacobian J at x (||J (x - x_t)||^2 <= MERGE_CHI2 s^2, |cost - cost_t| <= 0.5 MERGE_CHI2
+s^2): a start within a standard error of where another one passed, at the same cost, goes where
+that one went (on the sample's Fy0 a start joined the first one's path in a curved valley 26
+iterations before its end)."""
 
 
 def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:
@@ -169,14 +183,69 @@ class Search:
     converged: bool = True
 
 
+class _Reached:
+    """engine.least_squares ``stop`` of one start: the message of a start that has reached an
+    earlier start's end point or path (see MERGE_CHI2), recorded in ``into`` (that start's
+    index). Records the start's own path (``path``: iterates and costs); ``jac`` wraps the
+    exact Jacobian, so that the check has the Jacobian at the iterate (without one, end points
+    only, in their own solver's metric)."""
+
+    def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
+                 n_free: int, jac=None):
+        self.ends = [(j, e.x, e.jac, e.cost, 2.0 * e.cost / max(e.fun.size - n_free, 1))
+                     for j, e in enumerate(ends)
+                     if e.success and e.jac is not None and e.jac.shape[1] == n_free]
+        self.paths = [(j, paths[j], s2) for j, _, _, _, s2 in self.ends]
+        self.path: list[tuple[np.ndarray, float]] = []
+        self.into: int | None = None
+        self._jac, self._at = jac, (None, None)
+        self.jac = None if jac is None else self._jacobian
+
+    def _jacobian(self, x: np.ndarray) -> np.ndarray:
+        J = self._jac(x)
+        self._at = (np.array(x, dtype=float), J)
+        return J
+
+    def __call__(self, x: np.ndarray, cost: float) -> str | None:
+        self.path.append((np.array(x, dtype=float), cost))
+        for j, xe, Je, ce, s2 in self.ends:
+            if cost <= ce + 0.5 * MERGE_CHI2 * s2:
+                d = Je @ (x - xe)
+                if d @ d <= MERGE_CHI2 * s2:
+                    self.into = j
+                    return f"reached the end point of start {j + 1}"
+        at, J = self._at
+        if J is None or not np.array_equal(at, x):
+            return None
+        for j, path, s2 in self.paths:
+            for xt, ct in path:
+                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2:
+                    d = J @ (x - xt)
+                    if d @ d <= MERGE_CHI2 * s2:
+                        self.into = j
+                        return f"reached the path of start {j + 1}"
+        return None
+
+
 def search(problem: FitProblem, starts: np.ndarray) -> Search:
     """Solve every start by least squares on ``problem`` (the stage's subsample) with the
-    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module)."""
+    SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module). A
+    start that reaches an earlier one's end point or path stops there and ends at its end
+    point (MERGE_CHI2)."""
     problem, counter = engine.counted(problem)
     jac = problem.residual_jacobian if problem.jacobian is not None else None
-    ends = [engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH, jac=jac,
-                                 max_nfev=SEARCH_NFEV) for x0 in np.atleast_2d(starts)]
-    objs = np.array([problem.objective_value(e.x) for e in ends])
+    ends: list[engine.Estimate] = []
+    paths: list[list[tuple[np.ndarray, float]]] = []
+    for x0 in np.atleast_2d(starts):
+        reached = _Reached(ends, paths, len(problem.free), jac)
+        end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH,
+                                   jac=reached.jac, max_nfev=SEARCH_NFEV, stop=reached)
+        paths.append(reached.path)
+        ends.append(end if reached.into is None else dataclasses.replace(
+            ends[reached.into], message=end.message, nfev=end.nfev, njev=end.njev))
+    # 0.5 r^T r at each end point: the solver's cost there (weighted least squares)
+    objs = np.array([e.cost if problem.objective == "wls" else problem.objective_value(e.x)
+                     for e in ends])
     objs = np.where(np.isfinite(objs), objs, np.inf)
     order = np.argsort(objs, kind="stable")
     best = objs[order[0]]

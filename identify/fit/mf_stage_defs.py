@@ -156,19 +156,21 @@ def stage_inputs(stage: str, base: Values, s: OperatingState,
         return {"fx0": longitudinal.fx0(base, s).fx0}
     if stage == "Fy0":
         return {}
+    # each stage computes only the forces it uses (Mx no longitudinal, My no lateral one), so
+    # that it reads only the coefficients it depends on (identify.fit.mf_uncertainty)
+    if stage == "My":
+        return {"fx": longitudinal.gx_alpha(base, s) * longitudinal.fx0(base, s).fx0}
     pure = lateral.fy0(base, s)
     if stage == "Fy":
         return {"pure": pure}
     fy = lateral.fy_combined(base, s, pure)
-    lon = longitudinal.fx0(base, s)
-    fx = longitudinal.gx_alpha(base, s) * lon.fx0
-    if stage in ("Mz0", "Mz"):
-        return {"pure": pure, "pure0": lateral.fy0(base, s, zero_camber=True), "fy": fy,
-                "fx": fx, "kxk": lon.kxk}
     if stage == "Mx":
         return {"fy": fy.fy}
-    if stage == "My":
-        return {"fx": fx}
+    if stage in ("Mz0", "Mz"):
+        lon = longitudinal.fx0(base, s)
+        fx = longitudinal.gx_alpha(base, s) * lon.fx0
+        return {"pure": pure, "pure0": lateral.fy0(base, s, zero_camber=True), "fy": fy,
+                "fx": fx, "kxk": lon.kxk}
     raise ValueError(f"unknown MF stage {stage!r}")
 
 
@@ -201,10 +203,10 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
     if stage == "Fy0":
         # at kappa == 0 exactly Gyk = 1 and SVyk = 0, so Fy equals Fy0 (docs/model.md,
         # section 6); the combined expression is evaluated only where kappa != 0
-        fy = lateral.fy0(P, s, xp=xp).fy0
-        if xp is not np:
-            return xp.where(s.kappa != 0, lateral.fy_combined(
-                P, s, lateral.fy0(P, s, xp=xp), xp).fy, fy)
+        pure = lateral.fy0(P, s, xp=xp)
+        fy = pure.fy0
+        if xp is not np:  # one pure-slip evaluation for both (traced once)
+            return xp.where(s.kappa != 0, lateral.fy_combined(P, s, pure, xp).fy, fy)
         slip, s_slip = inputs["slip"], inputs["s_slip"]
         if slip.size:
             fy = np.array(fy, copy=True)
@@ -243,11 +245,44 @@ def stage_model(stage: str, base: Values, s: OperatingState,
         values -> prediction of the stage's quantity at every point [N or N m]. ``values`` may
         hold floats or arrays of shape (walkers, 1) (then the result is (walkers, points)).
     """
-    inputs = stage_inputs(stage, base, s, omega)
-    if stage == "Fy0":
-        slip = np.flatnonzero(s.kappa != 0)
-        inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
+    inputs = _model_inputs(stage, base, s, omega)
 
     def model(values: Values) -> np.ndarray:
         return stage_predict(stage, {**base, **values}, s, inputs)
     return model
+
+
+def _model_inputs(stage: str, base: Values, s: OperatingState,
+                  omega: np.ndarray | None) -> dict[str, object]:
+    """:func:`stage_inputs`, and for Fy0 the points with kappa != 0 (see stage_predict)."""
+    inputs = stage_inputs(stage, base, s, omega)
+    if stage == "Fy0":
+        slip = np.flatnonzero(s.kappa != 0)
+        inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
+    return inputs
+
+
+class _Reads(dict):
+    """A parameter mapping that records the names read from it (``names_read``)."""
+
+    def __init__(self, *args):
+        super().__init__(*args)
+        self.names_read: set[str] = set()
+
+    def __getitem__(self, key):
+        self.names_read.add(key)
+        return super().__getitem__(key)
+
+    def get(self, key, default=None):
+        self.names_read.add(key)
+        return super().get(key, default)
+
+
+def names_read(stage: str, values: Values, s: OperatingState,
+               omega: np.ndarray | None = None) -> set[str]:
+    """The parameter names that the prediction of ``stage`` at ``values`` (every .tir value)
+    reads, its inputs' equations included. The prediction cannot depend on any other name:
+    changing one leaves the same arithmetic on the same numbers."""
+    P = _Reads(values)
+    stage_predict(stage, P, s, _model_inputs(stage, P, s, omega))
+    return P.names_read

@@ -100,7 +100,11 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
                                           else None),
                              gradient=(problem.objective_gradient
                                        if problem.jacobian is not None else None),
-                             metric=metric)
+                             metric=metric,
+                             local_constraints=(problem.local_constraints
+                                                if any(c.local is not None
+                                                       for c in problem.constraints)
+                                                else None))
 
     pol = run(lsq.x)
     if pol.status == 0:

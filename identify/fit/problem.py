@@ -44,10 +44,17 @@ class Constraint:
         Short name shown in results (``"CMz >= 0 for Fz in [500, 8000] N"``).
     fun : callable
         values -> array; every element must be >= 0.
+    local : callable or None
+        values -> a function equal to ``fun`` near ``values`` at a fraction of its cost (a
+        minimum over a grid evaluated only on the grid points near the minimum at
+        ``values``: identify.fit.mf_constraints), for the finite-difference Jacobian of the
+        constrained polish; None: ``fun`` itself.
     """
 
     name: str
     fun: Callable[[Mapping[str, float]], np.ndarray]
+    local: Callable[[Mapping[str, float]], Callable[[Mapping[str, float]], np.ndarray]] | None \
+        = None
 
 
 @dataclass(frozen=True)
@@ -294,3 +301,17 @@ class FitProblem:
         vals = self.values(x)
         return np.concatenate([np.atleast_1d(np.asarray(c.fun(vals), dtype=float))
                                for c in self.constraints])
+
+    def local_constraints(self, x: np.ndarray) -> Callable[[np.ndarray], np.ndarray]:
+        """A function x' -> :meth:`constraint_values` (x') for x' near ``x``: each constraint's
+        ``local`` one at ``x`` where it has one (Constraint.local), its ``fun`` otherwise."""
+        vals = self.values(x)
+        funs = [c.fun if c.local is None else c.local(vals) for c in self.constraints]
+
+        def local(x1: np.ndarray) -> np.ndarray:
+            if not funs:
+                return np.zeros(0)
+            v = self.values(x1)
+            return np.concatenate([np.atleast_1d(np.asarray(f(v), dtype=float))
+                                   for f in funs])
+        return local
