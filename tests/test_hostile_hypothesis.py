@@ -23,6 +23,7 @@ from identify.io.characteristics import read_characteristics
 from identify.io.common import Problems
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.manifest import read_manifest
+from identify.io.mat73 import write_mat73
 from identify.io.points import read_points
 from identify.io.tir import read_tir
 from identify.io.trailer import channels_to_tidy, read_channels
@@ -114,6 +115,14 @@ def _mat(path: Path) -> bytes:
     return path.read_bytes()
 
 
+def _mat73(path: Path) -> bytes:
+    ch = _ttc_channels()
+    write_mat73(path, ch, {"channel": {"name": list(ch),
+                                       "units": [TTC_CHANNELS[k].si_unit for k in ch]}},
+                {"tireid": "t"})
+    return path.read_bytes()
+
+
 def _dat() -> str:
     ch = _ttc_channels()
     lines = ["run 1", "\t".join(ch), "\t".join(TTC_CHANNELS[k].si_unit for k in ch)]
@@ -124,7 +133,8 @@ def _dat() -> str:
 TMP = Path(tempfile.mkdtemp(prefix="mfid-hypothesis-"))
 BASE = {"csv": _csv(), "tdx": _tdx(TMP / "base.tdx"), "toml": TOML, "table": CHARACTERISTICS,
         "tir": TIR.read_text(), "points": POINTS, "dat": _dat()}
-BINARY = {"h5": _h5(TMP / "base.h5"), "mat": _mat(TMP / "base.mat")}
+BINARY = {"h5": _h5(TMP / "base.h5"), "mat": _mat(TMP / "base.mat"),
+          "mat73": _mat73(TMP / "base73.mat")}
 
 
 def _trailer(path: Path):
@@ -169,9 +179,10 @@ READERS = {
     "dat": ("run.dat", _trailer),
     "h5": ("run.h5", _trailer),
     "mat": ("run.mat", _trailer),
+    "mat73": ("run.mat", _trailer),
 }
 STRICT = {"csv": _strict_trailer, "tdx": _strict_trailer, "dat": _strict_trailer,
-          "h5": _strict_trailer, "mat": _strict_trailer,
+          "h5": _strict_trailer, "mat": _strict_trailer, "mat73": _strict_trailer,
           "toml": _raising(read_manifest), "table": _raising(read_characteristics)}
 
 
@@ -210,7 +221,7 @@ def _test(kind: str, n: int):
 
 #: Cases per reader in the default suite (the whole file stays under ~30 s).
 QUICK = {"toml": 60, "csv": 30, "tdx": 30, "table": 60, "tir": 60, "points": 60, "dat": 30,
-         "h5": 40, "mat": 40}
+         "h5": 40, "mat": 40, "mat73": 30}
 
 
 def test_the_base_files_are_valid():

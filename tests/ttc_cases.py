@@ -6,6 +6,7 @@ from pathlib import Path
 import numpy as np
 import scipy.io
 
+from identify.io.mat73 import write_mat73
 from identify.io.tir import read_tir
 from identify.io.ttc import TTC_CHANNELS
 from identify.simulate.default_tyre import default_tir_path
@@ -17,13 +18,17 @@ def session(path: Path, **settings) -> TtcSession:
     return simulate_ttc(read_tir(default_tir_path()).params(), path, **settings)
 
 
-def small_mat(path, drop=(), units=None, struct=True):
+def _small_channels(drop=()):
     n = 200
     t = np.arange(n) / 100.0
     ch = {"ET": t, "V": np.full(n, 40.0), "N": np.full(n, 340.0), "SA": np.sin(t),
           "IA": np.zeros(n), "P": np.full(n, 83.0), "FX": np.zeros(n) + 5, "FY": 500 * np.sin(t),
           "FZ": np.full(n, -1000.0), "MX": np.ones(n), "MZ": np.ones(n), "SL": np.zeros(n)}
-    ch = {k: v for k, v in ch.items() if k not in drop}
+    return {k: v for k, v in ch.items() if k not in drop}
+
+
+def small_mat(path, drop=(), units=None, struct=True):
+    ch = _small_channels(drop)
     names = list(ch)
     content = {k: v.reshape(-1, 1) for k, v in ch.items()}
     if struct:
@@ -34,8 +39,16 @@ def small_mat(path, drop=(), units=None, struct=True):
     return path
 
 
-def _truncated(path):
-    data = small_mat(path).read_bytes()
+def small_mat73(path, drop=(), units=None, struct=True):
+    """small_mat as a MATLAB v7.3 (HDF5) file."""
+    ch = _small_channels(drop)
+    u = {k: TTC_CHANNELS[k].si_unit for k in ch} | dict(units or {})
+    cells = {"channel": {"name": list(ch), "units": [u[k] for k in ch]}} if struct else {}
+    return write_mat73(path, ch, cells, {"tireid": "small"})
+
+
+def _truncated(path, make=small_mat):
+    data = make(path).read_bytes()
     path.write_bytes(data[: len(data) // 2])
     return path
 
@@ -56,6 +69,11 @@ UNUSABLE = [
     ("no-channel-struct", lambda p: small_mat(p, struct=False),
      "{p}: channel: no 'channel' struct with the channel units (name, units)"),
     ("truncated-mat", _truncated, "{p}: truncated or corrupt .mat file (scipy.io: ..."),
+    ("truncated-mat73", lambda p: _truncated(p, small_mat73),
+     "{p}: truncated or corrupt MATLAB v7.3 .mat file (corrupt HDF5 inside ..."),
+    ("mat73-no-FZ", lambda p: small_mat73(p, drop=("FZ",)), "{p}: FZ: missing required channel"),
+    ("mat73-no-channel-struct", lambda p: small_mat73(p, struct=False),
+     "{p}: channel: no 'channel' struct with the channel units (name, units)"),
     ("dat-short-header", lambda p: _short_header(p.with_suffix(".dat")),
      ("{p}:3: short header: a TTC .dat file has a title line, a line of channel names and a "
       "line of units before the data (found line 3 holds numbers)")),

@@ -83,6 +83,9 @@ def simulate_command(
                                                "separate with commas."),
     cornering_only: bool = typer.Option(False, "--cornering-only",
                                         help="--format ttc: the cornering run only."),
+    mat_version: str = typer.Option("5", "--mat-version",
+                                    help="--format ttc: MATLAB format of the .mat files, 5 "
+                                         "or 7.3 (HDF5 inside)."),
     transients: bool = typer.Option(True, "--transients/--no-transients",
                                     help="Start-up transients in stiffness runs."),
     stick_slip: bool = typer.Option(True, "--stick-slip/--no-stick-slip",
@@ -118,7 +121,7 @@ def simulate_command(
                                    ar1=0.7 if ar1 is None else ar1, units=units.value,
                                    implausible=parse_names(implausible),
                                    cornering_only=cornering_only, tireid=tireid,
-                                   overwrite=overwrite)
+                                   mat_version=mat_version, overwrite=overwrite)
             runs = ", ".join(f"{r['stem']} ({r['test']}, {r['samples']} samples)"
                              for r in session.truth["runs"])
             out_console.print(f"wrote {session.path}: {runs}; .mat and .dat each, "

@@ -1,8 +1,9 @@
-"""Tire Test Consortium (TTC) trailer files: MATLAB v5 ``.mat`` and tab-separated ``.dat``.
+"""Tire Test Consortium (TTC) trailer files: MATLAB ``.mat`` (v5/v7 and v7.3) and ``.dat``.
 
 The layout follows the public description of the TTC data (Calspan flat-belt machine, 100 Hz):
 
-- ``.mat`` (MATLAB v5, read with :func:`scipy.io.loadmat`): one column vector per channel
+- ``.mat`` (MATLAB v5 or v7, read with :func:`scipy.io.loadmat`; v7.3, which is HDF5, with
+  :mod:`identify.io.mat73`): one column vector per channel
   (:data:`TTC_CHANNELS`), a struct ``channel`` whose cell arrays ``name`` and ``units`` give
   each channel's unit, and the strings ``source``, ``testid`` and ``tireid``;
 - ``.dat``: line 1 a title, line 2 the channel names, line 3 their units, data from line 4,
@@ -17,7 +18,7 @@ SL = 0 gives FX = 0) is kappa; SR (based on the loaded radius) is kept but not u
 Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channel each one is
 for :mod:`identify.io.trailer` (temperatures and radii become optional columns of the tidy
 table). Every unusable file gives one problem naming the file (and the channel when there is
-one): not a MATLAB v5 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
+one): not a MATLAB v5/v7/v7.3 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
 channel without a unit.
 """
 from __future__ import annotations
@@ -33,6 +34,7 @@ import scipy.io
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
+from identify.io.mat73 import Mat73Error, is_mat73_header, read_mat73
 from identify.io.mat_guard import loadmat_crash, mat_problem
 
 __all__ = [
@@ -167,16 +169,22 @@ def _read_mat(path: Path, problems: Problems):
     except OSError as exc:
         problems.add(path, f"cannot read file: {exc.strerror or exc}")
         return None
-    v5 = data[126:128] in (b"IM", b"MI") and data[124:126] != b"\x00\x02"
-    why = (mat_problem(data) or loadmat_crash(data)) if v5 else None  # v7.3 (HDF5) files are
-    # refused by scipy below
+    if is_mat73_header(data[:128]):
+        try:
+            mat = read_mat73(path)
+        except Mat73Error as exc:
+            problems.add(path, f"truncated or corrupt MATLAB v7.3 .mat file ({exc})")
+            return None
+        return _contents(path, mat, problems, "ttc-mat73")
+    v5 = data[126:128] in (b"IM", b"MI")
+    why = (mat_problem(data) or loadmat_crash(data)) if v5 else None
     if why is not None:  # scipy.io would crash on some (a segmentation fault)
         problems.add(path, f"truncated or corrupt .mat file ({why})")
         return None
     try:
         mat = scipy.io.loadmat(io.BytesIO(data), simplify_cells=True)
-    except NotImplementedError:
-        problems.add(path, "a MATLAB v7.3 (HDF5) .mat file: save it as MATLAB v5 (-v7)")
+    except NotImplementedError:  # a version scipy does not know, not v5 nor v7.3
+        problems.add(path, "not a MATLAB v5 or v7.3 .mat file: save it with -v7 or -v7.3")
         return None
     except Exception as exc:  # noqa: BLE001 - scipy.io's parser of untrusted bytes raises
         # any type on a corrupt file (MatReadError, ValueError, zlib.error, and even
@@ -184,6 +192,11 @@ def _read_mat(path: Path, problems: Problems):
         problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
                            f"{type(exc).__name__}: {exc})")
         return None
+    return _contents(path, mat, problems, "ttc-mat")
+
+
+def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
+    """The channels, their units and the strings of a loaded .mat file (either version)."""
     struct = mat.get("channel")
     names, unit_list = ([], [])
     if isinstance(struct, Mapping):
@@ -198,6 +211,9 @@ def _read_mat(path: Path, problems: Problems):
         if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
             continue  # not a channel (a string, a struct, a matrix)
         data[key] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+    # in the channel struct's order: a v7.3 file lists its variables by name
+    order = {name: i for i, name in enumerate(names)}
+    data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
     if not data:
         problems.add(path, "no channel vectors in the .mat file")
         return None
@@ -206,7 +222,7 @@ def _read_mat(path: Path, problems: Problems):
                      key="channel")
         return None
     attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
-    return data, {k: units[k] for k in data if k in units}, {"format": "ttc-mat", **attrs}
+    return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
 
 
 def _read_dat(path: Path, problems: Problems):

@@ -26,6 +26,7 @@ import scipy.io
 
 from identify.core.errors import InputError
 from identify.core.version import __version__
+from identify.io.mat73 import write_mat73
 from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import run_rng
 from identify.simulate.coefficients import DEFAULT_RELATIONS
@@ -57,8 +58,12 @@ class TtcSession:
 
 
 def _write_mat(path: Path, ch: Mapping[str, np.ndarray], units: Mapping[str, str],
-               strings: Mapping[str, str]) -> None:
+               strings: Mapping[str, str], version: str = "5") -> None:
     names = list(ch)
+    if version == "7.3":
+        write_mat73(path, ch, {"channel": {"name": names, "units": [units[n] for n in names]}},
+                    strings)
+        return
     content = {name: np.asarray(ch[name], dtype=float).reshape(-1, 1) for name in names}
     content["channel"] = {"name": np.array(names, dtype=object),
                           "units": np.array([units[n] for n in names], dtype=object)}
@@ -94,7 +99,8 @@ def _segments(prog, et: np.ndarray) -> list[dict]:
 def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: int = 0,
                  noise: float = 0.01, ar1: float = 0.7, units: str = "SI",
                  implausible: Sequence[str] = (), cornering_only: bool = False,
-                 tireid: str = "mfid-sim 225/50 R17", overwrite: bool = False) -> TtcSession:
+                 tireid: str = "mfid-sim 225/50 R17", mat_version: str = "5",
+                 overwrite: bool = False) -> TtcSession:
     """Write a simulated TTC session (``.mat`` and ``.dat`` per run, ``truth.json``).
 
     Parameters
@@ -118,6 +124,9 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
         Write the cornering run only.
     tireid : str
         The ``tireid`` string of the files.
+    mat_version : {"5", "7.3"}
+        MATLAB format of the ``.mat`` files: v5 (what ``save -v7`` writes, uncompressed) or
+        v7.3 (HDF5 inside, identify.io.mat73).
     overwrite : bool
         Replace a non-empty ``outdir``.
 
@@ -129,6 +138,9 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
     outdir = Path(outdir)
     if units not in ("SI", "USCS"):
         raise InputError(None, f"units must be SI or USCS, not {units!r}", key="--units")
+    if mat_version not in ("5", "7.3"):
+        raise InputError(None, f"mat_version must be 5 or 7.3, not {mat_version!r}",
+                         key="--mat-version")
     bad = [n for n in implausible if n not in IMPLAUSIBLE]
     if bad:
         raise InputError(None, f"unknown implausible channel {bad[0]!r} (one of "
@@ -143,6 +155,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                "testid": TESTID, "tireid": tireid}
     truth = {"generator": "identify.simulate.ttc", "mfid_version": __version__,
              "seed": int(seed), "noise": noise, "ar1": ar1, "units": units,
+             "mat_version": mat_version,
              "implausible": list(implausible), "axes": "SAE", "rate_Hz": RATE,
              "model_mode": TRAILER_MODE, "tir": params, "plan": plan.to_dict(),
              "strings": strings, "runs": []}
@@ -161,7 +174,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
             ch = make_implausible(ch, implausible, rng)
             ch, quirks = inject(ch, in_sweep, rng, drive_brake=test != "cornering")
             stem = f"{TESTID}run{number}"
-            _write_mat(tmp / f"{stem}.mat", ch, unit_names, strings)
+            _write_mat(tmp / f"{stem}.mat", ch, unit_names, strings, mat_version)
             title = f"{TESTID} run {number} ({test}): {tireid}; {strings['source']}"
             _write_dat(tmp / f"{stem}.dat", title, ch, unit_names)
             files += [outdir / f"{stem}.mat", outdir / f"{stem}.dat"]
