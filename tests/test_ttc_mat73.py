@@ -96,3 +96,16 @@ def test_a_variable_of_a_class_a_ttc_file_does_not_hold_is_one_line(tmp_path):
     assert result.stderr.splitlines() == [
         f"error: {path}: truncated or corrupt MATLAB v7.3 .mat file (handle: MATLAB class "
         "'function_handle' is not read)"]
+
+
+def test_a_member_name_that_is_not_utf8_is_read_as_text(tmp_path):
+    """A flipped byte in a name (found by the hypothesis trials: h5py then gives the name as
+    bytes, and the reader raised TypeError) is a name like any other."""
+    path = small_mat73(tmp_path / "B1run1.mat")
+    with h5py.File(path, "r+") as fh:
+        ds = fh.create_dataset(b"F\xffX", data=np.zeros((1, fh["ET"].shape[1])))
+        ds.attrs["MATLAB_class"] = np.bytes_("double")
+    assert "F\ufffdX" in read_mat73(path)
+    problems = Problems()
+    read_ttc(path, problems)
+    assert all("\n" not in str(p) for p in problems.finish())

@@ -55,6 +55,11 @@ def _class(obj) -> str:
     return (value.decode("ascii", "replace") if isinstance(value, bytes) else str(value))
 
 
+def _name(key: str | bytes) -> str:
+    """A member's name as text (h5py gives the bytes of a name that is not UTF-8)."""
+    return key if isinstance(key, str) else key.decode("utf-8", "replace")
+
+
 def _value(fh: h5py.File, obj, name: str, depth: int = 0):
     """One MATLAB variable (or field, or cell) as scipy.io's simplify_cells gives it."""
     if depth > 8:
@@ -63,7 +68,7 @@ def _value(fh: h5py.File, obj, name: str, depth: int = 0):
     if isinstance(obj, h5py.Group):
         if cls != "struct":
             raise Mat73Error(f"{name}: a group of MATLAB class '{cls or 'none'}'")
-        return {k: _value(fh, obj[k], f"{name}.{k}", depth + 1) for k in obj}
+        return {_name(k): _value(fh, obj[k], f"{name}.{_name(k)}", depth + 1) for k in obj}
     if int(np.asarray(obj.attrs.get("MATLAB_empty", 0)).reshape(-1)[0]) == 1:
         return "" if cls == "char" else np.zeros(0)
     data = obj[()]
@@ -96,7 +101,7 @@ def read_mat73(path: str | Path) -> dict:
         raise Mat73Error(f"corrupt HDF5 inside ({why})")
     try:
         with h5py.File(path, "r") as fh:
-            return {name: _value(fh, fh[name], name) for name in fh if name not in _INTERNAL}
+            return {_name(k): _value(fh, fh[k], _name(k)) for k in fh if k not in _INTERNAL}
     except Mat73Error:
         raise
     except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError,
