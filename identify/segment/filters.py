@@ -3,19 +3,20 @@
 In the order applied:
 
 ``revolution average``
-    Every channel is averaged over one wheel revolution, twiced: with M the centred moving
-    average over n = 2 pi / (omega dt) samples (omega the median wheel speed, or V / R without
-    a wheel speed channel, R the effective or loaded radius; within each segment; n need not be
-    whole), the filter is 2 M - M M. Both M and M M have zeros at the wheel frequency and its
-    harmonics, so the once-per-revolution ripple of an eccentric wheel or a non-uniform tyre
-    goes from load and forces alike (each point stays a consistent operating point). M alone
-    also bends the characteristic: along a sweep it is off by the window's second moment times
-    the curvature, T^2/24 f'' (T one revolution), which on a drive/brake sweep of 0.125/s at
-    40 km/h (0.02 of slip ratio a revolution) put the slip stiffness PKX1 1.85 % low in every
-    seed of bench/ttc_truth.py. The twiced filter has no second moment (2 T^2/12 - 2 T^2/12),
-    so it reproduces every cubic exactly and leaves a curved characteristic in place. The
-    samples at both ends of a segment where the double window does not fit (about one
-    revolution each) are removed.
+    Every channel is averaged over one revolution of the wheel, twiced: with M the mean over
+    the wheel angle theta +- pi about each sample (the angle is the integral of the measured
+    wheel speed over time, or of V / R without it, R the effective or loaded radius), the
+    filter is 2 M - M M. The ripple of an eccentric wheel or a non-uniform tyre is periodic in
+    the wheel's angle, not in time: M removes it from load and forces alike (each point stays
+    a consistent operating point) at any wheel speed, including on a slip-ratio sweep, where
+    the wheel speed moves with the slip ratio (+-15 % at kappa +-0.15), and across speed
+    steps. M alone also bends the characteristic: along a sweep it is off by the window's
+    second moment times the curvature, T^2/24 f'' (T one revolution), which on a drive/brake
+    sweep of 0.125/s at 40 km/h (0.02 of slip ratio a revolution) put the slip stiffness PKX1
+    1.85 % low in every seed of bench/ttc_truth.py. The twiced filter has no second moment
+    (2 T^2/12 - 2 T^2/12), so it reproduces every cubic exactly and leaves a curved
+    characteristic in place. The samples at both ends of a segment where the double window
+    does not fit (one revolution each) are removed.
 ``set slip angle``
     Samples of a slip-ratio sweep further than ``set_alpha_deg`` from the segment's set slip
     angle (the ramps between set slip angles inside a quasi-steady stretch) are removed.
@@ -50,57 +51,88 @@ def _numeric(frame: pd.DataFrame) -> list[str]:
             and not c.endswith("_level") and pd.api.types.is_float_dtype(frame[c])]
 
 
-def revolution_average(frame: pd.DataFrame, s: SegmentSettings,
-                       dt: float) -> tuple[pd.DataFrame, FilterCount]:
-    """Moving average over one wheel revolution within each segment (see module)."""
+def revolution_average(frame: pd.DataFrame,
+                       s: SegmentSettings) -> tuple[pd.DataFrame, FilterCount]:
+    """Average over one revolution of the wheel within each segment, twiced (see module)."""
     name = "revolution average"
     if not s.revolution_average:
         return frame, FilterCount(name, 0, len(frame), False, "switched off")
-    omega = float(frame["omega"].median()) if frame["omega"].notna().any() else np.nan
-    how = f"wheel speed {omega:.4g} rad/s"
-    if not omega > 0:  # no wheel speed: the speed over a radius
-        radius = next((float(frame[c].median()) for c in ("re", "rl")
-                       if c in frame and frame[c].notna().any()), np.nan)
-        omega = float(frame["Vx"].median()) / radius if len(frame) else np.nan
-        how = f"V / R, R {radius:.3f} m"
-    n = 2 * np.pi / (omega * dt) if omega > 0 else 0.0  # samples a revolution
-    if not n >= 3:
+    speed, how = _wheel_speed(frame)
+    if speed is None:
         return frame, FilterCount(name, 0, len(frame), False,
-                                  "no wheel speed or radius to size the window")
-    h = _half_width(n)
+                                  "no wheel speed or radius to find the wheel's angle")
     cols = _numeric(frame)
+    t = frame["t"].to_numpy(float)
+    values = frame[cols].to_numpy(float)
     parts = []
-    for _, seg in frame.groupby("segment", sort=False):  # one array operation per segment
-        if len(seg) <= 4 * h:
+    for rows in frame.groupby("segment", sort=False).indices.values():
+        theta = _wheel_angle(t[rows], speed[rows])
+        if theta is None:
             continue
-        once = _revolution_mean(seg[cols].to_numpy(float), n)  # centred on h .. len - h - 1
-        twice = _revolution_mean(once, n)  # on 2h .. len - 2h - 1
-        out = seg.iloc[2 * h:len(seg) - 2 * h].copy()
-        out[cols] = 2 * once[h:len(once) - h] - twice
+        once, i = _revolution_mean(theta, values[rows])  # at rows[i]
+        twice, j = _revolution_mean(theta[i], once)  # at rows[i[j]]
+        if j.size == 0:
+            continue
+        out = frame.iloc[rows[i[j]]].copy()
+        out[cols] = 2 * once[j] - twice
         parts.append(out)
     result = pd.concat(parts) if parts else frame.iloc[:0]
     return result, FilterCount(name, len(frame) - len(result), len(result), True,
-                               f"{n:.1f} samples per revolution, twiced ({how})")
+                               f"one revolution of the wheel's angle, twiced ({how})")
 
 
-def _half_width(n: float) -> int:
-    """Samples either side of the centre that a window of ``n`` samples touches."""
-    return int((n - 1) // 2) + 1
+def _wheel_speed(frame: pd.DataFrame) -> tuple[np.ndarray | None, str]:
+    """The wheel speed of every sample [rad/s]: the measured one where it is finite and
+    positive, else the speed over the effective (or loaded) radius; None without either."""
+    omega = frame["omega"].to_numpy(float) if "omega" in frame else np.full(len(frame), np.nan)
+    radius = next((float(frame[c].median()) for c in ("re", "rl")
+                   if c in frame and frame[c].notna().any()), np.nan)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fallback = frame["Vx"].to_numpy(float) / radius
+    measured = np.isfinite(omega) & (omega > 0)
+    speed = np.where(measured, omega, fallback)
+    if not (np.isfinite(speed) & (speed > 0)).any():
+        return None, ""
+    share = measured.mean() if len(measured) else 0.0
+    how = ("wheel speed" if share == 1 else f"wheel speed, V / R ({radius:.3f} m) for "
+           f"{100 * (1 - share):.0f} % of the samples")
+    return speed, how
 
 
-def _revolution_mean(x: np.ndarray, n: float) -> np.ndarray:
-    """The centred mean of ``x`` (rows: samples) over a window of ``n`` samples, ``n`` not
-    necessarily whole: the 2m + 1 samples about the centre weigh 1, the next one on each side
-    the rest, (n - 2m - 1) / 2 (18 samples: 17 full and two halves, the centred 2 x 18 average,
-    which has its zeros at a period of 18 samples and its harmonics; rounding the window to 19
-    samples would leave 5 % of such a ripple). Rows ``h .. len - h - 1`` (h =
-    :func:`_half_width`), where the window fits."""
-    m = int((n - 1) // 2)
-    h = m + 1
-    rest = (n - 2 * m - 1) / 2
-    c = np.cumsum(np.vstack((np.zeros((1, x.shape[1])), x)), axis=0)
-    i = np.arange(h, len(x) - h)
-    return (c[i + m + 1] - c[i - m] + rest * (x[i - h] + x[i + h])) / n
+def _wheel_angle(t: np.ndarray, speed: np.ndarray) -> np.ndarray | None:
+    """The wheel's angle [rad] at the samples of one segment (trapezoidal integral of its
+    speed over time; samples without a usable speed take the one interpolated in time); None
+    when the segment turns less than two revolutions or its angle does not increase."""
+    ok = np.isfinite(speed) & (speed > 0)
+    if ok.sum() < 2 or np.ptp(t) <= 0:
+        return None
+    w = speed if ok.all() else np.interp(t, t[ok], speed[ok])
+    theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))))
+    if theta[-1] < 4 * np.pi or not (np.diff(theta) > 0).all():
+        return None
+    return theta
+
+
+def _revolution_mean(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The mean of ``x`` (rows: samples at the increasing wheel angles ``theta`` [rad]) over
+    the revolution centred on each sample, theta +- pi, with ``x`` linear between samples
+    (the integral of each piece exact). Returns the means and the rows they belong to: those
+    whose revolution lies within the samples. A ripple that is periodic in the wheel's angle
+    averages to zero whatever the wheel speed does, so slip-ratio sweeps (the wheel speed
+    moves with the slip ratio) and speed steps need no window of their own."""
+    d = np.diff(theta)
+    slope = np.diff(x, axis=0) / d[:, None]
+    area = np.concatenate((np.zeros((1, x.shape[1])),
+                           np.cumsum(0.5 * (x[1:] + x[:-1]) * d[:, None], axis=0)))
+    rows = np.flatnonzero((theta - np.pi >= theta[0]) & (theta + np.pi <= theta[-1]))
+
+    def integral(q: np.ndarray) -> np.ndarray:  # of x from theta[0] to q
+        k = np.clip(np.searchsorted(theta, q, side="right") - 1, 0, len(d) - 1)
+        u = (q - theta[k])[:, None]
+        return area[k] + u * x[k] + 0.5 * u ** 2 * slope[k]
+
+    q = theta[rows]
+    return (integral(q + np.pi) - integral(q - np.pi)) / (2 * np.pi), rows
 
 
 def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame,

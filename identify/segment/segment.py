@@ -30,7 +30,6 @@ from identify.segment.plateaus import (
     classify,
     describe,
     find_plateaus,
-    interval,
     steady_mask,
 )
 from identify.segment.result import Segment, Segmentation
@@ -153,9 +152,8 @@ def segment_trailer(table: pd.DataFrame,
         sweep=np.array([segments[k].sweep for k in seg_of_row[chosen]], dtype=object),
         **{name: level_cols[c][chosen] for c, name in LEVEL_COLUMNS.items()})
     in_sweeps = len(frame)
-    dt = interval(table["t"].to_numpy(float)) if len(table) > 1 else 1.0
     counts = []
-    for step in (lambda f: F.revolution_average(f, s, dt), lambda f: F.set_slip_angle(f, s),
+    for step in (lambda f: F.revolution_average(f, s), lambda f: F.set_slip_angle(f, s),
                  lambda f: F.cold_tread(f, s), lambda f: F.low_speed(f, s),
                  lambda f: F.binning(f, s)):
         frame, count = step(frame)
