@@ -117,3 +117,19 @@ def test_binning_gives_one_point_per_bin_and_sweep(sessions):
     bins = np.floor(a["alpha"] / np.deg2rad(0.5))
     assert not bins.groupby(a["segment"]).apply(lambda b: b.duplicated().any()).any()
     assert a.groupby("segment").size().between(40, 52).all()  # +-12 deg in 0.5 deg bins
+
+
+def test_revolution_average_fits_each_speed_step():
+    """Two sweeps of one table at 40 and 72 km/h (wheel speeds 34 and 61 rad/s): the mean
+    over the wheel's angle removes the 24 N ripple from both; one window sized by the table's
+    median wheel speed cannot fit both (its leak: over 5 N)."""
+    parts = []
+    for seg, omega in enumerate((34.0, 61.0)):
+        t = np.arange(0.0, 3.0, 0.01)
+        parts.append(pd.DataFrame({"t": t + 10 * seg, "Fx": 24.0 * np.cos(omega * t + 0.3),
+                                   "omega": omega, "Vx": omega * 0.33, "segment": seg}))
+    frame = pd.concat(parts, ignore_index=True)
+    out, count = revolution_average(frame, SegmentSettings())
+    assert set(out["segment"]) == {0, 1} and np.abs(out["Fx"]).max() < 0.05
+    one, _ = revolution_average(frame.assign(omega=frame["omega"].median()), SegmentSettings())
+    assert np.abs(one["Fx"]).max() > 5.0
