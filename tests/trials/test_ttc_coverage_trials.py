@@ -29,8 +29,8 @@ from tests.bench_modules import load_bench
 SEEDS = tuple(range(10))
 POOLED_MIN = 0.90
 """Pooled coverage on seeds 0-9 with the staged sweep jackknife and the twiced revolution
-average (846/910 = 0.93) less three times its binomial spread (0.0085); before the twiced
-filter 0.89, with iid standard errors 0.47."""
+average (846/910 = 0.93 in time, 817/879 = 0.93 over the wheel's angle) less three times its
+binomial spread (0.0085); before the twiced filter 0.89, with iid standard errors 0.47."""
 
 
 @pytest.fixture(scope="module")
@@ -58,7 +58,7 @@ def test_forces_within_two_percent_and_pooled_coverage(tables, capsys):
 
 
 @pytest.mark.trials
-@pytest.mark.xfail(strict=True, reason="not met: 18 of 109 coefficients below 9/10 "
+@pytest.mark.xfail(strict=True, reason="not met: 18-22 of 109 coefficients below 9/10 "
                    "(9.4 expected by chance); Fx0 PCX1/PEX1 spread 3.2 SE: two minima the "
                    "noise cannot tell apart, bench/stage_valleys.py, docs/intervals.md")
 def test_every_identifiable_coefficient_inside_in_9_of_10_seeds(tables):
