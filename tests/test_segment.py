@@ -133,3 +133,14 @@ def test_revolution_average_fits_each_speed_step():
     assert set(out["segment"]) == {0, 1} and np.abs(out["Fx"]).max() < 0.05
     one, _ = revolution_average(frame.assign(omega=frame["omega"].median()), SegmentSettings())
     assert np.abs(one["Fx"]).max() > 5.0
+
+
+def test_revolution_average_drops_a_repeated_time_stamp_not_the_sweep():
+    """A logger that writes a time stamp twice (seen in a real TTC session): that sample is
+    dropped, the rest of the sweep is filtered as before."""
+    frame, fx, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    dup = frame.copy()
+    dup.loc[150, "t"] = dup.loc[149, "t"]
+    out, count = revolution_average(dup, SegmentSettings())
+    assert count.removed == 41 and 150 not in out.index
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.5

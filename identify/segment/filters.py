@@ -69,6 +69,8 @@ def revolution_average(frame: pd.DataFrame,
         theta = _wheel_angle(t[rows], speed[rows])
         if theta is None:
             continue
+        ahead = np.concatenate(([True], theta[1:] > np.maximum.accumulate(theta)[:-1]))
+        rows, theta = rows[ahead], theta[ahead]  # a repeated time stamp: the sample is dropped
         once, i = _revolution_mean(theta, values[rows])  # at rows[i]
         twice, j = _revolution_mean(theta[i], once)  # at rows[i[j]]
         if j.size == 0:
@@ -102,13 +104,13 @@ def _wheel_speed(frame: pd.DataFrame) -> tuple[np.ndarray | None, str]:
 def _wheel_angle(t: np.ndarray, speed: np.ndarray) -> np.ndarray | None:
     """The wheel's angle [rad] at the samples of one segment (trapezoidal integral of its
     speed over time; samples without a usable speed take the one interpolated in time); None
-    when the segment turns less than two revolutions or its angle does not increase."""
+    when the segment turns less than two revolutions."""
     ok = np.isfinite(speed) & (speed > 0)
     if ok.sum() < 2 or np.ptp(t) <= 0:
         return None
     w = speed if ok.all() else np.interp(t, t[ok], speed[ok])
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (w[1:] + w[:-1]) * np.diff(t))))
-    if theta[-1] < 4 * np.pi or not (np.diff(theta) > 0).all():
+    if theta[-1] < 4 * np.pi:
         return None
     return theta
 
