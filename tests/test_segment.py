@@ -144,3 +144,19 @@ def test_revolution_average_drops_a_repeated_time_stamp_not_the_sweep():
     out, count = revolution_average(dup, SegmentSettings())
     assert count.removed == 41 and 150 not in out.index
     assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.5
+
+
+def test_revolution_average_keeps_a_nan_sample_local():
+    """An optional channel with a spike set NaN at load (identify.io.quirks) keeps its value
+    on the rest of the sweep: the NaN leaves the revolutions around it with the pieces that
+    remain (a constant stays exact), and only where less than half a revolution is measured
+    is the mean NaN. A running sum carried the NaN to every later sample of the segment."""
+    frame, _, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    my = np.full(len(frame), 50.0)
+    my[100] = np.nan  # one spike
+    my[200:215] = np.nan  # a dropout of 15 samples: most of a revolution
+    out, _ = revolution_average(frame.assign(My=my), SegmentSettings())
+    at = out.index.to_numpy()
+    near = (np.abs(at - 207) < 20)
+    np.testing.assert_allclose(out["My"].to_numpy()[~near], 50.0, rtol=1e-12)
+    assert np.isnan(out["My"].to_numpy()[near]).any() and np.isfinite(out["My"][at > 240]).all()

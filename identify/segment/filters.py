@@ -121,20 +121,33 @@ def _revolution_mean(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.n
     (the integral of each piece exact). Returns the means and the rows they belong to: those
     whose revolution lies within the samples. A ripple that is periodic in the wheel's angle
     averages to zero whatever the wheel speed does, so slip-ratio sweeps (the wheel speed
-    moves with the slip ratio) and speed steps need no window of their own."""
-    d = np.diff(theta)
-    slope = np.diff(x, axis=0) / d[:, None]
-    area = np.concatenate((np.zeros((1, x.shape[1])),
-                           np.cumsum(0.5 * (x[1:] + x[:-1]) * d[:, None], axis=0)))
+    moves with the slip ratio) and speed steps need no window of their own.
+
+    A NaN sample (an optional channel's spike or dropout, set NaN by identify.io.quirks) takes
+    the pieces next to it out of that column's integral, and the mean is over the rest of the
+    revolution; with less than half a revolution left it is NaN. (A plain running sum would
+    carry the NaN to every later sample of the segment.)"""
+    d = np.diff(theta)[:, None]
+    finite = np.isfinite(x)
+    piece = finite[1:] & finite[:-1]  # pieces with both ends measured
+    x0 = np.where(finite, x, 0.0)
+    slope = np.where(piece, np.diff(x0, axis=0) / d, 0.0)
+    zero = np.zeros((1, x.shape[1]))
+    area = np.concatenate((zero, np.cumsum(np.where(piece, 0.5 * (x0[1:] + x0[:-1]) * d, 0.0),
+                                           axis=0)))
+    span = np.concatenate((zero, np.cumsum(np.where(piece, d, 0.0), axis=0)))
     rows = np.flatnonzero((theta - np.pi >= theta[0]) & (theta + np.pi <= theta[-1]))
 
-    def integral(q: np.ndarray) -> np.ndarray:  # of x from theta[0] to q
+    def integrals(q: np.ndarray) -> tuple[np.ndarray, np.ndarray]:  # from theta[0] to q
         k = np.clip(np.searchsorted(theta, q, side="right") - 1, 0, len(d) - 1)
-        u = (q - theta[k])[:, None]
-        return area[k] + u * x[k] + 0.5 * u ** 2 * slope[k]
+        u = (q - theta[k])[:, None] * piece[k]
+        return area[k] + u * x0[k] + 0.5 * u ** 2 * slope[k], span[k] + u
 
     q = theta[rows]
-    return (integral(q + np.pi) - integral(q - np.pi)) / (2 * np.pi), rows
+    (a_hi, s_hi), (a_lo, s_lo) = integrals(q + np.pi), integrals(q - np.pi)
+    length = s_hi - s_lo
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(length >= np.pi, (a_hi - a_lo) / length, np.nan), rows
 
 
 def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame,
