@@ -165,11 +165,14 @@ def _text(value) -> str:
 
 def _read_mat(path: Path, problems: Problems):
     try:
-        data = path.read_bytes()
+        with open(path, "rb") as fh:
+            head = fh.read(128)
+            v73 = is_mat73_header(head)  # HDF5 inside: h5py reads it from the file
+            data = b"" if v73 else head + fh.read()
     except OSError as exc:
         problems.add(path, f"cannot read file: {exc.strerror or exc}")
         return None
-    if is_mat73_header(data[:128]):
+    if v73:
         try:
             mat = read_mat73(path)
         except Mat73Error as exc:
