@@ -15,7 +15,7 @@ import numpy as np
 
 from identify.io.common import Problems, starts_with
 from identify.io.atomic import atomic_path
-from identify.io.hdf5_probe import metadata_problem
+from identify.io.hdf5_probe import HDF5_ERRORS, hdf5_error, metadata_problem
 import h5py
 
 __all__ = ["HDF5_SIGNATURE", "RawRun", "is_hdf5", "read_hdf5", "write_hdf5"]
@@ -76,10 +76,8 @@ def read_hdf5(path: str | Path, problems: Problems, *, run: str | None = None,
     try:
         with fh:
             return _runs(path, fh, problems, run, time, allow_nan, start)
-    except (RuntimeError, KeyError, OSError, ValueError, TypeError, IndexError,
-            AttributeError, OverflowError) as exc:  # corrupt metadata, a dangling link
-        problems.add(path, f"corrupt HDF5 file ({type(exc).__name__}: "
-                           f"{str(exc).splitlines()[0] if str(exc) else 'no detail'})")
+    except HDF5_ERRORS as exc:  # corrupt metadata, a dangling link
+        problems.add(path, f"corrupt HDF5 file ({hdf5_error(exc)})")
         return None
 
 

@@ -25,10 +25,23 @@ import h5py
 
 from identify.io.child_fate import TIMEOUT, child_fate
 
-__all__ = ["PROBE_SECONDS", "metadata_problem"]
+__all__ = ["HDF5_ERRORS", "PROBE_SECONDS", "hdf5_error", "metadata_problem"]
 
 #: How long reading a file's metadata may take [s] (a sound file of any size: milliseconds).
 PROBE_SECONDS = 20.0
+
+
+#: What h5py raises on a corrupt file once the probe passed it (corrupt metadata, a dangling
+#: link or reference, a value of the wrong type): identify.io.hdf5 and identify.io.mat73 turn
+#: these into their one-line errors.
+HDF5_ERRORS = (RuntimeError, KeyError, OSError, ValueError, TypeError, IndexError,
+               AttributeError, OverflowError)
+
+
+def hdf5_error(exc: BaseException) -> str:
+    """One line for an exception of :data:`HDF5_ERRORS`: its type and first line."""
+    text = str(exc)
+    return f"{type(exc).__name__}: {text.splitlines()[0] if text else 'no detail'}"
 
 
 #: Datasets up to this many values are read in the child as well (a larger one is read once,

@@ -29,7 +29,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from identify.io.hdf5_probe import metadata_problem
+from identify.io.hdf5_probe import HDF5_ERRORS, hdf5_error, metadata_problem
 
 __all__ = ["Mat73Error", "is_mat73_header", "read_mat73", "write_mat73"]
 
@@ -104,20 +104,19 @@ def read_mat73(path: str | Path) -> dict:
             return {_name(k): _value(fh, fh[k], _name(k)) for k in fh if k not in _INTERNAL}
     except Mat73Error:
         raise
-    except (OSError, RuntimeError, KeyError, ValueError, TypeError, IndexError,
-            AttributeError, OverflowError) as exc:
-        first = str(exc).splitlines()[0] if str(exc) else "no detail"
-        raise Mat73Error(f"corrupt HDF5 inside ({type(exc).__name__}: {first})") from None
+    except HDF5_ERRORS as exc:
+        raise Mat73Error(f"corrupt HDF5 inside ({hdf5_error(exc)})") from None
 
 
 def _char(group: h5py.Group, name: str, text: str) -> h5py.Dataset:
-    codes = np.array([[ord(c)] for c in text] or [[0]], dtype=np.uint16)
-    ds = group.create_dataset(name, data=codes if text else np.array([1, 0], np.uint64))
-    ds.attrs["MATLAB_class"] = np.bytes_("char")
+    """A 1 x L char row (an empty one as MATLAB writes it: its dimensions, MATLAB_empty)."""
     if text:
+        ds = group.create_dataset(name, data=np.array([[ord(c)] for c in text], np.uint16))
         ds.attrs["MATLAB_int_decode"] = np.int32(2)
     else:
+        ds = group.create_dataset(name, data=np.array([1, 0], np.uint64))
         ds.attrs["MATLAB_empty"] = np.uint8(1)
+    ds.attrs["MATLAB_class"] = np.bytes_("char")
     return ds
 
 
