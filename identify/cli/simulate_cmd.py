@@ -30,6 +30,11 @@ class UnitsChoice(str, Enum):
     USCS = "USCS"
 
 
+class MatVersionChoice(str, Enum):
+    v5 = "5"
+    v73 = "7.3"
+
+
 def parse_names(items: list[str]) -> list[str]:
     """``["N,RE", "SR"]`` -> ``["N", "RE", "SR"]`` (repeat or separate with commas)."""
     return [p.strip() for item in items for p in item.split(",") if p.strip()]
@@ -83,7 +88,7 @@ def simulate_command(
                                                "separate with commas."),
     cornering_only: bool = typer.Option(False, "--cornering-only",
                                         help="--format ttc: the cornering run only."),
-    mat_version: str = typer.Option("5", "--mat-version",
+    mat_version: MatVersionChoice = typer.Option(MatVersionChoice.v5, "--mat-version",
                                     help="--format ttc: MATLAB format of the .mat files, 5 "
                                          "or 7.3 (HDF5 inside)."),
     transients: bool = typer.Option(True, "--transients/--no-transients",
@@ -121,7 +126,7 @@ def simulate_command(
                                    ar1=0.7 if ar1 is None else ar1, units=units.value,
                                    implausible=parse_names(implausible),
                                    cornering_only=cornering_only, tireid=tireid,
-                                   mat_version=mat_version, overwrite=overwrite)
+                                   mat_version=mat_version.value, overwrite=overwrite)
             runs = ", ".join(f"{r['stem']} ({r['test']}, {r['samples']} samples)"
                              for r in session.truth["runs"])
             out_console.print(f"wrote {session.path}: {runs}; .mat and .dat each, "
