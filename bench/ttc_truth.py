@@ -33,6 +33,7 @@ import dataclasses  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
 import re  # noqa: E402
+import statistics  # noqa: E402
 import tempfile  # noqa: E402
 import time  # noqa: E402
 import warnings  # noqa: E402
@@ -113,6 +114,12 @@ def _inside(c: dict) -> bool:
     return abs(c["value"] - c["truth"]) <= Z95 * c["se"]
 
 
+def _median(xs: list, empty=math.nan):
+    """The upper median of ``xs`` (the middle value, the higher of the two for an even count),
+    ``empty`` when there is none."""
+    return statistics.median_high(xs) if xs else empty
+
+
 def coverage_tables(records: list[dict]) -> dict:
     """Issue 14, acceptance 3, "every identifiable coefficient within its 95 % interval in 9 of
     10 seeds", read both ways:
@@ -164,7 +171,7 @@ def coverage_tables(records: list[dict]) -> dict:
     diagnosis = {}
     for key, rows_ in errors.items():
         e = [d for d, _, _ in rows_]
-        se = sorted(s for _, s, _ in rows_)[len(rows_) // 2]
+        se = _median([s for _, s, _ in rows_])
         mean = sum(e) / len(e)
         spread = math.sqrt(sum((d - mean) ** 2 for d in e) / max(len(e) - 1, 1))
         diagnosis[key] = {"bias_se": mean / se, "spread_se": spread / se,
@@ -175,7 +182,7 @@ def coverage_tables(records: list[dict]) -> dict:
     every = [c for rec in records for c in rec["coefs"] if c["se"] > 0]
     widths = [Z95 * c["se"] / abs(c["value"]) for rec in records for c in rec["coefs"]
               if _identifiable(c) and c["value"] != 0]
-    n_ident = sorted(r["identifiable"] for r in rows)[len(rows) // 2] if rows else 0
+    n_ident = _median([r["identifiable"] for r in rows], 0)
     return {"seeds": seeds, "per_coefficient": per, "failing": failing, "why": why,
             "diagnosis": diagnosis,
             "per_seed": rows, "seeds_all_inside": sum(r["all"] for r in rows),
@@ -183,7 +190,7 @@ def coverage_tables(records: list[dict]) -> dict:
             "pooled_every": (sum(_inside(c) for c in every), len(every)),
             "expected_failing": p_fail * len(per),
             "p_seed_all_inside": 0.95 ** n_ident,
-            "median_half_width": sorted(widths)[len(widths) // 2] if widths else math.nan,
+            "median_half_width": _median(widths),
             "a_met": not failing, "b_met": sum(r["all"] for r in rows) >= 0.9 * seeds}
 
 
@@ -197,15 +204,10 @@ def compare_widths(before: list[dict], after: list[dict]) -> dict:
              for c in rec["coefs"] if _identifiable(c) and c["value"] != 0
              and (rec["seed"], c["stage"], c["name"]) in old]
     pairs = [(b, a) for b, a in pairs if b["se"] > 0 and b["value"] != 0]
-
-    def median(xs):
-        xs = sorted(xs)
-        return xs[len(xs) // 2] if xs else math.nan
-
     return {"n": len(pairs),
-            "half_width_before": median([Z95 * b["se"] / abs(b["value"]) for b, _ in pairs]),
-            "half_width_after": median([Z95 * a["se"] / abs(a["value"]) for _, a in pairs]),
-            "se_ratio": median([a["se"] / b["se"] for b, a in pairs]),
+            "half_width_before": _median([Z95 * b["se"] / abs(b["value"]) for b, _ in pairs]),
+            "half_width_after": _median([Z95 * a["se"] / abs(a["value"]) for _, a in pairs]),
+            "se_ratio": _median([a["se"] / b["se"] for b, a in pairs]),
             "inside_before": sum(_inside(b) for b, _ in pairs),
             "inside_after": sum(_inside(a) for _, a in pairs)}
 
@@ -213,7 +215,7 @@ def compare_widths(before: list[dict], after: list[dict]) -> dict:
 def print_tables(t: dict) -> None:
     """The tables of :func:`coverage_tables`."""
     pin, pn = t["pooled"]
-    half = 1.96 * math.sqrt(0.95 * 0.05 / max(pn, 1))
+    half = Z95 * math.sqrt(0.95 * 0.05 / max(pn, 1))
     print(f"\npooled: {pin}/{pn} = {pin / max(pn, 1):.3f} of the identifiable coefficient-"
           f"seeds inside their 95 % interval (calibrated: 0.95 +- {half:.3f}); median 95 % "
           f"half-width {100 * t['median_half_width']:.2f} % of the coefficient; every fitted "
