@@ -74,7 +74,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) ->
         run = fit_folder(imp.path, out_root=where / "fits", settings=settings)
     seconds = time.perf_counter() - t0
     cmp = compare_to_truth(read_tir(run.tir_path).params(), truth, pd.read_csv(run.csv_path))
-    inside, fitted, outside, coefs = 0, 0, [], []
+    coefs = []
     for r in run.results:
         if r.relation != "MF":
             continue
@@ -91,18 +91,15 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) ->
                           "se": se, "truth": float(truth[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
-            if why is not None:
-                continue
-            fitted += 1
-            if abs(z) <= Z95:
-                inside += 1
-            else:
-                outside.append(f"{r.form}:{name} z={z:+.1f}")
+    fitted = [c for c in coefs if c["identifiable"]]
+    outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted
+               if not abs(c["z"]) <= Z95]
     forces = {q.name: q.rms_pct for q in cmp.quantities if q.name in ("Fx", "Fy", "Mz")}
     return {"seed": seed, "binned": binned, "fit_s": seconds, "stages": stages,
             "failed": list(run.failed), "forces_pct": forces,
             "forces_ok": all(v <= BAR_PCT for v in forces.values()),
-            "in_95": inside, "fitted": fitted, "outside": outside, "coefs": coefs}
+            "in_95": len(fitted) - len(outside), "fitted": len(fitted), "outside": outside,
+            "coefs": coefs}
 
 
 def _identifiable(c: dict) -> bool:
