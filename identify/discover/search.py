@@ -37,7 +37,7 @@ from identify.discover.working import Working, prepare, refresh, renoise
 from identify.fit.problem import FitProblem
 from threadpoolctl import threadpool_limits
 
-__all__ = ["Settings", "discover", "Progress"]
+__all__ = ["Settings", "discover"]
 
 
 @dataclass(frozen=True)
