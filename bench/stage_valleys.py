@@ -66,7 +66,9 @@ def main() -> None:
     again = fit(stage_problem(args.stage, trailer, start, free=free, hold={}).problem,
                 starts=np.array([[start[n] for n in problem.free]]))
     rows = [("reported fit", fitted), ("truth", start), ("from the truth", again.parameters)]
-    c0 = cost(fitted)
+    x = np.array([fitted[n] for n in problem.free])
+    r = problem.residuals(x)  # the reported fit's
+    c0 = float(r @ r)
     print(f"{args.stage}: {problem.measured.size} points, {len(problem.free)} free; "
           f"objective relative to the reported fit's")
     print(f"{'':16s}{'objective':>11s}" + "".join(f"{n:>10s}" for n in args.names))
@@ -78,9 +80,7 @@ def main() -> None:
     # the difference in the units of the noise: chi^2 with iid noise (s^2 from the reported
     # fit's residuals), and divided by the variance the reported intervals add over iid ones
     # (their median ratio), which is what a 95 % region of the reported kind would allow
-    x = np.array([fitted[n] for n in problem.free])
-    r = problem.residuals(x)
-    s2 = float(r @ r) / (r.size - x.size)
+    s2 = c0 / (r.size - x.size)
     iid = np.sqrt(np.diag(engine.covariance(engine.residual_jacobian(problem, x), r)))
     inflation = float(np.median([(reported["stderr"][n] / sd) ** 2
                                  for n, sd in zip(problem.free, iid) if sd > 0]))
