@@ -386,6 +386,15 @@ CLUSTER_KINDS = ("CR1", "jackknife")
 """Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
 
 
+def _column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``jac`` (n, k) with columns of unit norm, and the norms they were divided by (1 for a
+    zero column): the jackknife's k x k solves on comparable columns."""
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    scale = np.linalg.norm(J, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    return J / scale, scale
+
+
 def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
                     upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The linearised change of each estimate when one cluster is left out, (C, k).
@@ -398,19 +407,17 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     earlier call, clusters in the same order; a cluster with no point here is an empty index
     array and still moves the estimate through u_c). Computed on the column-scaled J.
     """
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    scale = np.linalg.norm(J, axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    Js = J / scale
+    Js, scale = _column_scaled(jac)
+    k = Js.shape[1]
     G = Js.T @ Js
-    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), J.shape[1])
+    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
     if upstream is not None:
         K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
         JK = Js.T @ K
         rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
                              ).reshape(rhs.shape)
     steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
-    return steps.reshape(len(clusters), J.shape[1]) / scale
+    return steps.reshape(len(clusters), k) / scale
 
 
 ESSENTIAL_RTOL = 1e-8
@@ -426,9 +433,7 @@ def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
     has no component along the direction it alone determines) and comes out too small there
     (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257); the covariance
     is then the iid one. True for a singular G (nothing to lose)."""
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    scale = np.linalg.norm(J, axis=0)
-    Js = J / np.where(scale > 0, scale, 1.0)
+    Js, _ = _column_scaled(jac)
     G = Js.T @ Js
     floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
     if not floor > 0:
