@@ -267,6 +267,21 @@ def _signals_between_steps():
             signal.raise_signal(pending[0])
 
 
+def _converges_at(tau: np.ndarray) -> int | None:
+    """Steps at which the chain is longer than 50 x the largest autocorrelation time ``tau``;
+    None while tau is unknown (not finite)."""
+    if not np.all(np.isfinite(tau)):
+        return None
+    return int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1
+
+
+def _next_chunk(tau: np.ndarray, steps: int) -> int:
+    """Steps to the next estimate of tau: to where the last one says 50 tau is reached, at
+    least MIN_CHECK, at most CHUNK (CHUNK while tau is unknown)."""
+    at = _converges_at(tau)
+    return CHUNK if at is None else min(max(at - steps, MIN_CHECK), CHUNK)
+
+
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
          tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
     """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
@@ -275,15 +290,12 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
     why it stopped. ``steps0``, ``tau0``: a chain continued from where it stopped."""
     steps, tau, stop = steps0, np.full(1, np.inf) if tau0 is None else tau0, ""
     last = -math.inf
-    chunk = FIRST_CHECK
-    if steps0 and np.all(np.isfinite(tau)):
-        chunk = min(max(int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps,
-                        MIN_CHECK), CHUNK)
+    chunk = _next_chunk(tau, steps) if steps0 and _converges_at(tau) is not None else FIRST_CHECK
 
     def report(stop_now=""):
         tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
-        target = max_steps if not math.isfinite(tmax) else min(
-            max_steps, int(math.ceil(TAU_FACTOR * tmax)) + 1)
+        at = _converges_at(tau)
+        target = max_steps if at is None else min(max_steps, at)
         progress(ChainProgress(steps, max_steps, tmax, target, time.perf_counter() - t0,
                                budget, stop_now))
 
@@ -308,11 +320,7 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
                 stop = "converged"
             elif steps >= max_steps and not stop:
                 stop = "max_steps"
-            if np.all(np.isfinite(tau)):
-                need = int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps
-                chunk = min(max(need, MIN_CHECK), CHUNK)
-            else:
-                chunk = CHUNK
+            chunk = _next_chunk(tau, steps)
     if progress is not None:
         report(stop)
     return state, steps, tau, stop
