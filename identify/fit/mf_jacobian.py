@@ -116,9 +116,9 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
 
 @functools.cache
 def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
-    """(jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
-    parameters a vector in ``others`` order; ``others``): one per stage and parameter set per
-    process (JAX compiles it again only for a new chunk structure)."""
+    """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
+    parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
+    compiles it again only for a new chunk structure)."""
     jax, jnp = _jax()
 
     def predict(theta, fixed, s, inputs):
@@ -126,7 +126,7 @@ def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]
         P.update(zip(coefficients, theta))
         return stage_predict(stage, P, s, inputs, xp=jnp)
 
-    return jax.jit(jax.jacfwd(predict)), others
+    return jax.jit(jax.jacfwd(predict))
 
 
 def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
@@ -189,8 +189,9 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         return None
     # the held values the equations read, not all ~260 (tracing a slice per value cost the
     # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
-    state = [_compiled(stage, coefficients, _read_others(stage, base, s, omega))]
-    fixed = [np.array([float(base[k]) for k in state[0][1]])]
+    others = _read_others(stage, base, s, omega)
+    fn = _compiled(stage, coefficients, others)
+    fixed = np.array([float(base[k]) for k in others])
     inputs = stage_inputs(stage, base, s, omega)
     starts = range(0, n, CHUNK)
     # device copies of each chunk's points, made once (the last chunk padded with its first
@@ -203,15 +204,16 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
     position = {c: j for j, c in enumerate(coefficients)}
 
     def call(theta, sc, ic):
+        nonlocal others, fn, fixed
         try:
-            return state[0][0](theta, fixed[0], sc, ic)
+            return fn(theta, fixed, sc, ic)
         except KeyError:  # a held value the set above missed (traced on the first call)
             every = tuple(k for k in base if k not in set(coefficients))
-            if state[0][1] == every:
+            if others == every:
                 raise
-            state[0] = _compiled(stage, coefficients, every)
-            fixed[0] = np.array([float(base[k]) for k in every])
-            return state[0][0](theta, fixed[0], sc, ic)
+            others, fn = every, _compiled(stage, coefficients, every)
+            fixed = np.array([float(base[k]) for k in every])
+            return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
         unknown = [m for m in names if m not in position]
