@@ -48,8 +48,8 @@ CHUNK = 2048
 is two chunks). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
 8192 with chunks of 4096, 6144 + 2048 with 2048), larger ones make fewer calls (each call has
 a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
-(/tmp scratch script, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 / 3.6 / 3.8 ms, Fy (4549
-x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
+(a one-off /tmp scratch script, 2026-11-24, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 /
+3.6 / 3.8 ms, Fy (4549 x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
@@ -60,7 +60,8 @@ the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit'
 Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 7) then fitted
 Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
 (3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
-generated 135k-sample TTC session cost the same CPU time either way (loaded machine)."""
+generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
+measurements, 2026-11-24)."""
 CACHE_ENV = "MFID_JAX_CACHE"
 
 
