@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from identify.fit import mf_data, mf_jacobian
+from identify.fit import engine, mf_data, mf_jacobian
 from identify.fit.mf_search import SUBSAMPLE, search, start_points, subsample
 from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
@@ -27,6 +27,9 @@ from tests.test_fit_mf_stages import _perturb
 
 HAVE_JAX = mf_jacobian._jax() is not None
 needs_jax = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
+# engine.least_squares's ``stop`` runs in scipy's callback (scipy >= 1.16; ignored before)
+needs_stop = pytest.mark.skipif(not engine._HAS_CALLBACK,
+                                reason="scipy < 1.16: least_squares has no callback")
 
 
 # the stage tests' fixtures: the truth and its simulated sweeps (module scope: built once here)
@@ -161,6 +164,7 @@ def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
 
 
 
+@needs_stop
 def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
     """mf_search.MERGE_CHI2: a second start at the first one's end point stops after one
     iteration and ends at it (one candidate, both starts at the best value)."""
@@ -177,9 +181,8 @@ def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
     assert both.nfev <= one.nfev + 3 * (len(p.free) + 1)
 
 
+@needs_stop
 def test_least_squares_stop_callable_ends_the_solve():
-    from identify.fit import engine
-
     seen = []
 
     def stop(x, cost):
@@ -224,7 +227,6 @@ def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth
 def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, data):
     """The staged jackknife's d residuals / d (earlier stages' coefficients): batched, and
     exactly zero for names the stage does not read (Mx reads no longitudinal coefficient)."""
-    from identify.fit import engine
     from identify.fit.mf_stage_defs import names_read, stage_model
     from identify.fit.mf_uncertainty import _upstream_jacobian
 
@@ -260,6 +262,7 @@ def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monke
 
 
 @needs_jax
+@needs_stop
 def test_a_start_on_an_earlier_path_stops_there(truth, data, exact):
     """With the exact Jacobian a start that joins an earlier start's path (here: the same
     start again, whose first iterate is the earlier one's) ends at that start's end point."""
