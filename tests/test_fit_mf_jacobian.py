@@ -252,13 +252,21 @@ def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, 
 def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch):
     """stage_jacobian passes the held values the equations read (Fy0 under JAX: the
     combined-slip ones too); a set that misses one falls back to every value."""
+    compiled, traced = mf_jacobian._compiled, []
+
+    def recording(stage, coefficients, held):
+        traced.append(held)
+        return compiled(stage, coefficients, held)
+    monkeypatch.setattr(mf_jacobian, "_compiled", recording)
     sp = stage_problem("Fy0", data, truth, screen=False)
     others = mf_jacobian._read_others("Fy0", truth, sp.state, sp.omega)
     assert "RVY1" in others and "QSX1" not in others and "PKY1" not in others
     J = sp.problem.model_jacobian()
+    assert traced == [others]
     monkeypatch.setattr(mf_jacobian, "_read_others", lambda *a: ("FNOMIN",))
     again = stage_problem("Fy0", data, truth, screen=False).problem.model_jacobian()
     np.testing.assert_allclose(again, J, rtol=1e-13, atol=0)
+    assert traced[1] == ("FNOMIN",) and set(others) < set(traced[2])  # the fallback ran
 
 
 @needs_jax
