@@ -135,6 +135,7 @@ class LaplaceMove(emcee.moves.MHMove):
     def __init__(self, mean: np.ndarray, cov: np.ndarray, scale: float = 1.2,
                  df: float = 20.0):
         self.mean = np.asarray(mean, dtype=float)
+        self.scale = float(scale)
         self.chol = np.linalg.cholesky(scale ** 2 * np.asarray(cov, dtype=float))
         self.df = float(df)
         super().__init__(self._propose, ndim=self.mean.size)
@@ -157,11 +158,12 @@ class LaplaceMove(emcee.moves.MHMove):
 
 def laplace_start(posterior: _Posterior, move: LaplaceMove, nw: int,
                   random) -> np.ndarray | None:
-    """Walkers drawn from the Laplace approximation (cov / 1.2^2 of the move's proposal; a
-    start close to the stationary spread needs no burn-in to grow from a small ball), those
-    outside the support drawn again; None if fewer than nw land inside in 5 tries."""
+    """Walkers drawn from the Laplace approximation (the move's proposal without its widening
+    ``scale``; a start close to the stationary spread needs no burn-in to grow from a small
+    ball), those outside the support drawn again; None if fewer than nw land inside in 5
+    tries."""
     keep = []
-    narrow = LaplaceMove(move.mean, move.chol @ move.chol.T, scale=1 / 1.2, df=1e6)
+    narrow = LaplaceMove(move.mean, move.chol @ move.chol.T, scale=1 / move.scale, df=1e6)
     for _ in range(5):
         cand = narrow.draw(2 * nw, random)
         lp = posterior(cand)
