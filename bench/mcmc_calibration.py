@@ -33,33 +33,18 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-import time  # noqa: E402
-
-from identify.fit.mf_stages import fit_mf, stage_mcmc  # noqa: E402
-from tests.test_fit_calibration import MIN_RATE, N_TRIALS, Tally  # noqa: E402
-from tests.test_fit_calibration_mf import (LOADS_N, add_noise, calibrate_stage,  # noqa: E402
-                                           design, simulate)
-from tests.test_fit_mf_stages import _truth  # noqa: E402
+from tests.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
+from tests.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
 
 RIDGE = ("PKY1", "PKY2", "PKY4")
 
 
 def ridge_only(n_trials: int, loads, reparam: bool, seed0: int = 2000) -> dict:
     """The calibration with only PKY1, PKY2, PKY4 free (see the module docstring)."""
-    truth = _truth()
     points = design(loads=tuple(loads))
-    clean = simulate(truth, points[points["run"].str.startswith("lat")])
-    free = {"Fy0": list(RIDGE)}
-    tally, t0 = Tally(), time.perf_counter()
-    for seed in range(n_trials):
-        noisy = add_noise(clean, seed0 + seed)
-        mf = fit_mf(noisy, truth, stages=("Fy0",), seed=seed, free=free)
-        result = stage_mcmc(noisy, mf, "Fy0", seed=seed, reparam=reparam, max_steps=100_000)
-        m = result.mcmc
-        tally.add(m, result.free, truth)
-        print(f"  trial {seed}: {m.n_steps} steps, tau {max(m.tau.values()):.0f}, "
-              f"{m.seconds:.0f} s mcmc, hits so far {tally.hits}/{tally.total}", flush=True)
-    return dict(tally.summary("MF-Fy0 ridge only", time.perf_counter() - t0))
+    return calibrate_stage("Fy0", n_trials, seed0, points[points["run"].str.startswith("lat")],
+                           verbose=True, reparam=reparam, free={"Fy0": list(RIDGE)},
+                           label="MF-Fy0 ridge only")
 
 
 def main() -> None:

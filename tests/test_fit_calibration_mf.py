@@ -102,10 +102,12 @@ def add_noise(clean: pd.DataFrame, seed: int) -> pd.DataFrame:
 
 def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
                     points: pd.DataFrame | None = None, verbose: bool = False,
-                    reparam: bool = True) -> dict:
+                    reparam: bool = True, free: dict[str, list[str]] | None = None,
+                    label: str | None = None) -> dict:
     """Fit and sample ``stage`` on ``n_trials`` seeded noisy data sets (``reparam``: the Fy0
     cornering-stiffness reparametrisation of stage_mcmc) and count the 90 % intervals that
-    hold the truth; prints one line and returns the tally's summary."""
+    hold the truth; prints one line and returns the tally's summary (named ``label``, default
+    ``MF-<stage>``). ``free``: fit_mf's coefficients to free (default the stage's own)."""
     truth = _truth()
     if points is None:
         points = design(loads=STAGE_LOADS_N.get(stage, LOADS_N))
@@ -114,7 +116,7 @@ def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
     tally, free_sizes, n_points = Tally(), [], 0
     for seed in range(n_trials):
         noisy = add_noise(clean, seed0 + seed)
-        mf = fit_mf(noisy, truth, stages=(stage,), seed=seed)
+        mf = fit_mf(noisy, truth, stages=(stage,), seed=seed, free=free)
         result = stage_mcmc(noisy, mf, stage, seed=seed, max_steps=MAX_STEPS, reparam=reparam)
         m = result.mcmc
         n_points = result.n_points
@@ -127,9 +129,10 @@ def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
                   f"{tally.hits}/{tally.total}", flush=True)
     seconds = time.perf_counter() - t0
     n_free = int(np.median(free_sizes))
-    print(f"\nMF-{stage} ({n_points} points, {n_free} free): {tally.line()}; {seconds:.0f} s;"
+    label = label or f"MF-{stage}"
+    print(f"\n{label} ({n_points} points, {n_free} free): {tally.line()}; {seconds:.0f} s;"
           f" misses by coefficient {tally.misses}")
-    return dict(tally.summary(f"MF-{stage}", seconds), n_points=n_points, n_free=n_free)
+    return dict(tally.summary(label, seconds), n_points=n_points, n_free=n_free)
 
 
 def exact_linear_posterior(problem, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -308,6 +308,20 @@ def test_sweep_covariance_needs_enough_sweeps():
         dataclasses.replace(problem, covariance="robust")
 
 
+def test_a_fit_with_nothing_free_names_no_sweep_jackknife():
+    """Every coefficient held: there are no standard errors, and the result does not say they
+    came from a jackknife over the sweeps (fit.json's covariance, clusters)."""
+    x = np.linspace(0.0, 1.0, 240)
+    P = lmfit.Parameters()
+    P.add("a", value=1.0, vary=False)
+    P.add("b", value=2.0, vary=False)
+    problem = FitProblem("lin", "lin", P, lambda v: v["a"] + v["b"] * x, 1.0 + 2.0 * x,
+                         np.full(x.size, 2.0), objective="wls",
+                         sweeps=np.repeat(np.arange(12), 20), covariance="sweeps")
+    r = fit(problem)
+    assert r.free == () and (r.covariance, r.clusters) == ("iid", 0)
+
+
 def test_a_sweep_that_alone_determines_a_coefficient_makes_the_covariance_iid():
     """Confounded sweeps: 12 sweeps, all at x = 0 but one at x = 1 (the only sweep at a
     pressure, the pressure term free). Without that sweep the slope is undetermined, so the

@@ -1,6 +1,7 @@
 """MCMC uncertainty (emcee): seeded, converged by the 50-tau rule, honest intervals."""
 from __future__ import annotations
 
+import emcee
 import h5py
 import lmfit
 import numpy as np
@@ -41,6 +42,12 @@ def test_mcmc_summary_is_seeded_converged_and_kept_apart(tmp_path):
         assert 0.5 < sd / result.stderr[name] < 2.0, name
     with h5py.File(tmp_path / "chain.h5") as f:
         assert f["mcmc"]["chain"].shape[1:] == (m.n_walkers, 4)
+    # emcee reads the file (written once, at the end) as the chain the summary came from
+    saved = emcee.backends.HDFBackend(str(tmp_path / "chain.h5"), name="mcmc", read_only=True)
+    assert saved.iteration == m.n_steps
+    flat = saved.get_chain(discard=m.n_discard, thin=m.n_thin, flat=True)
+    np.testing.assert_array_equal(np.quantile(flat[:, :3], 0.5, axis=0),
+                                  [m.median[n] for n in problem.free])
 
 
 def test_budget_stops_the_chain_and_progress_follows_it():

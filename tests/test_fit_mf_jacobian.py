@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from identify.fit import mf_data, mf_jacobian
+from identify.fit import engine, mf_data, mf_jacobian
 from identify.fit.mf_search import SUBSAMPLE, search, start_points, subsample
 from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
@@ -27,6 +27,9 @@ from tests.test_fit_mf_stages import _perturb
 
 HAVE_JAX = mf_jacobian._jax() is not None
 needs_jax = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
+# engine.least_squares's ``stop`` runs in scipy's callback (scipy >= 1.16; ignored before)
+needs_stop = pytest.mark.skipif(not engine._HAS_CALLBACK,
+                                reason="scipy < 1.16: least_squares has no callback")
 
 
 # the stage tests' fixtures: the truth and its simulated sweeps (module scope: built once here)
@@ -161,6 +164,7 @@ def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
 
 
 
+@needs_stop
 def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
     """mf_search.MERGE_CHI2: a second start at the first one's end point stops after one
     iteration and ends at it (one candidate, both starts at the best value)."""
@@ -177,9 +181,8 @@ def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
     assert both.nfev <= one.nfev + 3 * (len(p.free) + 1)
 
 
+@needs_stop
 def test_least_squares_stop_callable_ends_the_solve():
-    from identify.fit import engine
-
     seen = []
 
     def stop(x, cost):
@@ -211,6 +214,7 @@ def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth
         v = dict(zip(names, x1))
         return np.concatenate([c.fun(v) for c in cons])
     near = [c.local(dict(zip(names, x))) for c in cons]
+    assert any(f is not c.fun for f, c in zip(near, cons))  # a subset of the grid, not all
 
     def local(x1):
         v = dict(zip(names, x1))
@@ -224,7 +228,6 @@ def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth
 def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, data):
     """The staged jackknife's d residuals / d (earlier stages' coefficients): batched, and
     exactly zero for names the stage does not read (Mx reads no longitudinal coefficient)."""
-    from identify.fit import engine
     from identify.fit.mf_stage_defs import names_read, stage_model
     from identify.fit.mf_uncertainty import _upstream_jacobian
 
@@ -250,16 +253,25 @@ def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, 
 def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch):
     """stage_jacobian passes the held values the equations read (Fy0 under JAX: the
     combined-slip ones too); a set that misses one falls back to every value."""
+    compiled, traced = mf_jacobian._compiled, []
+
+    def recording(stage, coefficients, held):
+        traced.append(held)
+        return compiled(stage, coefficients, held)
+    monkeypatch.setattr(mf_jacobian, "_compiled", recording)
     sp = stage_problem("Fy0", data, truth, screen=False)
     others = mf_jacobian._read_others("Fy0", truth, sp.state, sp.omega)
     assert "RVY1" in others and "QSX1" not in others and "PKY1" not in others
     J = sp.problem.model_jacobian()
+    assert traced == [others]
     monkeypatch.setattr(mf_jacobian, "_read_others", lambda *a: ("FNOMIN",))
     again = stage_problem("Fy0", data, truth, screen=False).problem.model_jacobian()
     np.testing.assert_allclose(again, J, rtol=1e-13, atol=0)
+    assert traced[1] == ("FNOMIN",) and set(others) < set(traced[2])  # the fallback ran
 
 
 @needs_jax
+@needs_stop
 def test_a_start_on_an_earlier_path_stops_there(truth, data, exact):
     """With the exact Jacobian a start that joins an earlier start's path (here: the same
     start again, whose first iterate is the earlier one's) ends at that start's end point."""

@@ -97,7 +97,8 @@ SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60, nois
 has to reach its basin (1e-8 relative, or a cost that changes by less than 1e-2 s^2 over 5
 iterations, chi^2 by < 0.02); the candidates are then solved on all points with MF_SOLVE
 (1e-3 before: the same stage errors to 4 digits on the sample and a generated TTC session, with
-10-25 % fewer evaluations in Fy0, Mz0 and Fy)."""
+10-25 % fewer evaluations in Fy0, Mz0 and Fy: a one-off comparison, 2026-11-24; the nfev
+column of bench/fit_cost.py shows them)."""
 
 MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4)
 """The MF stages' solves on all points (identify.fit.mf_stages): STRICT, and stopped once the
@@ -298,7 +299,8 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
         SLSQP's quasi-Newton model starts as the identity in its variables; in whitened
         variables that is this metric, so that the first step is a Gauss-Newton step instead
         of a gradient step (on the sample's Fx and Fy stages SLSQP took 26-27 iterations from
-        the identity in the x scaling). Finite bounds become linear constraints.
+        the identity in the x scaling, 7 and 18 in the metric: one-off, 2026-11-24). Finite
+        bounds become linear constraints.
     local_constraints : callable, optional
         x -> a function equal to ``constraints`` near x (FitProblem.local_constraints). With a
         ``metric``, the constraints' Jacobian is then SLSQP's own forward differences (the
@@ -386,6 +388,15 @@ CLUSTER_KINDS = ("CR1", "jackknife")
 """Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
 
 
+def _column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``jac`` (n, k) with columns of unit norm, and the norms they were divided by (1 for a
+    zero column): the jackknife's k x k solves on comparable columns."""
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    scale = np.linalg.norm(J, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    return J / scale, scale
+
+
 def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
                     upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
     """The linearised change of each estimate when one cluster is left out, (C, k).
@@ -398,19 +409,17 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     earlier call, clusters in the same order; a cluster with no point here is an empty index
     array and still moves the estimate through u_c). Computed on the column-scaled J.
     """
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    scale = np.linalg.norm(J, axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    Js = J / scale
+    Js, scale = _column_scaled(jac)
+    k = Js.shape[1]
     G = Js.T @ Js
-    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), J.shape[1])
+    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
     if upstream is not None:
         K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
         JK = Js.T @ K
         rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
                              ).reshape(rhs.shape)
     steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
-    return steps.reshape(len(clusters), J.shape[1]) / scale
+    return steps.reshape(len(clusters), k) / scale
 
 
 ESSENTIAL_RTOL = 1e-8
@@ -424,11 +433,10 @@ def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
     ESSENTIAL_RTOL x G's), e.g. the only sweep at one inflation pressure with the pressure
     terms free. The delete-one-cluster jackknife cannot see that cluster's noise (its step
     has no component along the direction it alone determines) and comes out too small there
-    (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257); the covariance
+    (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257, the test of such a
+    sweep in tests/test_fit_engine.py); the covariance
     is then the iid one. True for a singular G (nothing to lose)."""
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    scale = np.linalg.norm(J, axis=0)
-    Js = J / np.where(scale > 0, scale, 1.0)
+    Js, _ = _column_scaled(jac)
     G = Js.T @ Js
     floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
     if not floor > 0:

@@ -52,19 +52,28 @@ def _pairs(r: FitResult) -> list[tuple[str, str, float]]:
     return out
 
 
-def _wide(r: FitResult) -> list[tuple[str, str]]:
-    """(name, why) of free coefficients without a usable interval."""
+def _wide(r: FitResult) -> list[tuple[str, str, str]]:
+    """(name, short reason, the line of :func:`problems`) of free coefficients without a
+    usable interval."""
     out = []
     for n in r.free:
         se = float(r.stderr.get(n, math.nan))
         lo, hi = r.bounds.get(n, (-math.inf, math.inf))
         if not math.isfinite(se):
-            out.append((n, f"{n} has no finite standard error"))
+            out.append((n, "no finite standard error", f"{n} has no finite standard error"))
         elif math.isfinite(lo) and math.isfinite(hi) and 2 * Z95 * se > hi - lo:
             v = r.parameters[n]
-            out.append((n, f"{n} = {v:.4g}: 95 % interval [{v - Z95 * se:.3g}, "
-                           f"{v + Z95 * se:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
+            out.append((n, "95 % interval wider than its bounds",
+                        f"{n} = {v:.4g}: 95 % interval [{v - Z95 * se:.3g}, "
+                        f"{v + Z95 * se:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
     return out
+
+
+def _bound_side(r: FitResult, name: str) -> tuple[str, float]:
+    """("lower" or "upper", that bound) of the bound the estimate of ``name`` is at."""
+    lo, hi = r.bounds.get(name, (-math.inf, math.inf))
+    v = r.parameters[name]
+    return ("lower", lo) if abs(v - lo) <= abs(v - hi) else ("upper", hi)
 
 
 def problems(r: FitResult) -> list[str]:
@@ -75,11 +84,9 @@ def problems(r: FitResult) -> list[str]:
         out.append(f"{n_free} free coefficients on {r.n_points} points (fewer than "
                    f"{MIN_POINTS_PER_COEFFICIENT} points per coefficient)")
     for n in r.at_bound:
-        lo, hi = r.bounds.get(n, (-math.inf, math.inf))
-        v = r.parameters[n]
-        side = "lower" if abs(v - lo) <= abs(v - hi) else "upper"
-        out.append(f"{n} = {v:.4g} is at its {side} bound {lo if side == 'lower' else hi:g}")
-    out += [why for _, why in _wide(r)]
+        side, bound = _bound_side(r, n)
+        out.append(f"{n} = {r.parameters[n]:.4g} is at its {side} bound {bound:g}")
+    out += [why for _, _, why in _wide(r)]
     for a, b, c in _pairs(r):
         out.append(f"{a} and {b} are correlated {c:+.4f}: only their combination is "
                    "determined")
@@ -95,13 +102,9 @@ def unidentified(r: FitResult) -> dict[str, str]:
     intervals are not a statement about the coefficient; the others' are (docs/intervals.md)."""
     out: dict[str, str] = {}
     for n in r.at_bound:
-        lo, hi = r.bounds.get(n, (-math.inf, math.inf))
-        side = "lower" if abs(r.parameters[n] - lo) <= abs(r.parameters[n] - hi) else "upper"
-        out.setdefault(n, f"at its {side} bound")
-    for n, _ in _wide(r):
-        se = float(r.stderr.get(n, math.nan))
-        out.setdefault(n, "no finite standard error" if not math.isfinite(se)
-                       else "95 % interval wider than its bounds")
+        out.setdefault(n, f"at its {_bound_side(r, n)[0]} bound")
+    for n, reason, _ in _wide(r):
+        out.setdefault(n, reason)
     for a, b, c in _pairs(r):
         out.setdefault(a, f"correlated {c:+.4f} with {b}")
         out.setdefault(b, f"correlated {c:+.4f} with {a}")
@@ -114,7 +117,7 @@ def suspects(r: FitResult) -> list[str]:
     the larger standard error relative to the bounds (or value). Holding the first and
     re-fitting is the smallest step towards an identified fit."""
     count: dict[str, int] = {}
-    for n in (*r.at_bound, *(n for n, _ in _wide(r)),
+    for n in (*r.at_bound, *(n for n, _, _ in _wide(r)),
               *(x for a, b, _ in _pairs(r) for x in (a, b))):
         count[n] = count.get(n, 0) + 1
     return sorted((n for n in r.free if n in count),

@@ -27,13 +27,14 @@ for it) and its autocorrelation time grows with the dimension (tau ~ 60 steps on
 18-coefficient Fx0 stage, against ~500 for emcee's stretch move) and with curvature
 (~100 on the sample's 6-coefficient Fx stage); where the posterior is close to Gaussian the
 Laplace proposals are nearly independent draws: on the bundled sample's MF stages the largest
-tau fell from 54-115 (Fx0, Fy) to 5-14 steps. ``moves="de"`` is differential evolution alone
-from a small ball, ``"stretch"`` emcee's default; with AR(1) noise ``"de+laplace"`` is ``"de"``
-(phi has no Laplace approximation here). emcee's DESnookerMove is not used: in emcee 3.1.6 it
-scales its step by the distance to the anchor walker (u = delta/sqrt(|delta|) instead of
-delta/|delta|) and so does not sample the target (a unit Gaussian in 19 dimensions comes out
-with variance 0.56 alone, 0.79 as 20 % of a mix with DE; tests/test_fit_mcmc.py checks the
-posterior width against a linear problem's exact one).
+tau fell from 54-115 (Fx0, Fy) to 5-14 steps (one-off, 2026-11-24; bench/mcmc_chains.py
+prints each chain's tau of an ``mfid fit --mcmc`` run). ``moves="de"`` is differential
+evolution alone from a small ball, ``"stretch"`` emcee's default; with AR(1) noise
+``"de+laplace"`` is ``"de"`` (phi has no Laplace approximation here). emcee's DESnookerMove
+is not used: in emcee 3.1.6 it scales its step by the distance to the anchor walker (u =
+delta/sqrt(|delta|) instead of delta/|delta|) and so does not sample the target (a unit
+Gaussian in 19 dimensions comes out with variance 0.56 alone, 0.79 as 20 % of a mix with DE;
+tests/test_fit_mcmc.py checks the posterior width against a linear problem's exact one).
 """
 from __future__ import annotations
 
@@ -267,6 +268,21 @@ def _signals_between_steps():
             signal.raise_signal(pending[0])
 
 
+def _converges_at(tau: np.ndarray) -> int | None:
+    """Steps at which the chain is longer than 50 x the largest autocorrelation time ``tau``;
+    None while tau is unknown (not finite)."""
+    if not np.all(np.isfinite(tau)):
+        return None
+    return int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1
+
+
+def _next_chunk(tau: np.ndarray, steps: int) -> int:
+    """Steps to the next estimate of tau: to where the last one says 50 tau is reached, at
+    least MIN_CHECK, at most CHUNK (CHUNK while tau is unknown)."""
+    at = _converges_at(tau)
+    return CHUNK if at is None else min(max(at - steps, MIN_CHECK), CHUNK)
+
+
 def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
          tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
     """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
@@ -275,15 +291,12 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
     why it stopped. ``steps0``, ``tau0``: a chain continued from where it stopped."""
     steps, tau, stop = steps0, np.full(1, np.inf) if tau0 is None else tau0, ""
     last = -math.inf
-    chunk = FIRST_CHECK
-    if steps0 and np.all(np.isfinite(tau)):
-        chunk = min(max(int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps,
-                        MIN_CHECK), CHUNK)
+    chunk = _next_chunk(tau, steps) if steps0 and _converges_at(tau) is not None else FIRST_CHECK
 
     def report(stop_now=""):
         tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
-        target = max_steps if not math.isfinite(tmax) else min(
-            max_steps, int(math.ceil(TAU_FACTOR * tmax)) + 1)
+        at = _converges_at(tau)
+        target = max_steps if at is None else min(max_steps, at)
         progress(ChainProgress(steps, max_steps, tmax, target, time.perf_counter() - t0,
                                budget, stop_now))
 
@@ -308,11 +321,7 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
                 stop = "converged"
             elif steps >= max_steps and not stop:
                 stop = "max_steps"
-            if np.all(np.isfinite(tau)):
-                need = int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1 - steps
-                chunk = min(max(need, MIN_CHECK), CHUNK)
-            else:
-                chunk = CHUNK
+            chunk = _next_chunk(tau, steps)
     if progress is not None:
         report(stop)
     return state, steps, tau, stop
@@ -321,7 +330,8 @@ def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: flo
 def _write_chain_file(path, sampler, reparam: KyaRidge | None) -> None:
     """Save the chain once it has run, as emcee's HDFBackend lays it out (group ``mcmc``;
     ``emcee.backends.HDFBackend(path, name="mcmc", read_only=True)`` reads it): sampling into
-    the file directly costs ~25 ms a step in file opens, 8-10x the sampling of a relation.
+    the file directly costs ~25 ms a step in file opens, 8-10x the sampling of a relation
+    (one-off measurement, 2026-11-24).
     With ``reparam`` the chain is in the free coefficients (the blobs: the mapped ones and the
     log-Jacobian) and its log-probabilities are the posterior density in them, so that the
     file is in the names the report labels it with."""

@@ -57,23 +57,25 @@ def likelihood_mode(posterior: _Posterior, xb: np.ndarray, h: np.ndarray) -> np.
     weights can differ, e.g. the MF stages' sweep-relative noise): a few bounded Gauss-Newton
     (trust-region, identify.fit.engine.least_squares) steps on the noise-weighted residuals;
     ``xb`` if that does not improve."""
-    ok = np.isfinite((posterior._predict(np.r_[xb, 0.0][None, :])[0] - posterior.meas)
-                     * posterior.w)
+    def residuals(x):
+        return (posterior._predict(np.r_[x, 0.0][None, :])[0] - posterior.meas) * posterior.w
+
+    lo, hi = posterior.lo, posterior.hi
+    x0 = np.clip(xb, lo, hi)  # xb itself: a fit's optimum lies within its bounds
+    r0 = residuals(x0)
+    ok = np.isfinite(r0)
 
     def fun(x):
-        pred = posterior._predict(np.r_[x, 0.0][None, :])[0]
-        return np.nan_to_num(((pred - posterior.meas) * posterior.w)[ok], nan=1e30)
+        return np.nan_to_num(residuals(x)[ok], nan=1e30)
 
     def jac(x):
         return np.nan_to_num(weighted_jacobian(posterior, x, h)[1][ok], nan=0.0)
 
-    lo, hi = posterior.lo, posterior.hi
-    x0 = np.clip(xb, lo, hi)
     try:
         sol = least_squares(fun, x0, (lo, hi), LAPLACE, jac=jac, max_nfev=MODE_NFEV)
     except (ValueError, np.linalg.LinAlgError):
         return xb
-    better = np.all(np.isfinite(sol.x)) and 2 * sol.cost < np.sum(fun(x0) ** 2)
+    better = np.all(np.isfinite(sol.x)) and 2 * sol.cost < np.sum(r0[ok] ** 2)
     return sol.x if better else xb
 
 
@@ -133,6 +135,7 @@ class LaplaceMove(emcee.moves.MHMove):
     def __init__(self, mean: np.ndarray, cov: np.ndarray, scale: float = 1.2,
                  df: float = 20.0):
         self.mean = np.asarray(mean, dtype=float)
+        self.scale = float(scale)
         self.chol = np.linalg.cholesky(scale ** 2 * np.asarray(cov, dtype=float))
         self.df = float(df)
         super().__init__(self._propose, ndim=self.mean.size)
@@ -155,11 +158,12 @@ class LaplaceMove(emcee.moves.MHMove):
 
 def laplace_start(posterior: _Posterior, move: LaplaceMove, nw: int,
                   random) -> np.ndarray | None:
-    """Walkers drawn from the Laplace approximation (cov / 1.2^2 of the move's proposal; a
-    start close to the stationary spread needs no burn-in to grow from a small ball), those
-    outside the support drawn again; None if fewer than nw land inside in 5 tries."""
+    """Walkers drawn from the Laplace approximation (the move's proposal without its widening
+    ``scale``; a start close to the stationary spread needs no burn-in to grow from a small
+    ball), those outside the support drawn again; None if fewer than nw land inside in 5
+    tries."""
     keep = []
-    narrow = LaplaceMove(move.mean, move.chol @ move.chol.T, scale=1 / 1.2, df=1e6)
+    narrow = LaplaceMove(move.mean, move.chol @ move.chol.T, scale=1 / move.scale, df=1e6)
     for _ in range(5):
         cand = narrow.draw(2 * nw, random)
         lp = posterior(cand)

@@ -28,12 +28,12 @@ Gy_kappa > 0 there bind RCX1 and RCY1 near 1.
 """
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from identify.fit.mf_stage_defs import subset_state
 from identify.fit.problem import Constraint
 from identify.model import lateral, longitudinal
 from identify.model.longitudinal import magic_cosine
@@ -170,14 +170,6 @@ minimum over these points is the minimum over the grid at every step, and the Ja
 same as over the whole grid (exactly, up to ties that change order within the step)."""
 
 
-def _subset(s: OperatingState, index: np.ndarray) -> OperatingState:
-    """The grid points ``index`` of ``s``."""
-    n = s.fz.size
-    return dataclasses.replace(s, **{
-        f.name: getattr(s, f.name)[index] for f in dataclasses.fields(s)
-        if isinstance(getattr(s, f.name), np.ndarray) and getattr(s, f.name).shape == (n,)})
-
-
 def _make(name: str, merge: Merge, s: OperatingState, margin) -> Constraint:
     def margins(values, at: OperatingState = s) -> np.ndarray:
         return np.asarray(margin(merge(values), at) + np.zeros(at.fz.shape), dtype=float)
@@ -194,7 +186,7 @@ def _make(name: str, merge: Merge, s: OperatingState, margin) -> Constraint:
         if near.size == m.size:
             return fun
         load = near // m.shape[1]
-        at = _subset(s, near)
+        at = subset_state(s, near)
 
         def near_fun(values1):
             v = margins(values1, at)

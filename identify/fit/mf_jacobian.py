@@ -48,8 +48,8 @@ CHUNK = 2048
 is two chunks). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
 8192 with chunks of 4096, 6144 + 2048 with 2048), larger ones make fewer calls (each call has
 a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
-(/tmp scratch script, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 / 3.6 / 3.8 ms, Fy (4549
-x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
+(a one-off /tmp scratch script, 2026-11-24, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 /
+3.6 / 3.8 ms, Fy (4549 x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
@@ -60,7 +60,8 @@ the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit'
 Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 7) then fitted
 Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
 (3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
-generated 135k-sample TTC session cost the same CPU time either way (loaded machine)."""
+generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
+measurements, 2026-11-24)."""
 CACHE_ENV = "MFID_JAX_CACHE"
 
 
@@ -116,9 +117,9 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
 
 @functools.cache
 def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
-    """(jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
-    parameters a vector in ``others`` order; ``others``): one per stage and parameter set per
-    process (JAX compiles it again only for a new chunk structure)."""
+    """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
+    parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
+    compiles it again only for a new chunk structure)."""
     jax, jnp = _jax()
 
     def predict(theta, fixed, s, inputs):
@@ -126,7 +127,7 @@ def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]
         P.update(zip(coefficients, theta))
         return stage_predict(stage, P, s, inputs, xp=jnp)
 
-    return jax.jit(jax.jacfwd(predict)), others
+    return jax.jit(jax.jacfwd(predict))
 
 
 def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
@@ -189,8 +190,9 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         return None
     # the held values the equations read, not all ~260 (tracing a slice per value cost the
     # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
-    state = [_compiled(stage, coefficients, _read_others(stage, base, s, omega))]
-    fixed = [np.array([float(base[k]) for k in state[0][1]])]
+    others = _read_others(stage, base, s, omega)
+    fn = _compiled(stage, coefficients, others)
+    fixed = np.array([float(base[k]) for k in others])
     inputs = stage_inputs(stage, base, s, omega)
     starts = range(0, n, CHUNK)
     # device copies of each chunk's points, made once (the last chunk padded with its first
@@ -203,15 +205,16 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
     position = {c: j for j, c in enumerate(coefficients)}
 
     def call(theta, sc, ic):
+        nonlocal others, fn, fixed
         try:
-            return state[0][0](theta, fixed[0], sc, ic)
+            return fn(theta, fixed, sc, ic)
         except KeyError:  # a held value the set above missed (traced on the first call)
             every = tuple(k for k in base if k not in set(coefficients))
-            if state[0][1] == every:
+            if others == every:
                 raise
-            state[0] = _compiled(stage, coefficients, every)
-            fixed[0] = np.array([float(base[k]) for k in every])
-            return state[0][0](theta, fixed[0], sc, ic)
+            others, fn = every, _compiled(stage, coefficients, every)
+            fixed = np.array([float(base[k]) for k in every])
+            return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
         unknown = [m for m in names if m not in position]

@@ -52,7 +52,8 @@ instead of costing minutes."""
 REFIT_NFEV = 40
 """Budget of a re-fit's least-squares solve on all points (identify.fit.mf_stages._refine): it
 starts at the re-fit's optimum on the search's subsample, where the re-fits the data support
-converge within 4-18 evaluations (the bundled sample and a generated TTC session); the ones
+converge within 4-18 evaluations (the bundled sample and a generated TTC session; one-off,
+2026-11-24); the ones
 that ran into MAX_NFEV (QSX4, QSX5, QSX9 on the sample's Mx; RVY4..6 on the TTC session's Fy)
 were products of weakly determined coefficients running off along a flat valley, not taken
 in the end, and cost a second per stage on all points."""
@@ -97,7 +98,7 @@ Jacobian, the same test against every iterate x_t of the earlier starts' paths, 
 of the Jacobian J at x (||J (x - x_t)||^2 <= MERGE_CHI2 s^2, |cost - cost_t| <= 0.5 MERGE_CHI2
 s^2): a start within a standard error of where another one passed, at the same cost, goes where
 that one went (on the sample's Fy0 a start joined the first one's path in a curved valley 26
-iterations before its end)."""
+iterations before its end; one-off, 2026-11-24)."""
 
 
 def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:

@@ -39,7 +39,8 @@ STAGED = "staged-sweep-jackknife"
 BATCH_ELEMENTS = 1 << 16
 """Elements (perturbed parameter sets x points) of one vectorised evaluation of the central
 differences in :func:`_upstream_jacobian`: 512 kB per intermediate array, within a core's
-cache (1 << 19 was slower than one set at a time on the Mz stage of the sample)."""
+cache (1 << 19 was slower than one set at a time on the Mz stage of the sample; one-off,
+2026-11-24)."""
 
 
 def _upstream_jacobian(sp: StageProblem, x: np.ndarray, params: Mapping[str, float],

@@ -177,9 +177,9 @@ class FitProblem:
 
     def clusters(self) -> list[np.ndarray] | None:
         """Index arrays of the sweeps, the clusters of the covariance; None for the iid
-        covariance (``covariance="iid"``, no sweeps, fewer than MIN_CLUSTERS sweeps or not more
-        sweeps than free coefficients)."""
-        if self.covariance != "sweeps" or self.sweeps is None:
+        covariance (``covariance="iid"``, no sweeps, nothing free, fewer than MIN_CLUSTERS
+        sweeps or not more sweeps than free coefficients)."""
+        if self.covariance != "sweeps" or self.sweeps is None or not self.free:
             return None
         _, index = np.unique(np.asarray(self.sweeps), return_inverse=True)
         index = index.ravel()
