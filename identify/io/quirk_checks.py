@@ -63,7 +63,7 @@ def time_order(frame: pd.DataFrame, report: WarningReport, errors: list) -> pd.D
     del top
     if t.size > 2:
         dt = np.diff(t)
-        step = _median_in_place(dt)
+        step = float(np.median(dt, overwrite_input=True))  # partitions dt: no copy
         dt = np.diff(t)  # again, in order (the median partitioned it): no second array held
         gaps = dt > 1.5 * step
         index = frame.index
@@ -192,17 +192,7 @@ def _curvature_scale(v: np.ndarray) -> float:
     d2 = np.add(v[:-2], v[2:])  # v[1:-1] - 0.5 (v[:-2] + v[2:]), in one array
     d2 *= 0.5
     np.abs(np.subtract(v[1:-1], d2, out=d2), out=d2)
-    return 1.4826 * _median_in_place(d2)
-
-
-def _median_in_place(a: np.ndarray) -> float:
-    """``np.median(a)`` of a finite array without its copy (``a`` is left partitioned)."""
-    k = a.size // 2
-    if a.size % 2:
-        a.partition(k)
-        return float(a[k])
-    a.partition([k - 1, k])
-    return float((a[k - 1] + a[k]) / 2)
+    return 1.4826 * float(np.median(d2, overwrite_input=True))  # d2 is ours: no copy
 
 
 def _outliers(v: np.ndarray) -> np.ndarray | None:
