@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
-from identify.core.plausible import judge, judge_channel
+from identify.core.plausible import judge_channel
 from identify.core.units import SI_UNITS
 from identify.io.atomic import atomic_write_text
 from identify.io.axes import AXES, to_iso_w
@@ -179,11 +179,7 @@ def _plausible(frame: pd.DataFrame, ch: Channels, names: Mapping[str, str],
     for col, quantity in _PLAUSIBLE:
         if col not in frame.columns or (col == "Fz" and medians["Fz"] <= 0):
             continue  # a load <= 0 has its own message below (the axes, or no load)
-        if col in medians:  # = judge_channel's verdict on the median
-            finding = judge(quantity, medians[col], what=f"median {quantity}")
-            found = None if finding is None else (finding, None)
-        else:
-            found = judge_channel(quantity, frame[col].to_numpy())
+        found = judge_channel(quantity, frame[col].to_numpy(), median=medians.get(col))
         if found is None:
             continue
         finding, row = found
