@@ -416,7 +416,7 @@ def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
 
 
 def check_increasing(problems: Problems, file: str | Path, name: str, t: np.ndarray,
-                     first_line: int | None) -> None:
+                     first_line: int | RowLines | None) -> None:
     """Report a time channel that does not strictly increase (first bad sample and count)."""
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size == 0:
