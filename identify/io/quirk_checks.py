@@ -62,9 +62,9 @@ def time_order(frame: pd.DataFrame, report: WarningReport, errors: list) -> pd.D
         frame, t = frame[~bad], t[~bad]
     del top
     if t.size > 2:
+        # the median partitions a diff of its own (freed before the one in order is made)
+        step = float(np.median(np.diff(t), overwrite_input=True))
         dt = np.diff(t)
-        step = float(np.median(dt, overwrite_input=True))  # partitions dt: no copy
-        dt = np.diff(t)  # again, in order (the median partitioned it): no second array held
         gaps = dt > 1.5 * step
         index = frame.index
         if not (isinstance(index, pd.RangeIndex) and index.step == 1):
