@@ -133,3 +133,19 @@ def test_suspect_rows_report_what_the_full_walk_reports(tmp_path, monkeypatch, a
     assert any(":9: " in p and "not a number: 'NA'" in p for p in fast)
     assert any(":13: " in p and "ragged row" in p for p in fast)
     assert fast[-1].endswith(":41: cannot parse CSV: field larger than field limit (131072)")
+
+
+@pytest.mark.parametrize("fast", [True, False])
+@pytest.mark.parametrize("spaces", ["   ", "\t", " \r"])
+def test_a_line_of_spaces_is_a_blank_line(tmp_path, monkeypatch, fast, spaces):
+    """pandas skips a line of only spaces or tabs as it skips a blank one: the row walks do
+    the same, so a NaN cell below it is a warning on its own line, not a ragged row."""
+    if not fast:
+        monkeypatch.setattr(common, "walk_suspects", lambda *args: False)
+    path = tmp_path / "run.csv"
+    path.write_bytes(_text(nan_row=30, blank_after=10).replace("\n\n", f"\n{spaces}\n")
+                     .encode())
+    warnings: list = []
+    (ch,) = read_channels(path)
+    channels_to_tidy(ch, warnings=warnings)
+    assert {w.kind: w.line for w in warnings} == {"nan": 33, "rows": 33}  # data row 30

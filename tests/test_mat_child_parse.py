@@ -8,7 +8,7 @@ the child reports.
 import struct
 
 from identify.io.mat_guard import loadmat_crash, mat_problem
-from ttc_cases import small_mat
+from tests.ttc_cases import small_mat
 
 
 def test_a_sound_mat_file_parses_in_the_child(tmp_path):

@@ -29,11 +29,11 @@ from rich.table import Table
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
 from identify.core.errors import FitError, InputError, MfidError
-from identify.fit.summary import SUMMARY_TITLE, fmt_pct  # lazy: see fit_command
+from identify.fit.summary import SUMMARY_TITLE, fmt_pct
 from identify.fit.mcmc import BUDGET_S, ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
-from identify.fit.summary import notes_lines  # lazy: see fit_command
+from identify.fit.summary import notes_lines
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
 
@@ -268,10 +268,6 @@ def fit_command(
     Exit 0 on success; 1 when a fit failed (outputs are still written, marked as failed);
     2 on bad input.
     """
-    # imported here, not at the top: the fit stack takes ~1.5 s to import against 0.24 s for
-    # the CLI itself (python -c "import identify.fit.run" / "import identify.cli.app"), which
-    # every other command (and --help) would pay
-
     command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,

@@ -130,25 +130,28 @@ def _hint(text: str) -> str:
     return f"; {text}" if text else ""
 
 
-def judge_channel(quantity: str, values: np.ndarray, *, what: str = ""
-                  ) -> tuple[Finding, int | None] | None:
+def judge_channel(quantity: str, values: np.ndarray, *, what: str = "",
+                  median: float | None = None) -> tuple[Finding, int | None] | None:
     """Check a measured channel [SI]: its typical level against the band of ``quantity``.
 
     Pressure, load, radius and speed are judged on the median of the finite samples (one
-    noisy sample does not make a channel implausible); angles on the largest magnitude
-    (a sweep to 15 'rad' is degrees, whatever its median). Returns the finding and the
-    position of the sample concerned (None for a median), or None.
+    noisy sample does not make a channel implausible; ``median``: that median [SI] when the
+    caller has it, not computed again); angles on the largest magnitude (a sweep to 15 'rad'
+    is degrees, whatever its median). Returns the finding and the position of the sample
+    concerned (None for a median), or None.
     """
-    x = np.asarray(values, dtype=np.float64)
-    finite = np.isfinite(x)
-    if not finite.any():
-        return None  # the quirk checks report a channel without a finite value
-    x = x[finite]
-    if quantity == "angle":
-        i = int(np.argmax(np.abs(x)))
-        found = judge(quantity, float(x[i]), what=what or "largest angle")
-        return None if found is None else (found, int(np.flatnonzero(finite)[i]))
-    found = judge(quantity, float(np.median(x)), what=what or f"median {quantity}")
+    if median is None or quantity == "angle":
+        x = np.asarray(values, dtype=np.float64)
+        finite = np.isfinite(x)
+        if not finite.any():
+            return None  # the quirk checks report a channel without a finite value
+        x = x[finite]
+        if quantity == "angle":
+            i = int(np.argmax(np.abs(x)))
+            found = judge(quantity, float(x[i]), what=what or "largest angle")
+            return None if found is None else (found, int(np.flatnonzero(finite)[i]))
+        median = float(np.median(x))
+    found = judge(quantity, median, what=what or f"median {quantity}")
     return None if found is None else (found, None)
 
 

@@ -299,11 +299,14 @@ def read_numeric_csv(path: str | Path, problems: Problems, *, required: Iterable
             problems.add(path, "no data rows below the header", line=1)
             return None
         if not finite:  # NaN cells, or short rows pandas filled with NaN: walk to tell
-            _diagnose(path, len(names), names, problems, allow_nan, frame)
+            suspect = np.zeros(len(frame), dtype=bool)  # rows with a value not finite
             for c in frame.columns:  # inf -> NaN in place, one column at a time
                 x = frame[c].to_numpy()
-                if not np.isfinite(x).all():
-                    frame[c] = np.where(np.isfinite(x), x, np.nan)
+                bad = ~np.isfinite(x)
+                if bad.any():
+                    suspect |= bad
+                    frame[c] = np.where(bad, np.nan, x)
+            _diagnose(path, len(names), names, problems, allow_nan, suspect)
         frame.columns = names
         return ((frame, header_units, row_lines(path, len(frame), lines))
                 if problems.total == start else None)
@@ -386,23 +389,21 @@ def _parse_floats(path: Path) -> tuple[pd.DataFrame, int]:
 
 
 def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
-              allow_nan: bool = False, frame: pd.DataFrame | None = None) -> None:
+              allow_nan: bool = False, suspect: np.ndarray | None = None) -> None:
     """Report ragged rows, empty, non-numeric and non-finite cells with their lines.
 
-    With ``frame`` (what the fast path parsed) only its rows with a non-finite value are
-    looked at when the file's lines allow it (:func:`identify.io.csv_rows.walk_suspects`),
-    else every row is walked with the csv module."""
+    With ``suspect`` (per row of what the fast path parsed: a value not finite) only those
+    rows are looked at when the file's lines allow it
+    (:func:`identify.io.csv_rows.walk_suspects`), else every row is walked with the csv
+    module."""
     def add(line: int, key: str | None, message: str, kind: str) -> None:
         problems.add(path, message, line=line, key=key, kind=kind)
 
     try:
-        if frame is not None:
-            suspect = np.zeros(len(frame), dtype=bool)
-            for c in frame.columns:  # column by column: no rows x columns mask
-                suspect |= ~np.isfinite(frame[c].to_numpy())
+        if suspect is not None:
             with _open_binary(path) as fh:
                 if walk_suspects(fh, names, allow_nan, np.flatnonzero(suspect).tolist(),
-                                 len(frame), add):
+                                 suspect.size, add):
                     return
         with open_text(path, encoding="utf-8-sig", newline="", errors="replace") as fh:
             rows = walk_rows(fh, names[:width], allow_nan, add)
@@ -415,7 +416,7 @@ def _diagnose(path: Path, width: int, names: list[str], problems: Problems,
 
 
 def check_increasing(problems: Problems, file: str | Path, name: str, t: np.ndarray,
-                     first_line: int | None) -> None:
+                     first_line: int | RowLines | None) -> None:
     """Report a time channel that does not strictly increase (first bad sample and count)."""
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size == 0:

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from identify.io.csv_rows import RowLines
+
 __all__ = ["DataWarning", "WarningReport", "per_channel", "runs_of"]
 
 
@@ -75,7 +77,7 @@ class WarningReport:
     """Collects the warnings of one run."""
 
     def __init__(self, file: str, run: str, total: int, names: Mapping[str, str],
-                 first_line: int | None) -> None:
+                 first_line: int | RowLines | None) -> None:
         self.file, self.run, self.total, self.names = file, run, total, names
         self.first_line = first_line
         self.rows: np.ndarray | None = None

@@ -62,9 +62,9 @@ def time_order(frame: pd.DataFrame, report: WarningReport, errors: list) -> pd.D
         frame, t = frame[~bad], t[~bad]
     del top
     if t.size > 2:
+        # the median partitions a diff of its own (freed before the one in order is made)
+        step = float(np.median(np.diff(t), overwrite_input=True))
         dt = np.diff(t)
-        step = _median_in_place(dt)
-        dt = np.diff(t)  # again, in order (the median partitioned it): no second array held
         gaps = dt > 1.5 * step
         index = frame.index
         if not (isinstance(index, pd.RangeIndex) and index.step == 1):
@@ -192,17 +192,7 @@ def _curvature_scale(v: np.ndarray) -> float:
     d2 = np.add(v[:-2], v[2:])  # v[1:-1] - 0.5 (v[:-2] + v[2:]), in one array
     d2 *= 0.5
     np.abs(np.subtract(v[1:-1], d2, out=d2), out=d2)
-    return 1.4826 * _median_in_place(d2)
-
-
-def _median_in_place(a: np.ndarray) -> float:
-    """``np.median(a)`` of a finite array without its copy (``a`` is left partitioned)."""
-    k = a.size // 2
-    if a.size % 2:
-        a.partition(k)
-        return float(a[k])
-    a.partition([k - 1, k])
-    return float((a[k - 1] + a[k]) / 2)
+    return 1.4826 * float(np.median(d2, overwrite_input=True))  # d2 is ours: no copy
 
 
 def _outliers(v: np.ndarray) -> np.ndarray | None:

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from identify.io.csv_rows import RowLines
 from identify.io.data_warning import DataWarning, WarningReport, runs_of
 from identify.io.quirk_checks import (
     MAX_BAD_TIME,
@@ -83,7 +84,7 @@ class CleanResult:
 
 def clean_run(frame: pd.DataFrame, *, file: str, run: str,
               names: Mapping[str, str] | None = None,
-              first_line: int | None = None) -> CleanResult:
+              first_line: int | RowLines | None = None) -> CleanResult:
     """Find, clean and report the quirks of one run's tidy table (SI, ISO-W).
 
     Parameters
@@ -96,8 +97,9 @@ def clean_run(frame: pd.DataFrame, *, file: str, run: str,
         Named in the warnings.
     names : mapping, optional
         Tidy column -> channel name in the file (for the messages).
-    first_line : int, optional
-        Line of the first sample in a text file.
+    first_line : int or RowLines, optional
+        Line of the first sample in a text file (``first_line + i``: the line of sample
+        ``i``, a :class:`~identify.io.csv_rows.RowLines` when the file has blank lines).
 
     Returns
     -------

@@ -6,11 +6,11 @@ slope at the nominal pressure, bars one per tyre, and the .tir pressure coeffici
 stiffnesses Cz, Cx, Cy against pressure, and the cornering stiffness and relaxation length
 against pressure, one line per tyre.
 
-Every curve is the tyre's written .tir evaluated by the model (``identify.model.evaluate``, use
-mode 211 as in the fits) at its nominal load, zero slip and camber, over the pressures it was
-measured at. A quantity is drawn for a tyre only when a fit supplied the .tir keys it rests on
-(its ``key_sources`` say ``fitted``): a .tir default, or a key held at it, is never shown as a
-result.
+Every curve is the tyre's written .tir evaluated by the model (``identify.model.evaluate``,
+useMode ``FIT_MODE`` as in the fits) at its nominal load, zero slip and camber, over the
+pressures it was measured at. A quantity is drawn for a tyre only when a fit supplied the .tir
+keys it rests on (its ``key_sources`` say ``fitted``): a .tir default, or a key held at it, is
+never shown as a result.
 """
 from __future__ import annotations
 
@@ -29,6 +29,7 @@ from identify.fit.sources import FITTED
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 from identify.report.layout import GREY, RED, Page, draw_table, new_page, rows_fitting
 from identify.report.tables import chunks, fmt
 
@@ -103,7 +104,7 @@ def _outputs(tir, p_bar: np.ndarray) -> dict[str, np.ndarray]:
     zero = np.zeros(n)
     vx = float(tir.get("LONGVL") or 16.7)
     out = evaluate(tir, np.full(n, float(tir["FNOMIN"])), zero, zero, zero, np.full(n, vx),
-                   p=p_bar * 1e5, mode=211)
+                   p=p_bar * 1e5, mode=FIT_MODE)
     out["Kya"] = np.abs(out["Kya"])
     return out
 

@@ -128,20 +128,17 @@ class _Chains:
         jobs = sorted(self.jobs, key=lambda j: j[0])  # stable: plan order among equals
         files = {name: self._tmp(name) for _c, _i, name, _t, _s in jobs}
         sessions = {name: ChainSession() for _c, _i, name, _t, _s in jobs}
-        for again in (False, True):
-            if again:
-                if s.mcmc_budget_s is None:
-                    break
-                jobs = [j for j in jobs if results[j[1]].mcmc.stopped == "budget"]
-            for left, (_cost, index, name, title, sample) in zip(range(len(jobs), 0, -1),
-                                                                jobs):
+
+        def sample_each(todo: list, continued: bool) -> None:
+            for k, (_cost, index, name, title, sample) in enumerate(todo):
                 share = None
-                if s.mcmc_budget_s is not None:
-                    share = max(s.mcmc_budget_s - (time.perf_counter() - t0), 0.0) / left
-                    if again and share < 1.0:
-                        break
+                if s.mcmc_budget_s is not None:  # the budget left over the chains left
+                    left_s = max(s.mcmc_budget_s - (time.perf_counter() - t0), 0.0)
+                    share = left_s / (len(todo) - k)
+                    if continued and share < 1.0:
+                        return
                 _say(progress, f"{title} (continued with the time the other chains left)"
-                     if again else title)
+                     if continued else title)
                 final, tmp = files[name]
                 chain_progress = (None if self.progress is None
                                   else partial(self.progress, name))
@@ -151,6 +148,11 @@ class _Chains:
                 if final is not None:
                     mc = dataclasses.replace(mc, chain_file=str(final))
                 results[index] = dataclasses.replace(results[index], mcmc=mc)
+
+        sample_each(jobs, continued=False)
+        if s.mcmc_budget_s is not None:
+            sample_each([j for j in jobs if results[j[1]].mcmc.stopped == "budget"],
+                        continued=True)
         self.jobs.clear()
 
 

@@ -118,13 +118,15 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     frame = trailer.drop(columns=SEGMENT_COLUMN, errors="ignore").assign(segment=segment,
                                                                          sweep=kinds)
     out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa))
-    return out.drop(columns="sweep").rename(columns={"segment": SEGMENT_COLUMN})[
-        _with_label(trailer)], count
+    return _labelled(out, trailer), count
 
 
-def _with_label(trailer: pd.DataFrame) -> list[str]:
-    """``trailer``'s columns and the segment label (mf_data.SEGMENT_COLUMN), once."""
-    return [c for c in trailer.columns if c != SEGMENT_COLUMN] + [SEGMENT_COLUMN]
+def _labelled(table: pd.DataFrame, trailer: pd.DataFrame) -> pd.DataFrame:
+    """``table`` (segmented or binned) with ``trailer``'s columns, and its ``segment`` as the
+    sweep label (mf_data.SEGMENT_COLUMN) in place of any label it carried before."""
+    columns = [c for c in trailer.columns if c != SEGMENT_COLUMN] + [SEGMENT_COLUMN]
+    return table.drop(columns=SEGMENT_COLUMN, errors="ignore").rename(
+        columns={"segment": SEGMENT_COLUMN})[columns]
 
 
 def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: float | None,
@@ -161,9 +163,7 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
                                   if s.kind == "warmup"))
         if runs:
             mine = trailer["run"].isin(runs).to_numpy()
-            picked = seg.table[seg.table["run"].isin(runs)].drop(
-                columns=SEGMENT_COLUMN, errors="ignore").rename(
-                columns={"segment": SEGMENT_COLUMN})[_with_label(trailer)]
+            picked = _labelled(seg.table[seg.table["run"].isin(runs)], trailer)
             sweeps = sum(1 for s in seg.segmentation.segments
                          if s.run in runs and s.kind == "sweep")
             filters = "; ".join(f"{f.name} {f.removed}" for f in seg.segmentation.filters
