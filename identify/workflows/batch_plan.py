@@ -130,4 +130,4 @@ def freshness(folder: Path, manifest: Manifest, fit_dir: Path, report: Path | No
             return Freshness(False, f"{name} missing or unreadable")
         if sha != recorded[name]:
             return Freshness(False, f"{name} changed")
-    return Freshness(True, "outputs newer than inputs and settings", tuple(run.failed))
+    return Freshness(True, "inputs (SHA-256), settings and version as recorded", tuple(run.failed))
