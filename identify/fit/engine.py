@@ -12,7 +12,8 @@ presets, so the difference between a strict fit and a discovery refit is visible
   thesis metric, or a least-squares point that violates a general constraint).
 * :func:`covariance` -- s^2 (J^T J)^+ from a given Jacobian of weighted residuals (sigma known:
   s^2 = 1; otherwise s^2 = r^T r / (n - k)), or cluster-robust over sweeps (the sandwich or
-  the delete-one-cluster jackknife).
+  the delete-one-cluster jackknife); written in :mod:`identify.fit.covariance`, with the
+  degrees of freedom of the intervals, and re-exported here.
 * :func:`fd_jacobian` -- central differences, for where the solver's Jacobian is not available
   (a polish moved the point; derivatives with respect to coefficients that are not fitted).
 * :func:`residual_jacobian` -- d(weighted residuals)/d(free parameters) of a
@@ -32,6 +33,9 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance,
+                                     jackknife_covariance, jackknife_defined, jackknife_steps,
+                                     pseudo_solve, standard_errors)
 from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
@@ -376,145 +380,6 @@ def _whitening(metric: np.ndarray) -> np.ndarray | None:
     if not w[-1] > 0:
         return None
     return V / np.sqrt(np.maximum(w, 1e-12 * w[-1]))
-
-
-def pseudo_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a^+ b with the Moore-Penrose pseudo-inverse (a symmetric positive semi-definite matrix:
-    a normal matrix J^T J, a score-test Gram matrix or a cluster-robust covariance block)."""
-    return np.linalg.pinv(a) @ b
-
-
-CLUSTER_KINDS = ("CR1", "jackknife")
-"""Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
-
-
-def _column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``jac`` (n, k) with columns of unit norm, and the norms they were divided by (1 for a
-    zero column): the jackknife's k x k solves on comparable columns."""
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    scale = np.linalg.norm(J, axis=0)
-    scale = np.where(scale > 0, scale, 1.0)
-    return J / scale, scale
-
-
-def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
-                    upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """The linearised change of each estimate when one cluster is left out, (C, k).
-
-    Row c is d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c), with G = J^T J, G_c = J_c^T J_c,
-    s_c = J_c^T r_c: the Gauss-Newton solution of the normal equations without cluster c
-    (exactly the refit's change for a linear model) when the coefficients an earlier fit fixed
-    move by u_c as that fit leaves the same cluster out. ``upstream`` = (K, U): K = d r / d
-    (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
-    earlier call, clusters in the same order; a cluster with no point here is an empty index
-    array and still moves the estimate through u_c). Computed on the column-scaled J.
-    """
-    Js, scale = _column_scaled(jac)
-    k = Js.shape[1]
-    G = Js.T @ Js
-    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
-    if upstream is not None:
-        K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
-        JK = Js.T @ K
-        rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
-                             ).reshape(rhs.shape)
-    steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
-    return steps.reshape(len(clusters), k) / scale
-
-
-ESSENTIAL_RTOL = 1e-8
-"""A cluster is essential (:func:`jackknife_defined`) when the smallest eigenvalue of the
-column-scaled G - G_c falls below this fraction of G's."""
-
-
-def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
-    """False when one cluster alone determines a combination of the coefficients: without it
-    the column-scaled normal matrix G - G_c is singular (its smallest eigenvalue below
-    ESSENTIAL_RTOL x G's), e.g. the only sweep at one inflation pressure with the pressure
-    terms free. The delete-one-cluster jackknife cannot see that cluster's noise (its step
-    has no component along the direction it alone determines) and comes out too small there
-    (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257, the test of such a
-    sweep in tests/test_fit_engine.py); the covariance
-    is then the iid one. True for a singular G (nothing to lose)."""
-    Js, _ = _column_scaled(jac)
-    G = Js.T @ Js
-    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
-    if not floor > 0:
-        return True
-    return all(np.linalg.eigvalsh(G - Js[i].T @ Js[i])[0] >= floor for i in clusters)
-
-
-def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
-    """The delete-one-cluster jackknife covariance (C - 1)/C sum_c d_c d_c^T of the C rows of
-    ``steps`` (C, k) (:func:`jackknife_steps`)."""
-    C = steps.shape[0]
-    return (C - 1) / C * (steps.T @ steps)
-
-
-def standard_errors(names: tuple[str, ...], cov: np.ndarray
-                    ) -> tuple[dict[str, float], dict[str, float]]:
-    """Standard errors ``{name: sd}`` and correlations ``{"a|b": r}`` (each pair once, in
-    ``names`` order; NaN where a standard error is 0) of the covariance ``cov`` (k, k)."""
-    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
-    corr = {}
-    for i in range(len(names)):
-        for j in range(i + 1, len(names)):
-            den = sd[i] * sd[j]
-            corr[f"{names[i]}|{names[j]}"] = float(cov[i, j] / den) if den > 0 else float("nan")
-    return {n: float(s) for n, s in zip(names, sd)}, corr
-
-
-def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: bool = False,
-               clusters: list[np.ndarray] | None = None, kind: str = "CR1",
-               upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
-    """Covariance of least-squares estimates from the Jacobian of the weighted residuals.
-
-    Parameters
-    ----------
-    jac : ndarray
-        d r / d x at the optimum, (n, k).
-    fun : ndarray, optional
-        The residuals r at the optimum (n,); needed unless ``sigma_known``.
-    sigma_known : bool
-        The weights are 1/sigma of each point: s^2 = 1. Otherwise s^2 = r^T r / max(n - k, 1).
-    clusters : list of index arrays, optional
-        Cluster-robust instead (``sigma_known`` is then ignored): residuals may be correlated
-        and of any variance within a cluster (a sweep), independent between clusters. With
-        G = J^T J, G_c = J_c^T J_c and s_c = J_c^T r_c over the C clusters:
-
-        ``kind="CR1"``: the sandwich G^+ M G^+, M = C/(C - 1) sum_c s_c s_c^T;
-        ``kind="jackknife"``: the delete-one-cluster jackknife (MacKinnon's CV3),
-        (C - 1)/C sum_c d_c d_c^T with d_c = (G - G_c)^+ s_c, the Gauss-Newton step from the
-        estimate to the one without cluster c. Larger than CR1 where one cluster pulls a
-        coefficient: the small-cluster correction that keeps 95 % intervals near 95 % with
-        tens of clusters (CR1 is too small there).
-        Computed on the column-scaled J (k x k solves only; no n_c x n_c matrices;
-        :func:`jackknife_steps`).
-    kind : {"CR1", "jackknife"}
-        See ``clusters``.
-    upstream : (K, U), optional
-        Jackknife only: the steps of coefficients an earlier fit fixed, so that their
-        uncertainty enters (see :func:`jackknife_steps`).
-
-    Returns
-    -------
-    ndarray (k, k)
-    """
-    J = np.atleast_2d(np.asarray(jac, dtype=float))
-    n, k = J.shape
-    if k == 0:
-        return np.zeros((0, 0))
-    if clusters and kind not in CLUSTER_KINDS:
-        raise ValueError(f"kind must be one of {CLUSTER_KINDS}, not {kind!r}")
-    if clusters and kind == "jackknife":
-        return jackknife_covariance(jackknife_steps(J, fun, clusters, upstream))
-    bread = pseudo_solve(J.T @ J, np.eye(k))
-    if clusters:
-        C = len(clusters)
-        contrib = np.array([J[i].T @ fun[i] for i in clusters])
-        return bread @ (C / max(C - 1, 1) * contrib.T @ contrib) @ bread
-    s2 = 1.0 if sigma_known else float(fun @ fun) / max(n - k, 1)
-    return s2 * bread
 
 
 def fd_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
