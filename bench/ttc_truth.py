@@ -8,7 +8,9 @@ fit`` without MCMC and report, then
 - Fx, Fy, Mz of the fitted .tir against the truth .tir at the fitted MF points (the measured
   operating range; identify.workflows.truth_compare, RMS of the difference relative to the RMS
   of the truth, bar 2 %);
-- the MF coefficients whose 95 % interval (1.96 standard errors) holds the truth value, of
+- the MF coefficients whose 95 % interval (value +/- t(0.975, dof) standard errors, fit.json's
+  ``dof``: FitResult.interval; ``--normal`` counts 1.96 standard errors instead, as before the
+  degrees of freedom were recorded) holds the truth value, of
   the identifiable ones (fit.json ``unidentified``: at a bound, near-null direction,
   correlation above 0.99), and over all seeds the two readings of "every identifiable
   coefficient within its 95 % interval in 9 of 10 seeds" (:func:`coverage_tables`), the pooled
@@ -19,7 +21,7 @@ fit`` without MCMC and report, then
   ``--unloaded-radius``) unless ``--proposed`` keeps the values the import proposes.
 
     python bench/ttc_truth.py --seeds 0 1 2 [--no-bin] [--jobs 1] [--keep DIR] [--json FILE]
-    python bench/ttc_truth.py --from-json FILE      # the tables of saved records
+    python bench/ttc_truth.py --from-json FILE [--normal]  # the tables of saved records
 """
 from __future__ import annotations
 
@@ -88,12 +90,12 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) ->
             why = (r.unidentified.get(name) if r.converged else "stage did not converge")
             z = (r.parameters[name] - float(truth[name])) / se if se > 0 else math.inf
             coefs.append({"stage": r.form, "name": name, "value": r.parameters[name],
-                          "se": se, "truth": float(truth[name]), "z": z,
+                          "se": se, "q": r.quantile(name), "truth": float(truth[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
     fitted = [c for c in coefs if c["identifiable"]]
     outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted
-               if not abs(c["z"]) <= Z95]
+               if not abs(c["z"]) <= _q(c)]
     forces = {q.name: q.rms_pct for q in cmp.quantities if q.name in ("Fx", "Fy", "Mz")}
     return {"seed": seed, "binned": binned, "fit_s": seconds, "stages": stages,
             "failed": list(run.failed), "forces_pct": forces,
@@ -107,8 +109,18 @@ def _identifiable(c: dict) -> bool:
     return c.get("identifiable", not c["at_bound"]) and c["se"] > 0
 
 
+NORMAL = False
+"""``--normal``: count value +/- 1.96 standard errors whatever the record's quantile."""
+
+
+def _q(c: dict) -> float:
+    """The record's 95 % quantile in standard errors (``q``: Student's t at the coefficient's
+    degrees of freedom); 1.96 for records written before it was, or with ``--normal``."""
+    return Z95 if NORMAL else c.get("q", Z95)
+
+
 def _inside(c: dict) -> bool:
-    return abs(c["value"] - c["truth"]) <= Z95 * c["se"]
+    return abs(c["value"] - c["truth"]) <= _q(c) * c["se"]
 
 
 def _median(xs: list, empty=math.nan):
@@ -187,7 +199,7 @@ def coverage_tables(records: list[dict]) -> dict:
     identified = {k: v for k, v in per.items() if v[0]}  # identifiable in some seed
     expected = sum(_p_below(v[0]) for v in identified.values())
     every = [c for rec in records for c in rec["coefs"] if c["se"] > 0]
-    widths = [Z95 * c["se"] / abs(c["value"]) for rec in records for c in rec["coefs"]
+    widths = [_q(c) * c["se"] / abs(c["value"]) for rec in records for c in rec["coefs"]
               if _identifiable(c) and c["value"] != 0]
     n_ident = _median([r["identifiable"] for r in rows], 0)
     return {"seeds": seeds, "per_coefficient": per, "failing": failing, "why": why,
@@ -212,8 +224,8 @@ def compare_widths(before: list[dict], after: list[dict]) -> dict:
              and (rec["seed"], c["stage"], c["name"]) in old]
     pairs = [(b, a) for b, a in pairs if b["se"] > 0 and b["value"] != 0]
     return {"n": len(pairs),
-            "half_width_before": _median([Z95 * b["se"] / abs(b["value"]) for b, _ in pairs]),
-            "half_width_after": _median([Z95 * a["se"] / abs(a["value"]) for _, a in pairs]),
+            "half_width_before": _median([_q(b) * b["se"] / abs(b["value"]) for b, _ in pairs]),
+            "half_width_after": _median([_q(a) * a["se"] / abs(a["value"]) for _, a in pairs]),
             "se_ratio": _median([a["se"] / b["se"] for b, a in pairs]),
             "inside_before": sum(_inside(b) for b, _ in pairs),
             "inside_after": sum(_inside(a) for _, a in pairs)}
@@ -278,7 +290,11 @@ def main() -> None:
                     help="print the tables of records written by --json (no fitting)")
     ap.add_argument("--compare", type=Path,
                     help="records of an earlier run (--json): interval widths before/after")
+    ap.add_argument("--normal", action="store_true",
+                    help="count intervals of 1.96 standard errors (ignore the recorded dof)")
     args = ap.parse_args()
+    global NORMAL
+    NORMAL = args.normal
     if args.from_json:
         records = json.loads(args.from_json.read_text())
         print_tables(coverage_tables(records))

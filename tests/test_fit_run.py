@@ -250,6 +250,21 @@ def test_covariance_and_unidentified_round_trip():
     assert (FitResult.from_dict(old).covariance, FitResult.from_dict(old).clusters) == ("iid", 0)
 
 
+def test_degrees_of_freedom_round_trip_and_intervals():
+    r = _result(covariance="sweep-jackknife", clusters=45, dof={"A": 3.0, "C": math.inf})
+    d = json.loads(json_text(r.to_dict()))
+    assert d["dof"] == {"A": 3.0, "C": None}
+    back = FitResult.from_dict(d)
+    assert back.to_dict() == d and back.dof == {"A": 3.0, "C": math.inf}
+    se = back.stderr["A"]
+    lo, hi = back.interval("A")
+    assert (hi - lo) / 2 == pytest.approx(3.182446 * se, rel=1e-6)  # t(0.975, 3)
+    assert back.quantile("C") == pytest.approx(1.959964, abs=1e-6)
+    # written before dof was recorded: 1.96 standard errors
+    old = {k: v for k, v in d.items() if k != "dof"}
+    assert FitResult.from_dict(old).quantile("A") == pytest.approx(1.959964, abs=1e-6)
+
+
 def test_mcmc_summary_round_trip():
     m = MCMCSummary(median={"A": 1.0}, q16={"A": 0.9}, q84={"A": 1.1}, q025={"A": 0.8},
                     q975={"A": 1.2}, tau={"A": np.float64(20.5), "log_sigma": np.nan},

@@ -9,6 +9,7 @@ page), never skipped.
 """
 from __future__ import annotations
 
+import math
 import dataclasses
 import json
 import shutil
@@ -18,6 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import scipy.stats
 from typer.testing import CliRunner
 
 from identify.cli.app import app
@@ -268,17 +270,22 @@ def test_tables_total_first_and_intervals(full_fit):
     params = T.parameter_rows(cfx, fd.key_sources)
     assert {p.interval for p in params} == {"MCMC 2.5-97.5 %"}
     plain = T.parameter_rows(fd.run.result("CFx/quadratic_load"), fd.key_sources)  # no MCMC
+    quad = fd.run.result("CFx/quadratic_load")
+    # iid: Student's t at n - k degrees of freedom (s^2 estimated from the residuals)
+    t_nk = scipy.stats.t.ppf(0.975, quad.n_points - len(quad.free))
+    assert t_nk > 1.97
     for p in plain:
-        assert p.interval == "LS +/-1.96 s.e."
-        assert p.lo95 == pytest.approx(p.value - T.Z95 * p.stderr)
+        assert p.interval == f"LS +/-{t_nk:.3g} s.e."
+        assert p.lo95 == pytest.approx(p.value - t_nk * p.stderr, rel=1e-12)
+        assert p.hi95 == pytest.approx(p.value + t_nk * p.stderr, rel=1e-12)
     assert any(p.in_tir for p in plain) and not any(p.in_tir for p in params)
     # an MF-style result: the interval names its covariance, a coefficient that is not
     # identifiable on its own carries the reason (docs/intervals.md)
-    quad = fd.run.result("CFx/quadratic_load")
     first = quad.free[0]
     staged = T.parameter_rows(dataclasses.replace(
         quad, covariance="staged-sweep-jackknife", clusters=45,
-        unidentified={first: "correlated +0.9950 with X"}), fd.key_sources)
+        unidentified={first: "correlated +0.9950 with X"},
+        dof={n: math.inf for n in quad.free}), fd.key_sources)
     assert {p.interval for p in staged} == {"LS +/-1.96 s.e. (staged sweep jackknife)"}
     assert [p.unidentified for p in staged][0] == "correlated +0.9950 with X"
     assert not any(p.unidentified for p in staged[1:])

@@ -33,17 +33,18 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance,
-                                     jackknife_covariance, jackknife_defined, jackknife_steps,
-                                     pseudo_solve, standard_errors)
+from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, interval_dof,
+                                     jackknife_covariance, jackknife_defined, jackknife_dof,
+                                     jackknife_steps, pseudo_solve, standard_errors, t_quantile)
 from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
            "NOISE_STATUS", "SEARCH", "STOP_STATUS", "STRICT", "CountingModel", "Estimate",
            "Tolerances",
-           "counted", "covariance", "covariance_of", "fd_jacobian", "jackknife_covariance",
-           "jackknife_defined", "jackknife_steps", "least_squares", "polish",
-           "problem_covariance", "pseudo_solve", "residual_jacobian", "standard_errors"]
+           "counted", "covariance", "covariance_of", "fd_jacobian", "interval_dof",
+           "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
+           "least_squares", "polish", "problem_covariance", "pseudo_solve", "residual_jacobian",
+           "standard_errors", "t_quantile"]
 
 
 @dataclass(frozen=True)
@@ -419,13 +420,14 @@ def residual_jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
 
 
 def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
-                  fun: np.ndarray | None = None) -> tuple[np.ndarray, str, int]:
+                  fun: np.ndarray | None = None) -> tuple[np.ndarray, str, int, np.ndarray]:
     """:func:`covariance` of ``problem``'s free parameters at ``x``, as the problem asks
     (``FitProblem.covariance``): the delete-one-sweep jackknife over ``problem.clusters()``
     where it is defined (:func:`jackknife_defined`), else iid with sigma known when the
     problem's weights are 1/sigma (``problem.sigma`` set), estimated from the residuals
-    otherwise; with the name of the one used and its number of clusters
-    (``FitProblem.covariance_used``: FitResult.covariance, .clusters).
+    otherwise; with the name of the one used, its number of clusters
+    (``FitProblem.covariance_used``: FitResult.covariance, .clusters) and the degrees of
+    freedom of each standard error (:func:`interval_dof`: FitResult.dof).
 
     ``jac``/``fun``: the Jacobian of the weighted residuals and the residuals at ``x`` when the
     caller has them (the least-squares solver's); by default :func:`residual_jacobian` (exact or
@@ -435,9 +437,10 @@ def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = N
     r = problem.residuals(x) if fun is None else fun
     clusters = problem.clusters()
     defined = clusters is None or jackknife_defined(J, clusters)
-    cov = covariance(J, r, sigma_known=problem.sigma is not None,
-                     clusters=clusters if defined else None, kind="jackknife")
-    return (cov, *problem.covariance_used(jackknife_defined=defined))
+    how = {"sigma_known": problem.sigma is not None,
+           "clusters": clusters if defined else None, "kind": "jackknife"}
+    cov = covariance(J, r, **how)
+    return (cov, *problem.covariance_used(jackknife_defined=defined), interval_dof(J, **how))
 
 
 def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,

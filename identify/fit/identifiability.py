@@ -5,7 +5,8 @@ an accident of the start, the bounds or the noise, and a .tir that carries it mi
 converged fit is **poorly identified** when any of these holds (thresholds below):
 
 - a free coefficient sits on a bound (the optimum is where the bound put it);
-- the 95 % interval of a coefficient (value +/- 1.96 standard errors) is wider than its bounds,
+- the 95 % interval of a coefficient (FitResult.interval: value +/- t(0.975, dof) standard
+  errors) is wider than its bounds,
   or it has no finite standard error (the covariance is singular in that direction);
 - two coefficients are correlated beyond :data:`MAX_CORRELATION` (only a combination of them
   is determined);
@@ -29,7 +30,6 @@ MAX_CORRELATION = 0.99
 """|correlation| of two estimates above which only their combination is determined."""
 MIN_POINTS_PER_COEFFICIENT = 2
 """Fewest data points per free coefficient for a fit to carry them."""
-Z95 = 1.959964
 OK = "ok"
 POOR = "poorly identified"
 
@@ -61,11 +61,12 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
         lo, hi = r.bounds.get(n, (-math.inf, math.inf))
         if not math.isfinite(se):
             out.append((n, "no finite standard error", f"{n} has no finite standard error"))
-        elif math.isfinite(lo) and math.isfinite(hi) and 2 * Z95 * se > hi - lo:
+        elif math.isfinite(lo) and math.isfinite(hi) and 2 * r.quantile(n) * se > hi - lo:
             v = r.parameters[n]
+            a, b = r.interval(n)
             out.append((n, "95 % interval wider than its bounds",
-                        f"{n} = {v:.4g}: 95 % interval [{v - Z95 * se:.3g}, "
-                        f"{v + Z95 * se:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
+                        f"{n} = {v:.4g}: 95 % interval [{a:.3g}, "
+                        f"{b:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
     return out
 
 

@@ -14,7 +14,8 @@ stage's own by d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c) (identify.fit.e
 jackknife_steps), K = d r / d (the coefficients earlier stages fixed), by central differences.
 A sweep that has no point in the stage still moves it through u_c. The covariance is
 (C - 1)/C sum_c d_c d_c^T over all C sweeps of the table; FitResult.covariance is then
-"staged-sweep-jackknife".
+"staged-sweep-jackknife". The degrees of freedom of each standard error (FitResult.dof) are
+Satterthwaite's for the stage's own sweeps (identify.fit.engine.jackknife_dof).
 """
 from __future__ import annotations
 
@@ -94,10 +95,10 @@ def _central_differences(sp: StageProblem, values: Mapping[str, float],
 
 
 def _with_covariance(r: FitResult, free: tuple[str, ...], cov: np.ndarray,
-                     clusters: int) -> FitResult:
+                     clusters: int, dof: np.ndarray) -> FitResult:
     stderr, corr = engine.standard_errors(free, cov)
     return dataclasses.replace(r, stderr=stderr, correlations=corr, covariance=STAGED,
-                               clusters=clusters)
+                               clusters=clusters, dof=dict(zip(free, map(float, dof))))
 
 
 def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
@@ -149,5 +150,8 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
         cov = engine.jackknife_covariance(own[used])
         for j, n in enumerate(problem.free):
             steps[n] = own[:, j]
-        results.append(_with_covariance(r, problem.free, cov, used.size))
+        # degrees of freedom from the stage's own sweeps (engine.jackknife_dof; a sweep that
+        # moves the stage only through what it holds adds no term of its own)
+        dof = engine.jackknife_dof(J, [c for c in sub if c.size])
+        results.append(_with_covariance(r, problem.free, cov, used.size, dof))
     return dataclasses.replace(mf, results=tuple(results))

@@ -197,6 +197,7 @@ class Diagnosis:
                                    "exact" (FitProblem.jacobian) or "central differences"
     covariance : str               which covariance (engine.covariance_of)
     clusters : int                 its number of sweeps (0: iid)
+    dof : ndarray                  degrees of freedom of each standard error (k,)
     """
 
     x: np.ndarray
@@ -206,6 +207,7 @@ class Diagnosis:
     jacobian_source: str
     covariance: str = "iid"
     clusters: int = 0
+    dof: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
 def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
@@ -231,15 +233,15 @@ def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
                 active.append(c.name)
     if not free:
         cov, kind, clusters = np.zeros((0, 0)), *problem.covariance_used()
-        source = "solver"
+        dof, source = np.zeros(0), "solver"
     elif not out.polished:
-        cov, kind, clusters = engine.covariance_of(problem, xb, jac=out.lsq.jac,
-                                                   fun=out.lsq.fun)
+        cov, kind, clusters, dof = engine.covariance_of(problem, xb, jac=out.lsq.jac,
+                                                        fun=out.lsq.fun)
         source = "solver"
     else:
-        cov, kind, clusters = engine.covariance_of(problem, xb)
+        cov, kind, clusters, dof = engine.covariance_of(problem, xb)
         source = "exact" if problem.jacobian is not None else "central differences"
-    return Diagnosis(xb, at_bound, tuple(active), cov, source, kind, clusters)
+    return Diagnosis(xb, at_bound, tuple(active), cov, source, kind, clusters, dof)
 
 
 def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: int,
@@ -267,7 +269,8 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
         message=out.message, n_starts=len(outcomes), starts_at_best=at_best,
         correlations=corr, predicted=pred, measured=problem.measured,
         pressure_bar=problem.pressure_bar, seconds=time.perf_counter() - t0, nfev=counter.calls,
-        status=out.status, covariance=diag.covariance, clusters=diag.clusters)
+        status=out.status, covariance=diag.covariance, clusters=diag.clusters,
+        dof=dict(zip(free, map(float, diag.dof))))
 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,

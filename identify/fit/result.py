@@ -19,6 +19,7 @@ import numpy as np
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
+from identify.fit.covariance import t_quantile
 
 
 def _float(x: Any, missing: float = math.nan) -> float:
@@ -163,6 +164,11 @@ class FitResult:
                                             -> why (at a bound, near-null direction, a
                                             correlation above 0.99:
                                             identify.fit.identifiability.unidentified)
+    dof : Mapping[str, float]               degrees of freedom of each standard error
+                                            (identify.fit.covariance.interval_dof): the 95 %
+                                            interval is value +/- t(0.975, dof) standard
+                                            errors (:meth:`interval`); a name without one has
+                                            infinite degrees of freedom (1.96)
     """
 
     relation: str
@@ -196,6 +202,29 @@ class FitResult:
     covariance: str = "iid"
     clusters: int = 0
     unidentified: Mapping[str, str] = field(default_factory=dict)
+    dof: Mapping[str, float] = field(default_factory=dict)
+
+    def quantile(self, name: str, level: float = 0.95) -> float:
+        """Standard errors from the value to the end of the two-sided ``level`` interval of
+        ``name``: Student's t at its degrees of freedom (:attr:`dof`; the normal's without)."""
+        return t_quantile(self.dof.get(name, math.inf), level)
+
+    def interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
+        """The least-squares ``level`` interval of ``name``: value +/- :meth:`quantile`
+        standard errors (docs/intervals.md); NaN without a standard error."""
+        v = float(self.parameters[name])
+        half = self.quantile(name, level) * float(self.stderr.get(name, math.nan))
+        return v - half, v + half
+
+    def _quantile_note(self) -> str:
+        """"; 95 % intervals +/- 2.05-2.23 s.e. (Student's t)" over the free coefficients
+        with finite degrees of freedom; "" without."""
+        q = [self.quantile(n) for n in self.free if math.isfinite(self.dof.get(n, math.inf))]
+        if not q:
+            return ""
+        span = f"{min(q):.3g}" if f"{min(q):.3g}" == f"{max(q):.3g}" else \
+            f"{min(q):.3g}-{max(q):.3g}"
+        return f"; 95 % intervals +/- {span} s.e. (Student's t)"
 
     @property
     def status_text(self) -> str:
@@ -223,6 +252,7 @@ class FitResult:
             "held": dict(self.held),
             "covariance": self.covariance, "clusters": self.clusters,
             "unidentified": dict(self.unidentified),
+            "dof": _nums(self.dof),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -237,7 +267,8 @@ class FitResult:
         documents written before they were recorded, ``identification`` to "ok" and
         ``reasons``/``held`` to empty, ``covariance`` to "iid" (every standard error
         was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
-        TypeError/ValueError on a malformed entry.
+        TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
+        errors, as intervals were before it was recorded); a null one is infinite.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -267,7 +298,8 @@ class FitResult:
                    covariance=str(d.get("covariance") or "iid"),
                    clusters=int(d.get("clusters") or 0),
                    unidentified={str(k): str(v)
-                                 for k, v in (d.get("unidentified") or {}).items()})
+                                 for k, v in (d.get("unidentified") or {}).items()},
+                   dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -292,7 +324,8 @@ class FitResult:
                  f" ({'converged' if self.converged else 'NOT converged: ' + self.message})",
                  f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value",
                  f"  standard errors: {self.covariance}"
-                 + (f" over {self.clusters} sweeps" if self.clusters else "")]
+                 + (f" over {self.clusters} sweeps" if self.clusters else "")
+                 + self._quantile_note()]
         for p, e in self.error_by_pressure_pct.items():
             lines.append(f"  {p:5.2f} bar: {e:.3f} %")
         for n in self.free:

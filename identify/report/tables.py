@@ -24,7 +24,6 @@ from identify.fit.summary import (
 
 __all__ = [
     "FLAG_FIELDS",
-    "Z95",
     "ParamRow",
     "SummaryRow",
     "chunks",
@@ -42,10 +41,6 @@ __all__ = [
     "summary_rows",
     "tir_keys",
 ]
-
-Z95 = 1.959963984540054
-"""Two-sided 95 % quantile of the standard normal (value +/- Z95 * standard error)."""
-
 
 def label(fit: FitResult) -> str:
     """``relation [form]``."""
@@ -81,7 +76,7 @@ class ParamRow:
     stderr: float
     lo95: float
     hi95: float
-    interval: str            # "MCMC 2.5-97.5 %" or "LS +/-1.96 s.e."
+    interval: str            # "MCMC 2.5-97.5 %" or "LS +/-2.04 s.e." (t at the dof)
     lower: float
     upper: float
     at_bound: bool
@@ -101,8 +96,9 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
     """The free parameters with value, standard error, 95 % interval, bounds and flags.
 
     The interval is the MCMC 2.5-97.5 % posterior quantiles when the fit has an MCMC
-    summary for the parameter, else value +/- 1.96 standard errors (labelled as such, with the
-    covariance when it is not iid); ``unidentified`` says why a coefficient is not identifiable
+    summary for the parameter, else value +/- t(0.975, dof) standard errors
+    (FitResult.interval; labelled with the quantile, and with the covariance when it is not
+    iid); ``unidentified`` says why a coefficient is not identifiable
     on its own (FitResult.unidentified).
     """
     mc = fit.mcmc
@@ -114,8 +110,8 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
         if name in q025 and name in q975:
             lo, hi, how = num(q025[name]), num(q975[name]), "MCMC 2.5-97.5 %"
         else:
-            lo, hi, how = v - Z95 * se, v + Z95 * se, "LS +/-1.96 s.e." + _COVARIANCE.get(
-                fit.covariance, "")
+            lo, hi = fit.interval(name)
+            how = f"LS +/-{fit.quantile(name):.3g} s.e." + _COVARIANCE.get(fit.covariance, "")
         lower, upper = fit.bounds.get(name, (-math.inf, math.inf))
         rows.append(ParamRow(name, v, se, lo, hi, how, num(lower), num(upper),
                              name in fit.at_bound, name in keys, num(med.get(name)),
