@@ -138,12 +138,16 @@ def calibrate_stage(stage: str, n_trials: int = N_TRIALS, seed0: int = 2000,
 def exact_linear_posterior(problem, x0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mean and sd of the flat-prior posterior of a problem that is linear in its free
     coefficients (the combined Mz stage in SSZ1..4): the generalised least-squares estimate
-    and s^2 (A'A)^-1, A the noise-weighted design matrix (columns by unit steps from ``x0``,
-    exact for a linear model), s^2 the residual variance. With ~1000 points the Student-t of
+    (noise weights at the ordinary least-squares optimum) and s^2 (A'A)^-1, A the
+    noise-weighted design matrix (columns by unit steps from ``x0``, exact for a linear
+    model), s^2 the residual variance. With ~1000 points the Student-t of
     the unknown noise level is Gaussian to < 0.1 %."""
-    w, f0 = problem.noise_weights(), problem.predict(x0)
-    a = np.column_stack([problem.predict(x0 + e) - f0 for e in np.eye(x0.size)]) * w[:, None]
-    b = (problem.measured - f0) * w
+    f0 = problem.predict(x0)
+    cols = np.column_stack([problem.predict(x0 + e) - f0 for e in np.eye(x0.size)])
+    beta = np.linalg.lstsq(cols, problem.measured - f0, rcond=None)[0]
+    # the noise weights the MCMC uses: at the least-squares optimum (FitProblem.noise_weights)
+    w = problem.noise_weights(x0 + beta)
+    a, b = cols * w[:, None], (problem.measured - f0) * w
     beta = np.linalg.lstsq(a, b, rcond=None)[0]
     r = b - a @ beta
     return x0 + beta, np.sqrt(r @ r / (b.size - x0.size) * np.diag(np.linalg.inv(a.T @ a)))

@@ -1,6 +1,8 @@
 """MCMC uncertainty (emcee): seeded, converged by the 50-tau rule, honest intervals."""
 from __future__ import annotations
 
+import dataclasses
+
 import emcee
 import h5py
 import lmfit
@@ -105,6 +107,45 @@ def test_posterior_width_is_exact_on_a_linear_problem():
     assert 0.95 < ratio < 1.05, ratio
 
 
+def test_sweep_residual_noise_levels_are_the_fits_own_per_sweep():
+    """noise="sweep-residual": each sweep's level is the RMS of its least-squares residuals,
+    shrunk towards the pooled one by PRIOR_POINTS; a sweep of small values with the same
+    additive noise gets the same level (the "sweep" model gave it one 20 times smaller than a
+    sweep of 20 times larger values); a one-point sweep takes nearly the pooled level."""
+    from identify.fit.problem import PRIOR_POINTS
+
+    rng = np.random.default_rng(4)
+    x = np.linspace(-1.0, 1.0, 400)
+    sweeps = np.repeat([0, 1], 200)
+    scale = np.where(sweeps == 0, 20.0, 1.0)  # sweep 0 measures values 20 x larger
+    p = lmfit.Parameters()
+    p.add("a", value=1.0)
+
+    def model(v):
+        return v["a"] * scale * x
+
+    data = scale * x + 0.05 * rng.standard_normal(x.size)  # one additive noise level
+    sweep = FitProblem("t", "line", p, model, data, np.ones(x.size), sweeps=sweeps,
+                       noise="sweep")
+    resid = dataclasses.replace(sweep, noise="sweep-residual")
+    with pytest.raises(ValueError, match="needs the optimum"):
+        resid.noise_weights()
+    xb = np.array([1.0])
+    level = 1.0 / resid.noise_weights(xb)
+    r = model({"a": 1.0}) - data
+    own = [np.sqrt(np.mean(r[sweeps == s] ** 2)) for s in (0, 1)]
+    pooled = np.sqrt(np.mean(r ** 2))
+    for s in (0, 1):
+        want = np.sqrt((200 * own[s] ** 2 + PRIOR_POINTS * pooled ** 2) / (200 + PRIOR_POINTS))
+        assert level[sweeps == s] == pytest.approx(want, rel=1e-12)
+        assert want == pytest.approx(0.05, rel=0.15)
+    by_sweep = 1.0 / sweep.noise_weights()
+    assert by_sweep[0] / by_sweep[-1] == pytest.approx(20.0, rel=0.01)
+    one = dataclasses.replace(resid, sweeps=np.r_[np.zeros(399), 1.0])
+    lone = 1.0 / one.noise_weights(xb)[-1]
+    assert abs(lone - pooled) < 0.1 * abs(abs(r[-1]) - pooled) + 1e-12
+
+
 def test_mf_stage_posterior_is_the_exact_one_of_a_linear_stage():
     """The combined Mz stage is linear in SSZ1..4 (the moment arm s of Fx; Fx and Fy held):
     with flat priors its posterior is Gaussian and known exactly (exact_linear_posterior,
@@ -161,11 +202,11 @@ def test_walkers_in_one_call_give_the_per_walker_log_probabilities(name):
     step = 1e-3 * np.where(x0 != 0, np.abs(x0), 1e-2)
     x = np.clip(x0 + step * rng.standard_normal((7, x0.size)), lo, hi)
     theta = np.column_stack([x, np.log(0.01) + 0.1 * rng.standard_normal(7)])
-    fast = _Posterior(problem, ar1=False)
+    fast = _Posterior(problem, ar1=False, xb=x0)
     lp = fast(theta)
     assert fast.vectorised, "the model did not broadcast over walkers"
     assert np.all(np.isfinite(lp))
-    slow = _Posterior(problem, ar1=False)
+    slow = _Posterior(problem, ar1=False, xb=x0)
     slow.vectorised = False
     np.testing.assert_array_equal(lp, slow(theta))
 
@@ -191,13 +232,14 @@ def _weighted_quantiles(v, w, qs):
     return np.interp(qs, c / c[-1], v[order])
 
 
-def _log_posterior_in_logs(problem, lu, sign):
+def _log_posterior_in_logs(problem, lu, sign, w):
     """The exact flat-prior log posterior of a 3-coefficient problem at rows ``lu`` = log
     |coefficients| (signs ``sign``), the noise level marginalised (flat prior in log sigma:
     posterior ~ SSR^(-n/2)), as a density in ``lu`` (the Jacobian of x = sign exp(lu) is
-    prod |x|: analytic, none of the code under test enters)."""
+    prod |x|: analytic, none of the code under test enters). ``w``: the noise weights the
+    MCMC uses (FitProblem.noise_weights at the least-squares optimum)."""
     x = sign * np.exp(lu)
-    w, n_pts = problem.noise_weights(), problem.measured.size
+    n_pts = problem.measured.size
     ssr = np.empty(len(x))
     for a in range(0, len(x), 4000):
         xs = x[a:a + 4000]
@@ -224,7 +266,8 @@ def _exact_posterior(problem, xb, n_draws=120_000, seed=11):
     g = np.linspace(-9.0, 9.0, 41)
     u = np.stack(np.meshgrid(g, g, g, indexing="ij"), -1).reshape(-1, 3)
     lu = c0 + u @ np.linalg.cholesky(cov0).T
-    _, lp = _log_posterior_in_logs(problem, lu, sign)
+    weights = problem.noise_weights(xb)
+    _, lp = _log_posterior_in_logs(problem, lu, sign, weights)
     w = np.exp(lp - lp.max())
     mean = w @ lu / w.sum()
     cov = ((lu - mean).T * w) @ (lu - mean) / w.sum()
@@ -234,7 +277,7 @@ def _exact_posterior(problem, xb, n_draws=120_000, seed=11):
     lu = mean + (z @ chol.T) / np.sqrt(rng.chisquare(df, n_draws) / df)[:, None]
     d = np.linalg.solve(chol, (lu - mean).T)
     log_q = -0.5 * (df + 3) * np.log1p(np.sum(d * d, axis=0) / df)
-    x, lp = _log_posterior_in_logs(problem, lu, sign)
+    x, lp = _log_posterior_in_logs(problem, lu, sign, weights)
     logw = lp - log_q
     return x, np.exp(logw - logw[np.isfinite(logw)].max())
 

@@ -4,7 +4,8 @@ Posterior: uniform priors on the parameter bounds (flat where a bound is open), 
 on log(sigma), Gaussian likelihood of the weighted residuals r_i = w_i (model_i - meas_i) with
 the noise level sigma as a parameter, w_i from the problem's noise model
 (FitProblem.noise_weights: the relations' characteristics have relative noise, sigma the noise
-level as a fraction; the MF stages' channels noise relative to each sweep's RMS); optionally
+level as a fraction; the MF stages' noise level per sweep from the least-squares residuals,
+"sweep-residual"); optionally
 AR(1) noise along each sweep (innovations e_t - phi e_(t-1) ~ N(0, sigma^2), stationary
 start), phi in (-0.99, 0.99).
 
@@ -99,12 +100,13 @@ class _Posterior:
     that the prior stays flat in the free coefficients, and each row comes back as [log
     posterior, the mapped coefficients, log-Jacobian] (emcee keeps the last ones as blobs)."""
 
-    def __init__(self, problem: FitProblem, ar1: bool, reparam: KyaRidge | None = None):
+    def __init__(self, problem: FitProblem, ar1: bool, reparam: KyaRidge | None = None,
+                 xb: np.ndarray | None = None):
         self.problem = problem
         self.reparam = reparam
         self.free = problem.free
         self.lo, self.hi = problem.bounds()
-        self.w = problem.noise_weights()
+        self.w = problem.noise_weights(xb)  # xb: the optimum, for residual noise levels
         self.meas = problem.measured
         self.ar1 = ar1
         sweeps = problem.sweeps if problem.sweeps is not None else np.zeros(self.meas.size)
@@ -443,10 +445,10 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     nw = max(32, 2 * ndim, n_walkers or 0)
     nw += nw % 2
     rng = np.random.default_rng(seed)
-    posterior = _Posterior(problem, ar1, reparam)
+    xb = np.array([result.parameters[n] for n in free])
+    posterior = _Posterior(problem, ar1, reparam, xb)
     move = p0 = None
     if moves == "de+laplace" and not ar1:  # phi has no Laplace approximation here
-        xb = np.array([result.parameters[n] for n in free])
         approx = laplace(posterior, xb, reparam)
         if approx is not None:
             move = LaplaceMove(*approx)

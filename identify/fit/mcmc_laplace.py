@@ -37,7 +37,7 @@ def _rms(r: np.ndarray) -> float:
 def sigma0(problem: FitProblem, xb: np.ndarray) -> float:
     """RMS of the finite noise-weighted residuals at ``xb`` (the noise level's starting
     value)."""
-    r = (problem.predict(xb) - problem.measured) * problem.noise_weights()
+    r = (problem.predict(xb) - problem.measured) * problem.noise_weights(xb)
     return _rms(r[np.isfinite(r)])
 
 

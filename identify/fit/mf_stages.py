@@ -193,7 +193,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                           mf_data.pressure_groups(pts), objective="wls", sigma=None,
                           constraints=tuple(constraints),
                           sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
-                          extra=extra, noise="sweep", jacobian=jacobian,
+                          extra=extra, noise="sweep-residual", jacobian=jacobian,
                           covariance="sweeps")
 
     if screen and hold is None:
