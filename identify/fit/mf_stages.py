@@ -80,6 +80,7 @@ from identify.fit.mf_stage_defs import (
     NEEDS,
     STAGES,
     StageDef,
+    names_read,
     stage_model,
     subset_state,
 )
@@ -350,7 +351,8 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         coefficients act on an earlier stage's points (SSZ1..4 act on Mz at kappa = 0 through
         s*Fx, so Mz0 sees the Mz stage's arm); each further pass starts every stage from the
         previous pass (carried-forward values only: the global search is pass 1's) and
-        converges the blocks together. The results are the last pass's.
+        converges the blocks together. The results are the last pass's; their ``seconds``
+        and ``nfev`` count every pass. ``mfid fit`` runs 2 (FitSettings.mf_passes).
     progress : callable, optional
         progress(text) per stage and sub-step, and a line with each stage's time (see
         module).
@@ -367,6 +369,12 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
                        n_lhs=n_lhs, screen=screen, passes=passes, progress=progress)
 
 
+def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.DataFrame:
+    """The operating points of a stage (MFFit.points)."""
+    return trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
+                                 + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+
+
 def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
             progress) -> MFFit:
     t0 = time.perf_counter()
@@ -381,11 +389,23 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)
+    spent: dict[str, tuple[float, int]] = {}  # seconds and evaluations of earlier passes
+    # per stage: its result, problem and the values of every name its prediction read when
+    # it was fitted; a later pass solves only a stage some of whose inputs changed since
+    done: dict[str, tuple[FitResult, StageProblem, dict[str, float]]] = {}
     for pass_no in range(passes):
         results, held, skipped, points, problems = [], {}, {}, {}, []
         for i, stage in enumerate(stages):
             t_stage = time.perf_counter()
             label = f"MF {stage}" + (f" (pass {pass_no + 1})" if passes > 1 else "")
+            if stage in done and all(params.get(n) == v for n, v in done[stage][2].items()):
+                result, sp, _ = done[stage]
+                _say(progress, f"{label}: unchanged (nothing it reads has moved)")
+                results.append(result)
+                problems.append(sp)
+                held[stage] = dict(sp.held)
+                points[stage] = _stage_points(trailer, sp, stage)
+                continue
             _say(progress, f"{label}: points and identifiability screen")
             sp = stage_problem(stage, trailer, params, free=free, screen=screen)
             if sp is None:
@@ -398,19 +418,31 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 _say(progress, f"{label}: solve on all {sp.problem.measured.size} points")
                 result = fit(sp.problem, starts=sp.problem.x0()[None, :], max_nfev=MAX_NFEV,
                              tol=MF_SOLVE)
+                if not result.converged and stage in done:
+                    # a crawl from an optimum the inputs barely moved: keep that optimum
+                    before, sp, _ = done[stage]
+                    _say(progress, f"{label}: the solve stopped at its budget; the values of "
+                                   "the pass before are kept")
+                    result = dataclasses.replace(before, nfev=result.nfev, message=(
+                        f"{before.message} (kept: pass {pass_no + 1} stopped at its budget)"))
             if screen:
                 result, sp = _refine(result, sp, stage, trailer, params, free, progress)
             if stage == "Mz0":
                 result = canonical_br(result, params)
-            # the stage's whole wall time: screen (and the Jacobian's compile), search, solves
-            result = dataclasses.replace(result, seconds=time.perf_counter() - t_stage)
+            # the stage's whole wall time: screen (and the Jacobian's compile), search, solves,
+            # every pass
+            before_s, before_n = spent.get(stage, (0.0, 0))
+            result = dataclasses.replace(result,
+                                         seconds=before_s + time.perf_counter() - t_stage,
+                                         nfev=before_n + result.nfev)
+            spent[stage] = (result.seconds, result.nfev)
             params.update({n: float(result.parameters[n]) for n in result.free})
+            read = names_read(stage, params, sp.state, sp.omega)
+            done[stage] = (result, sp, {n: params[n] for n in read if n in params})
             results.append(result)
             problems.append(sp)
             held[stage] = dict(sp.held)
-            points[stage] = trailer.iloc[sp.rows][
-                ["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
-                + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+            points[stage] = _stage_points(trailer, sp, stage)
             _say(progress, f"{label}: {time.perf_counter() - t_stage:.1f} s, "
                            f"{result.n_points} points, {len(result.free)} free, "
                            f"{result.nfev} evaluations, "

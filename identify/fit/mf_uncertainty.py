@@ -112,7 +112,7 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
     trailer : DataFrame
         The table ``mf`` was fitted on (the same rows: the stages' points are found again).
     mf : MFFit
-        The staged fit (passes = 1: each stage at its own optimum given the earlier ones).
+        The staged fit (each stage at its own optimum given the others' values).
     """
     labels = mf_data.sweep_ids(trailer, float(mf.params["FNOMIN"]))
     n_sweeps = int(labels.max(initial=-1)) + 1

@@ -318,7 +318,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
         if stages:
             _say(progress, "fit: Magic Formula stages on trailer data")
             mf = fit_mf(trailer, _numeric(tir), seed=settings.seed, fittyp=settings.fittyp,
-                        stages=stages, progress=progress)
+                        stages=stages, passes=settings.mf_passes, progress=progress)
             _say(progress, "MF standard errors: delete-one-sweep jackknife, the earlier "
                            "stages' uncertainty included")
             mf = propagate(trailer, mf)
