@@ -12,9 +12,10 @@ variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits 
 differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
 points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
 compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
-Compiled functions are kept in a persistent cache (``MFID_JAX_CACHE``, default
-``~/.cache/mfid/jax``; empty: none), which cuts the first call of a stage in a later run from
-~1.7 s to ~0.5 s.
+Compiled functions are kept on disk (``MFID_JAX_CACHE``, default ``~/.cache/mfid/jax``; empty:
+none): each stage's executable (identify.fit.mf_jax_cache), which a later run loads without
+tracing or compiling (a stage's first call 0.013-0.03 s), and JAX's compilation cache for the
+rest. Without an entry a stage is traced and compiled (~0.3-1 s, the first run only).
 
 Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
@@ -31,6 +32,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from identify.fit import mf_jax_cache
 from identify.fit.mf_stage_defs import (
     STAGES,
     names_read,
@@ -62,7 +64,6 @@ Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7
 (3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
 generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
 measurements, 2026-11-24)."""
-CACHE_ENV = "MFID_JAX_CACHE"
 
 
 @functools.cache
@@ -78,12 +79,12 @@ def _jax():
                                        "intra_op_parallelism_threads=1")
     try:
         import jax
+        import jax.experimental.serialize_executable  # noqa: F401 (mf_jax_cache uses it)
         import jax.numpy as jnp
     except ImportError:
         return None
     jax.config.update("jax_enable_x64", True)
-    cache = os.environ.get(CACHE_ENV, os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "mfid", "jax"))
+    cache = mf_jax_cache.directory()
     if cache:
         try:
             os.makedirs(cache, exist_ok=True)
@@ -128,6 +129,39 @@ def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]
         return stage_predict(stage, P, s, inputs, xp=jnp)
 
     return jax.jit(jax.jacfwd(predict))
+
+
+_EXECUTABLES: dict[str, Callable] = {}
+"""This process's compiled stage Jacobians by identify.fit.mf_jax_cache.program_key."""
+
+
+def _executable(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...],
+                args: tuple) -> Callable:
+    """The compiled :func:`_compiled` for arguments like ``args`` (theta, fixed, one chunk's
+    state and inputs): this process's, else the disk cache's (identify.fit.mf_jax_cache), else
+    traced and compiled now and stored there."""
+    jax, _ = _jax()
+    key = mf_jax_cache.program_key(jax, stage, coefficients, others, args)
+    fn = _EXECUTABLES.get(key)
+    if fn is None:
+        fn = mf_jax_cache.load(jax, key, args)
+        if fn is not None:
+            try:  # an entry that loads but does not run (see mf_jax_cache) is traced afresh
+                jax.block_until_ready(fn(*args))
+            except Exception:  # noqa: BLE001
+                fn = None
+        if fn is None:
+            lowered = _compiled(stage, coefficients, others).lower(*args)
+            # compiled afresh, not taken from JAX's compilation cache, when it is to be stored:
+            # an executable loaded from there serializes without its code on the CPU
+            # (jax 0.10.2: "Function ... not found" when that copy runs)
+            store = mf_jax_cache.directory() != ""
+            with mf_jax_cache.jax_cache_off(jax, store):
+                fn = lowered.compile()
+            if store:
+                mf_jax_cache.store(jax, key, fn, args)
+        _EXECUTABLES[key] = fn
+    return fn
 
 
 def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
@@ -191,7 +225,7 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
     # the held values the equations read, not all ~260 (tracing a slice per value cost the
     # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
     others = _read_others(stage, base, s, omega)
-    fn = _compiled(stage, coefficients, others)
+    fn = None
     fixed = np.array([float(base[k]) for k in others])
     inputs = stage_inputs(stage, base, s, omega)
     starts = range(0, n, CHUNK)
@@ -206,15 +240,16 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
 
     def call(theta, sc, ic):
         nonlocal others, fn, fixed
-        try:
-            return fn(theta, fixed, sc, ic)
-        except KeyError:  # a held value the set above missed (traced on the first call)
-            every = tuple(k for k in base if k not in set(coefficients))
-            if others == every:
-                raise
-            others, fn = every, _compiled(stage, coefficients, every)
-            fixed = np.array([float(base[k]) for k in every])
-            return fn(theta, fixed, sc, ic)
+        if fn is None:  # every chunk has the same shapes: one executable
+            try:
+                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+            except KeyError:  # a held value the set above missed (raised while tracing)
+                every = tuple(k for k in base if k not in set(coefficients))
+                if others == every:
+                    raise
+                others, fixed = every, np.array([float(base[k]) for k in every])
+                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+        return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
         unknown = [m for m in names if m not in position]
