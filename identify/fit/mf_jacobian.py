@@ -12,10 +12,11 @@ variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits 
 differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
 points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
 compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
-Compiled functions are kept on disk (``MFID_JAX_CACHE``, default ``~/.cache/mfid/jax``; empty:
-none): each stage's executable (identify.fit.mf_jax_cache), which a later run loads without
-tracing or compiling (a stage's first call 0.013-0.03 s), and JAX's compilation cache for the
-rest. Without an entry a stage is traced and compiled (~0.3-1 s, the first run only).
+Each stage's compiled function is kept on disk (identify.fit.mf_jax_cache; ``MFID_JAX_CACHE``,
+default ``~/.cache/mfid/jax``; empty: none), which a later run loads without tracing or
+compiling: a stage's first call 0.013-0.03 s, where tracing, lowering and loading from JAX's
+compilation cache (used before) took 0.07-0.12 s. Without an entry a stage is traced and
+compiled, ~0.2-0.6 s (the first run only).
 
 Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
@@ -84,17 +85,6 @@ def _jax():
     except ImportError:
         return None
     jax.config.update("jax_enable_x64", True)
-    cache = mf_jax_cache.directory()
-    if cache:
-        try:
-            os.makedirs(cache, exist_ok=True)
-            jax.config.update("jax_compilation_cache_dir", cache)
-            # every stage's function: with only the values it reads, the Fx, Fy, Mx and My
-            # ones compile in 0.05-0.15 s, below JAX's default 1 s and the 0.2 s set here
-            # before, and were compiled again in every run
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.02)
-        except OSError:  # no writable cache: compile every run
-            pass
     for cls, meta in ((OperatingState, ("mode",)), (PureLateral, ()), (CombinedLateral, ())):
         names = [f.name for f in dataclasses.fields(cls)]
         jax.tree_util.register_dataclass(
@@ -151,15 +141,8 @@ def _executable(stage: str, coefficients: tuple[str, ...], others: tuple[str, ..
             except Exception:  # noqa: BLE001
                 fn = None
         if fn is None:
-            lowered = _compiled(stage, coefficients, others).lower(*args)
-            # compiled afresh, not taken from JAX's compilation cache, when it is to be stored:
-            # an executable loaded from there serializes without its code on the CPU
-            # (jax 0.10.2: "Function ... not found" when that copy runs)
-            store = mf_jax_cache.directory() != ""
-            with mf_jax_cache.jax_cache_off(jax, store):
-                fn = lowered.compile()
-            if store:
-                mf_jax_cache.store(jax, key, fn, args)
+            fn = _compiled(stage, coefficients, others).lower(*args).compile()
+            mf_jax_cache.store(jax, key, fn, args)
         _EXECUTABLES[key] = fn
     return fn
 

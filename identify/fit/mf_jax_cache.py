@@ -1,13 +1,16 @@
 """Compiled MF stage Jacobians kept on disk between runs, so that a later run neither traces
 nor compiles them (identify.fit.mf_jacobian).
 
-JAX's persistent compilation cache (``jax_compilation_cache_dir``) skips XLA's compile but is
-keyed by the lowered program, so every run still traces and lowers each stage's function in
-Python first: 0.07-0.12 s a stage on the bundled sample (five exact-Jacobian stages), where
-loading the executable stored here takes 0.013-0.03 s (one-off /tmp scratch script,
-2026-11-24, each stage's first call in a fresh process, both caches warm). ``jax.export``
-was measured too and does not pay: deserialising an exported stage and calling it lowers and
-compiles a wrapper around it, 0.13-0.2 s per stage, slower than tracing.
+JAX's persistent compilation cache (``jax_compilation_cache_dir``, which mfid used before)
+skips XLA's compile but is keyed by the lowered program, so every run still traced and lowered
+each stage's function in Python first: 0.07-0.12 s a stage on the bundled sample (five
+exact-Jacobian stages), where loading the executable stored here takes 0.013-0.03 s (one-off
+/tmp scratch script, 2026-11-24, each stage's first call in a fresh process, both caches
+warm). ``jax.export`` was measured too and does not pay: deserialising an exported stage and
+calling it lowers and compiles a wrapper around it, 0.13-0.2 s per stage, slower than tracing.
+JAX's cache is no longer switched on: an executable it supplies cannot be stored here (see
+:func:`store`), and with this one it would serve only the few element-wise copies of the
+chunks (~0.005 s).
 
 An entry is keyed by everything that changes the traced program or the machine code: the
 versions of JAX, jaxlib and mfid, a hash of the source files the trace runs through
@@ -18,12 +21,11 @@ identify.fit.mf_jacobian.CHUNK: the same for every data size), the backend, the 
 entry that does not load (corrupt, truncated, another JAX) is ignored and replaced by a
 freshly traced one. Entries live in ``stages/`` of the JAX cache directory (:func:`directory`:
 ``MFID_JAX_CACHE``, default ``~/.cache/mfid/jax`` or under ``XDG_CACHE_HOME``; empty: no cache),
-never beside the data. Loading an executable runs machine code from the cache directory, as
-JAX's own compilation cache in the same directory does: it must be the user's own.
+never beside the data. Loading an executable runs machine code from the cache directory (as
+JAX's compilation cache, used there before, does): it must be the user's own.
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import hashlib
 import importlib.metadata
@@ -38,7 +40,7 @@ import numpy as np
 
 from identify.core.version import __version__
 
-__all__ = ["CACHE_ENV", "directory", "jax_cache_off", "program_key", "load", "store"]
+__all__ = ["CACHE_ENV", "directory", "program_key", "load", "store"]
 
 CACHE_ENV = "MFID_JAX_CACHE"
 MAGIC = b"mfid-stage-executable 1\n"
@@ -106,18 +108,6 @@ def program_key(jax, stage: str, coefficients: Sequence[str], others: Sequence[s
         "leaves": [_leaf(x) for x in leaves]}, sort_keys=True)
 
 
-@contextlib.contextmanager
-def jax_cache_off(jax, off: bool = True):
-    """JAX's persistent compilation cache switched off inside (if ``off``)."""
-    before = jax.config.jax_enable_compilation_cache
-    if off:
-        jax.config.update("jax_enable_compilation_cache", False)
-    try:
-        yield
-    finally:
-        jax.config.update("jax_enable_compilation_cache", before)
-
-
 def _path(key: str) -> Path | None:
     where = directory()
     if not where:
@@ -160,6 +150,17 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
     if (in_tree != jax.tree_util.tree_structure((args, {}))
             or out_tree != jax.tree_util.tree_structure(0)):
         return False  # load could not rebuild it
+    # only a copy that runs and gives the same numbers: one that JAX loaded from its own
+    # compilation cache (JAX_COMPILATION_CACHE_DIR) serializes without its code on the CPU and
+    # fails when run ("Function ... not found", jax 0.10.2)
+    try:
+        copy = jax.experimental.serialize_executable.deserialize_and_load(
+            payload, in_tree, out_tree)
+        if not np.array_equal(np.asarray(copy(*args)), np.asarray(compiled(*args)),
+                              equal_nan=True):
+            return False
+    except Exception:  # noqa: BLE001
+        return False
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")

@@ -1,0 +1,131 @@
+"""The on-disk cache of compiled MF stage Jacobians (identify.fit.mf_jax_cache).
+
+* A stage's Jacobian from a stored executable is bit-identical to the freshly traced one, and
+  a later process-level miss loads the entry without tracing.
+* An entry that is corrupt, truncated, of another JAX version (its key differs) or of another
+  program (a different stage's executable under this key) is ignored: the stage is traced
+  afresh, gives the same Jacobian, and the entry is replaced by a good one.
+* ``MFID_JAX_CACHE=`` (empty) stores nothing.
+"""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from identify.fit import mf_jacobian, mf_jax_cache
+from identify.fit.mf_stages import stage_problem
+from tests import test_fit_mf_stages as _stages
+
+HAVE_JAX = mf_jacobian._jax() is not None
+pytestmark = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
+
+truth, data = _stages.truth, _stages.data
+STAGE = "My"
+"""A stage that traces and compiles quickly (8 coefficients)."""
+
+
+@pytest.fixture()
+def cache(tmp_path, monkeypatch):
+    """An empty stage cache in tmp_path, this process's executables forgotten, the exact
+    Jacobian forced, and a count of the stages traced."""
+    monkeypatch.setenv(mf_jax_cache.CACHE_ENV, str(tmp_path))
+    monkeypatch.setenv(mf_jacobian.ENV, "jax")
+    monkeypatch.setattr(mf_jacobian, "_EXECUTABLES", {})
+    traced = []
+    compiled = mf_jacobian._compiled
+
+    def counting(*args):
+        traced.append(args[0])
+        return compiled(*args)
+    monkeypatch.setattr(mf_jacobian, "_compiled", counting)
+    return tmp_path, traced
+
+
+def _jacobian(truth, data, stage=STAGE):
+    """The stage's exact Jacobian at its start values (a new process's view: no executables
+    of this process)."""
+    mf_jacobian._EXECUTABLES.clear()
+    p = stage_problem(stage, data, truth, screen=False).problem
+    assert p.jacobian is not None
+    return p.model_jacobian(p.x0())
+
+
+def _entries(where):
+    return sorted((where / "stages").glob("*.bin"))
+
+
+def test_stored_executable_gives_the_traced_jacobian_bit_for_bit(cache, truth, data):
+    where, traced = cache
+    fresh = _jacobian(truth, data)
+    assert traced == [STAGE] and len(_entries(where)) == 1
+    loaded = _jacobian(truth, data)
+    assert traced == [STAGE]  # not traced again: loaded from the entry
+    assert loaded.shape == fresh.shape and np.array_equal(loaded, fresh)
+
+
+def _head_and_payload(entry):
+    blob = entry.read_bytes()
+    magic, key, payload = blob.split(b"\n", 2)
+    assert magic + b"\n" == mf_jax_cache.MAGIC
+    return key, payload
+
+
+@pytest.mark.parametrize("damage", ["garbage", "truncated", "empty payload", "not an entry"])
+def test_a_corrupt_entry_is_traced_afresh_and_replaced(cache, truth, data, damage):
+    where, traced = cache
+    fresh = _jacobian(truth, data)
+    (entry,) = _entries(where)
+    good = entry.read_bytes()
+    key, payload = _head_and_payload(entry)
+    head = mf_jax_cache.MAGIC + key + b"\n"
+    entry.write_bytes({"garbage": head + bytes(range(256)) * 40,
+                       "truncated": head + payload[:len(payload) // 2],
+                       "empty payload": head,
+                       "not an entry": b"\x00" * 100}[damage])
+    again = _jacobian(truth, data)
+    assert traced == [STAGE, STAGE]
+    assert np.array_equal(again, fresh)
+    _, repaired = _head_and_payload(entry)
+    assert entry.read_bytes().startswith(head) and len(repaired) == len(good) - len(head)
+    assert np.array_equal(_jacobian(truth, data), fresh) and len(traced) == 2
+
+
+def test_an_entry_of_another_jax_version_is_not_used(cache, truth, data):
+    where, traced = cache
+    fresh = _jacobian(truth, data)
+    (entry,) = _entries(where)
+    key, payload = _head_and_payload(entry)
+    other = json.loads(key)
+    assert other["jax"] and other["mfid"] and other["source"]
+    other["jax"] = "0.0.1"
+    entry.write_bytes(mf_jax_cache.MAGIC + json.dumps(other, sort_keys=True).encode() + b"\n"
+                      + payload)
+    again = _jacobian(truth, data)
+    assert traced == [STAGE, STAGE] and np.array_equal(again, fresh)
+    assert _head_and_payload(entry)[0] == key  # replaced by this version's
+
+
+def test_another_programs_executable_under_the_key_is_not_used(cache, truth, data):
+    """A payload that deserializes but is another stage's (other arguments) falls back."""
+    where, traced = cache
+    fresh = _jacobian(truth, data)
+    other = _jacobian(truth, data, "Mx")
+    assert traced == [STAGE, "Mx"]
+    (mine,) = [e for e in _entries(where) if b'"stage": "My"' in e.read_bytes()[:4000]]
+    (theirs,) = [e for e in _entries(where) if e != mine]
+    key, _ = _head_and_payload(mine)
+    mine.write_bytes(mf_jax_cache.MAGIC + key + b"\n" + _head_and_payload(theirs)[1])
+    again = _jacobian(truth, data)
+    assert traced == [STAGE, "Mx", STAGE] and np.array_equal(again, fresh)
+    assert other.shape[1] != fresh.shape[1] or not np.array_equal(other, fresh)
+
+
+def test_no_cache_directory_stores_nothing(cache, truth, data, monkeypatch):
+    where, traced = cache
+    monkeypatch.setenv(mf_jax_cache.CACHE_ENV, "")
+    assert mf_jax_cache.directory() == ""
+    fresh = _jacobian(truth, data)
+    assert not (where / "stages").exists()
+    assert np.array_equal(_jacobian(truth, data), fresh) and traced == [STAGE, STAGE]
