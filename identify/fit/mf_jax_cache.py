@@ -91,7 +91,8 @@ def _jaxlib_version() -> str:
 def _leaf(x) -> list:
     """Shape, dtype and whether a Python scalar (JAX's weak type) of one argument leaf."""
     dtype = x.dtype if hasattr(x, "dtype") else np.result_type(x)
-    return [list(np.shape(x)), np.dtype(dtype).str, isinstance(x, (bool, int, float))]
+    weak = getattr(x, "weak_type", isinstance(x, (bool, int, float, complex)))
+    return [list(np.shape(x)), np.dtype(dtype).str, bool(weak)]
 
 
 def program_key(jax, stage: str, coefficients: Sequence[str], others: Sequence[str],
