@@ -6,10 +6,15 @@
   program (a different stage's executable under this key) is ignored: the stage is traced
   afresh, gives the same Jacobian, and the entry is replaced by a good one.
 * ``MFID_JAX_CACHE=`` (empty) stores nothing.
+* A run whose stages are all too small for the exact Jacobian does not import JAX.
 """
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -129,3 +134,15 @@ def test_no_cache_directory_stores_nothing(cache, truth, data, monkeypatch):
     fresh = _jacobian(truth, data)
     assert not (where / "stages").exists()
     assert np.array_equal(_jacobian(truth, data), fresh) and traced == [STAGE, STAGE]
+
+
+def test_a_run_below_the_exact_jacobian_threshold_does_not_import_jax():
+    """Whether a small stage uses the exact Jacobian is decided without importing JAX (~0.3 s);
+    a large one imports it (a fresh interpreter: this one has JAX loaded)."""
+    code = ("import sys; from identify.fit import mf_jacobian as m; "
+            "small = m.use_exact(m.MIN_WORK // 10 - 1, 9); loaded = 'jax' in sys.modules; "
+            "large = m.use_exact(m.MIN_WORK, 9); print(small, loaded, large, 'jax' in sys.modules)")
+    env = {**os.environ, mf_jacobian.ENV: "auto"}
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
+                         cwd=Path(__file__).resolve().parents[1], check=True).stdout.split()
+    assert out == ["False", "False", "True", "True"]
