@@ -2,10 +2,12 @@
 
 * A stage's Jacobian from a stored executable is bit-identical to the freshly traced one, and
   a later process-level miss loads the entry without tracing.
-* An entry that is corrupt, truncated, of another JAX version (its key differs) or of another
-  program (a different stage's executable under this key) is ignored: the stage is traced
-  afresh, gives the same Jacobian, and the entry is replaced by a good one.
+* An entry that is corrupt (one byte flipped: its checksum), truncated, of another JAX
+  version (its key differs) or of another program (a different stage's executable under this
+  key) is ignored: the stage is traced afresh, gives the same Jacobian, and the entry is
+  replaced by a good one.
 * ``MFID_JAX_CACHE=`` (empty) stores nothing.
+* Entries unused for UNUSED_DAYS are deleted when one is written.
 * A run whose stages are all too small for the exact Jacobian does not import JAX.
 """
 from __future__ import annotations
@@ -14,6 +16,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -72,20 +75,27 @@ def test_stored_executable_gives_the_traced_jacobian_bit_for_bit(cache, truth, d
 
 def _head_and_payload(entry):
     blob = entry.read_bytes()
-    magic, key, payload = blob.split(b"\n", 2)
+    magic, key, digest, payload = blob.split(b"\n", 3)
     assert magic + b"\n" == mf_jax_cache.MAGIC
     return key, payload
 
 
-@pytest.mark.parametrize("damage", ["garbage", "truncated", "empty payload", "not an entry"])
+def _flip(payload: bytes) -> bytes:
+    middle = len(payload) // 2
+    return payload[:middle] + bytes([payload[middle] ^ 0xFF]) + payload[middle + 1:]
+
+
+@pytest.mark.parametrize("damage", ["one byte flipped", "garbage", "truncated", "empty payload",
+                                    "not an entry"])
 def test_a_corrupt_entry_is_traced_afresh_and_replaced(cache, truth, data, damage):
     where, traced = cache
     fresh = _jacobian(truth, data)
     (entry,) = _entries(where)
     good = entry.read_bytes()
     key, payload = _head_and_payload(entry)
-    head = mf_jax_cache.MAGIC + key + b"\n"
-    entry.write_bytes({"garbage": head + bytes(range(256)) * 40,
+    head = good[:len(good) - len(payload)]
+    entry.write_bytes({"one byte flipped": head + _flip(payload),
+                       "garbage": head + bytes(range(256)) * 40,
                        "truncated": head + payload[:len(payload) // 2],
                        "empty payload": head,
                        "not an entry": b"\x00" * 100}[damage])
@@ -93,7 +103,7 @@ def test_a_corrupt_entry_is_traced_afresh_and_replaced(cache, truth, data, damag
     assert traced == [STAGE, STAGE]
     assert np.array_equal(again, fresh)
     _, repaired = _head_and_payload(entry)
-    assert entry.read_bytes().startswith(head) and len(repaired) == len(good) - len(head)
+    assert entry.read_bytes().startswith(head[:-65]) and len(repaired) == len(payload)
     assert np.array_equal(_jacobian(truth, data), fresh) and len(traced) == 2
 
 
@@ -105,8 +115,7 @@ def test_an_entry_of_another_jax_version_is_not_used(cache, truth, data):
     other = json.loads(key)
     assert other["jax"] and other["mfid"] and other["source"]
     other["jax"] = "0.0.1"
-    entry.write_bytes(mf_jax_cache.MAGIC + json.dumps(other, sort_keys=True).encode() + b"\n"
-                      + payload)
+    entry.write_bytes(mf_jax_cache._head(json.dumps(other, sort_keys=True), payload) + payload)
     again = _jacobian(truth, data)
     assert traced == [STAGE, STAGE] and np.array_equal(again, fresh)
     assert _head_and_payload(entry)[0] == key  # replaced by this version's
@@ -121,7 +130,8 @@ def test_another_programs_executable_under_the_key_is_not_used(cache, truth, dat
     (mine,) = [e for e in _entries(where) if b'"stage": "My"' in e.read_bytes()[:4000]]
     (theirs,) = [e for e in _entries(where) if e != mine]
     key, _ = _head_and_payload(mine)
-    mine.write_bytes(mf_jax_cache.MAGIC + key + b"\n" + _head_and_payload(theirs)[1])
+    payload = _head_and_payload(theirs)[1]
+    mine.write_bytes(mf_jax_cache._head(key.decode(), payload) + payload)  # a valid checksum
     again = _jacobian(truth, data)
     assert traced == [STAGE, "Mx", STAGE] and np.array_equal(again, fresh)
     assert other.shape[1] != fresh.shape[1] or not np.array_equal(other, fresh)
@@ -146,3 +156,14 @@ def test_a_run_below_the_exact_jacobian_threshold_does_not_import_jax():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, env=env,
                          cwd=Path(__file__).resolve().parents[1], check=True).stdout.split()
     assert out == ["False", "False", "True", "True"]
+
+
+def test_entries_unused_for_a_month_are_deleted_when_one_is_written(cache, truth, data):
+    where, traced = cache
+    (where / "stages").mkdir()
+    old, recent = where / "stages" / "old.bin", where / "stages" / "recent.bin"
+    for entry, days in ((old, mf_jax_cache.UNUSED_DAYS + 1), (recent, 1)):
+        entry.write_bytes(b"an entry of an older mfid")
+        os.utime(entry, (time.time() - days * 86400,) * 2)
+    _jacobian(truth, data)
+    assert not old.exists() and recent.exists() and len(_entries(where)) == 2

@@ -19,7 +19,8 @@ coefficients and held values, the structure, shapes and dtypes of the arguments 
 identify.fit.mf_jacobian.CHUNK: the same for every data size), the backend, the CPU and
 ``XLA_FLAGS``. An entry starts with its key in full and is used only if that matches; an
 entry that does not load (corrupt, truncated, another JAX) is ignored and replaced by a
-freshly traced one. Entries live in ``stages/`` of the JAX cache directory (:func:`directory`:
+freshly traced one; one neither written nor loaded for UNUSED_DAYS is deleted when another is
+written. Entries live in ``stages/`` of the JAX cache directory (:func:`directory`:
 ``MFID_JAX_CACHE``, default ``~/.cache/mfid/jax`` or under ``XDG_CACHE_HOME``; empty: no cache),
 never beside the data. Loading an executable runs machine code from the cache directory (as
 JAX's compilation cache, used there before, does): it must be the user's own.
@@ -33,6 +34,7 @@ import json
 import os
 import platform
 import tempfile
+import time
 from pathlib import Path
 from typing import Callable, Sequence
 
@@ -40,11 +42,14 @@ import numpy as np
 
 from identify.core.version import __version__
 
-__all__ = ["CACHE_ENV", "directory", "program_key", "load", "store"]
+__all__ = ["CACHE_ENV", "UNUSED_DAYS", "directory", "program_key", "load", "store", "prune"]
 
 CACHE_ENV = "MFID_JAX_CACHE"
 MAGIC = b"mfid-stage-executable 1\n"
-"""First line of an entry (its format); the key's JSON and the serialized executable follow."""
+"""First line of an entry (its format); the key's JSON, the payload's SHA-256 (hex) and the
+payload (the serialized executable) follow."""
+UNUSED_DAYS = 30.0
+"""Entries neither written nor loaded for this long are deleted (:func:`prune`)."""
 _SOURCES = ("identify/model", "identify/fit/mf_stage_defs.py", "identify/fit/mf_jacobian.py")
 """The code a stage's trace runs through (relative to the package's parent directory)."""
 
@@ -116,6 +121,12 @@ def _path(key: str) -> Path | None:
     return Path(where) / "stages" / (hashlib.sha256(key.encode()).hexdigest()[:40] + ".bin")
 
 
+def _head(key: str, payload: bytes) -> bytes:
+    """An entry's header: format, key, SHA-256 of the payload (a damaged payload is never
+    handed to XLA)."""
+    return MAGIC + key.encode() + b"\n" + hashlib.sha256(payload).hexdigest().encode() + b"\n"
+
+
 def load(jax, key: str, args: tuple) -> Callable | None:
     """The stored executable for ``key`` (called like the jitted function with ``args``), or
     None: no cache, no entry, or one that does not match or load (see module)."""
@@ -129,18 +140,25 @@ def load(jax, key: str, args: tuple) -> Callable | None:
     head = MAGIC + key.encode() + b"\n"
     if not blob.startswith(head):
         return None
+    payload = blob[len(head) + 65:]
+    if blob[len(head):len(head) + 65] != _head(key, payload)[len(head):]:
+        return None
     try:
-        return jax.experimental.serialize_executable.deserialize_and_load(
-            blob[len(head):], jax.tree_util.tree_structure((args, {})),
-            jax.tree_util.tree_structure(0))
+        fn = jax.experimental.serialize_executable.deserialize_and_load(
+            payload, jax.tree_util.tree_structure((args, {})), jax.tree_util.tree_structure(0))
     except Exception:  # noqa: BLE001 - any failure to load an entry means: trace afresh
         return None
+    try:  # used now: kept by prune
+        os.utime(path)
+    except OSError:
+        pass
+    return fn
 
 
 def store(jax, key: str, compiled, args: tuple) -> bool:
     """Write ``compiled`` (jit(...).lower(*args).compile()) as the entry of ``key`` (atomically:
-    a reader sees the old entry, the new one or none); False when there is no cache, it is not
-    writable or the executable cannot be serialized."""
+    a reader sees the old entry, the new one or none) and :func:`prune` the others; False when
+    there is no cache, it is not writable or the executable cannot be serialized."""
     path = _path(key)
     if path is None:
         return False
@@ -162,12 +180,28 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
             return False
     except Exception:  # noqa: BLE001
         return False
+    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
         with os.fdopen(fd, "wb") as f:
-            f.write(MAGIC + key.encode() + b"\n" + payload)
+            f.write(_head(key, payload) + payload)
         os.replace(tmp, path)
     except OSError:
+        if tmp is not None and os.path.exists(tmp):
+            os.unlink(tmp)
         return False
+    prune(path.parent)
     return True
+
+
+def prune(where: Path, days: float = UNUSED_DAYS) -> None:
+    """Delete the entries of ``where`` not written or loaded for ``days`` (those of older mfid,
+    JAX or model code, whose keys no run asks for again)."""
+    limit = time.time() - days * 86400.0
+    for entry in where.glob("*.bin"):
+        try:
+            if entry.stat().st_mtime < limit:
+                entry.unlink()
+        except OSError:  # gone meanwhile, or not ours to delete
+            pass
