@@ -87,7 +87,9 @@ one run: importing JAX 0.27 s (~12 evaluations; importing it in a thread from th
 on the sample 12.0-12.2 s either way, three runs each, as the import holds the GIL), running
 the exact Jacobians 0.37 s (~16; 776 chunk calls), the trust-region solver's SVDs 0.28 s
 (~12; scipy's trf with the exact solver), and the searches, solves and re-fits above; on the
-TTC session the Fy stage's second candidate's solve on all points (~0.3 s, ~13). Every fitted
+TTC session the Fy stage's second candidate on all points (least squares 0.06 s, then the
+constrained polish 0.22 s: ~12; it ends 0.04 % above the first's objective, but started below
+it, so the polish's bound does not skip it). Every fitted
 value the same: ``mfid fit --no-report`` fit.json of main and this branch identical but for
 times and the command, on the sample (the cache warm, cold, and off) and on the TTC session.
 
