@@ -20,9 +20,9 @@ compiled, ~0.2-0.6 s (the first run only).
 
 Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
-(the subsample search and the full-data polish, every refit, every pass): one compile of
-~1-3 s per stage and process, then ~2-5 evaluations' time per Jacobian of up to 29 columns,
-where two-point finite differences cost 1 + free coefficients evaluations.
+(the subsample search and the full-data polish, every refit, every pass): one trace and
+compile per stage (~0.4 s, then stored), then ~2-5 evaluations' time per Jacobian of up to 29
+columns, where two-point finite differences cost 1 + free coefficients evaluations.
 """
 from __future__ import annotations
 
@@ -64,7 +64,9 @@ Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 
 Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
 (3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
 generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
-measurements, 2026-11-24)."""
+measurements, 2026-11-24). With the stored executables (a stage's first call 0.01-0.03 s) it
+still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
+(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24)."""
 
 
 @functools.cache
