@@ -7,6 +7,8 @@
   key) is ignored: the stage is traced afresh, gives the same Jacobian, and the entry is
   replaced by a good one.
 * ``MFID_JAX_CACHE=`` (empty) stores nothing.
+* An executable JAX took from its own compilation cache (the user's JAX_COMPILATION_CACHE_DIR)
+  is not stored: it would not run when loaded.
 * Entries unused for UNUSED_DAYS are deleted when one is written.
 * A run whose stages are all too small for the exact Jacobian does not import JAX.
 """
@@ -167,3 +169,33 @@ def test_entries_unused_for_a_month_are_deleted_when_one_is_written(cache, truth
         os.utime(entry, (time.time() - days * 86400,) * 2)
     _jacobian(truth, data)
     assert not old.exists() and recent.exists() and len(_entries(where)) == 2
+
+
+_JACOBIAN_SCRIPT = """
+import sys
+import numpy as np
+from identify.fit.mf_stages import stage_problem
+from tests.test_fit_mf_stages import _simulate, _sweeps, _truth
+truth = _truth()
+p = stage_problem("My", _simulate(truth, _sweeps()), truth, screen=False).problem
+np.save(sys.argv[1], p.model_jacobian(p.x0()))
+"""
+
+
+def test_an_executable_from_jaxs_own_cache_is_not_stored(tmp_path):
+    """With the user's own JAX compilation cache on (JAX_COMPILATION_CACHE_DIR), a stage
+    compiled from it serializes without its code (jax 0.10.2): no entry is written, and the
+    Jacobian is the same (three fresh interpreters: the first fills JAX's cache only)."""
+    root = Path(__file__).resolve().parents[1]
+    for run in range(3):
+        env = {**os.environ, mf_jacobian.ENV: "jax",
+               "JAX_COMPILATION_CACHE_DIR": str(tmp_path / "jax"),
+               "JAX_PERSISTENT_CACHE_MIN_COMPILE_TIME_SECS": "0",
+               mf_jax_cache.CACHE_ENV: "" if run == 0 else str(tmp_path / "mfid")}
+        subprocess.run([sys.executable, "-c", _JACOBIAN_SCRIPT, str(tmp_path / f"J{run}.npy")],
+                       env=env, cwd=root, check=True, capture_output=True)
+    assert any((tmp_path / "jax").iterdir())  # JAX's cache was used
+    assert not list((tmp_path / "mfid").glob("stages/*.bin"))
+    first = np.load(tmp_path / "J0.npy")
+    for run in (1, 2):
+        assert np.array_equal(np.load(tmp_path / f"J{run}.npy"), first, equal_nan=True)
