@@ -68,6 +68,31 @@ crawls along), their solves on all points and re-fits (~20); on the TTC session 
 binning before the stages (identify.segment.filters.revolution_average, ~15) and the Fy
 stage's two candidates, both polished to the same constrained optimum (~15).
 
+Measured 2026-11-24 07:13-07:15 UTC, load average 2.5-3.4, two rounds, each main at ef0d5ad
+(``git archive main`` into /tmp/fitcost2-before, ``PYTHONPATH=/tmp/fitcost2-before python
+bench/fit_cost.py --label main``) and then the stage-executable cache branch (a21fce8), back to
+back, after one unmeasured run of each (the caches warm, as in a user's later runs): the
+bundled sample 109 and 106 -> 92 and 94 (cpu 107, 105 -> 91, 92); ``--ttc 0`` 174 and 178 ->
+160 and 164 (cpu 176, 175 -> 161, 163). What went (identify.fit.mf_jax_cache): tracing and
+lowering each exact-Jacobian stage, 0.07-0.12 s a stage even with JAX's compilation cache,
+now a stored executable loaded in 0.01-0.03 s; copying every chunk to the device (a
+jnp.asarray per leaf, 0.1-0.2 s on the sample); the JAX import where no stage needs it (not
+on these two sessions: it moved from the geometry stage to the first exact-Jacobian one,
+Fy0 on the sample, Fx0 on the TTC session, whose ratios rose by it). Round 2 per stage,
+sample / TTC: geometry 113 -> 16 / 181 -> 41, Mx and My 24 -> 17 / 44 -> 39. Against ddb9f71's
+351 and 612 (earlier rounds): 3.8x on both, still short of 5x. ``--jacobian jax`` (exact
+Jacobians for every stage) costs the same: 90 and 92 on the sample. Left, from step timings of
+one run: importing JAX 0.27 s (~12 evaluations; importing it in a thread from the start of
+``mfid fit`` moved it out of the MF stages but not out of the run: ``mfid fit --no-report``
+on the sample 12.0-12.2 s either way, three runs each, as the import holds the GIL), running
+the exact Jacobians 0.37 s (~16; 776 chunk calls), the trust-region solver's SVDs 0.28 s
+(~12; scipy's trf with the exact solver), and the searches, solves and re-fits above; on the
+TTC session the Fy stage's second candidate on all points (least squares 0.06 s, then the
+constrained polish 0.22 s: ~12; it ends 0.04 % above the first's objective, but started below
+it, so the polish's bound does not skip it). Every fitted
+value the same: ``mfid fit --no-report`` fit.json of main and this branch identical but for
+times and the command, on the sample (the cache warm, cold, and off) and on the TTC session.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """

@@ -16,7 +16,7 @@ import dataclasses
 import numpy as np
 import pytest
 
-from identify.fit import engine, mf_data, mf_jacobian
+from identify.fit import engine, mf_data, mf_jacobian, mf_jax_cache
 from identify.fit.mf_search import SUBSAMPLE, search, start_points, subsample
 from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
@@ -250,9 +250,13 @@ def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, 
 
 
 @needs_jax
-def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch):
+def test_jacobian_traces_only_the_held_values_it_reads(truth, data, exact, monkeypatch,
+                                                       tmp_path):
     """stage_jacobian passes the held values the equations read (Fy0 under JAX: the
     combined-slip ones too); a set that misses one falls back to every value."""
+    # traced here: no stored executables (identify.fit.mf_jax_cache), none of this process
+    monkeypatch.setenv(mf_jax_cache.CACHE_ENV, str(tmp_path))
+    monkeypatch.setattr(mf_jacobian, "_EXECUTABLES", {})
     compiled, traced = mf_jacobian._compiled, []
 
     def recording(stage, coefficients, held):

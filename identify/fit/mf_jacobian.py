@@ -12,15 +12,17 @@ variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits 
 differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
 points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
 compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
-Compiled functions are kept in a persistent cache (``MFID_JAX_CACHE``, default
-``~/.cache/mfid/jax``; empty: none), which cuts the first call of a stage in a later run from
-~1.7 s to ~0.5 s.
+Each stage's compiled function is kept on disk (identify.fit.mf_jax_cache; ``MFID_JAX_CACHE``,
+default ``~/.cache/mfid/jax``; empty: none), which a later run loads without tracing or
+compiling: a stage's first call 0.013-0.03 s, where tracing, lowering and loading from JAX's
+compilation cache (used before) took 0.07-0.12 s. Without an entry a stage is traced and
+compiled, ~0.2-0.6 s (the first run only).
 
 Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
-(the subsample search and the full-data polish, every refit, every pass): one compile of
-~1-3 s per stage and process, then ~2-5 evaluations' time per Jacobian of up to 29 columns,
-where two-point finite differences cost 1 + free coefficients evaluations.
+(the subsample search and the full-data polish, every refit, every pass): one trace and
+compile per stage (~0.4 s, then stored), then ~2-5 evaluations' time per Jacobian of up to 29
+columns, where two-point finite differences cost 1 + free coefficients evaluations.
 """
 from __future__ import annotations
 
@@ -31,6 +33,7 @@ from typing import Callable, Mapping
 
 import numpy as np
 
+from identify.fit import mf_jax_cache
 from identify.fit.mf_stage_defs import (
     STAGES,
     names_read,
@@ -61,8 +64,9 @@ Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 
 Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
 (3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
 generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
-measurements, 2026-11-24)."""
-CACHE_ENV = "MFID_JAX_CACHE"
+measurements, 2026-11-24). With the stored executables (a stage's first call 0.01-0.03 s) it
+still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
+(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24)."""
 
 
 @functools.cache
@@ -78,22 +82,11 @@ def _jax():
                                        "intra_op_parallelism_threads=1")
     try:
         import jax
+        import jax.experimental.serialize_executable  # noqa: F401 (mf_jax_cache uses it)
         import jax.numpy as jnp
     except ImportError:
         return None
     jax.config.update("jax_enable_x64", True)
-    cache = os.environ.get(CACHE_ENV, os.path.join(
-        os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "mfid", "jax"))
-    if cache:
-        try:
-            os.makedirs(cache, exist_ok=True)
-            jax.config.update("jax_compilation_cache_dir", cache)
-            # every stage's function: with only the values it reads, the Fx, Fy, Mx and My
-            # ones compile in 0.05-0.15 s, below JAX's default 1 s and the 0.2 s set here
-            # before, and were compiled again in every run
-            jax.config.update("jax_persistent_cache_min_compile_time_secs", 0.02)
-        except OSError:  # no writable cache: compile every run
-            pass
     for cls, meta in ((OperatingState, ("mode",)), (PureLateral, ()), (CombinedLateral, ())):
         names = [f.name for f in dataclasses.fields(cls)]
         jax.tree_util.register_dataclass(
@@ -108,11 +101,13 @@ def available() -> bool:
 
 def use_exact(n_points: int, n_coefficients: int) -> bool:
     """Whether a stage of ``n_points`` points and ``n_coefficients`` candidate coefficients
-    uses the exact Jacobian (see ENV and MIN_WORK)."""
-    if not available():
+    uses the exact Jacobian (see ENV and MIN_WORK). JAX is imported only when the answer
+    depends on it being installed: a run whose stages are all below MIN_WORK does not pay the
+    ~0.3 s import."""
+    if (os.environ.get(ENV, "").lower() != "jax"
+            and n_points * (n_coefficients + 1) < MIN_WORK):
         return False
-    return (os.environ.get(ENV, "").lower() == "jax"
-            or n_points * (n_coefficients + 1) >= MIN_WORK)
+    return available()
 
 
 @functools.cache
@@ -128,6 +123,32 @@ def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]
         return stage_predict(stage, P, s, inputs, xp=jnp)
 
     return jax.jit(jax.jacfwd(predict))
+
+
+_EXECUTABLES: dict[str, Callable] = {}
+"""This process's compiled stage Jacobians by identify.fit.mf_jax_cache.program_key."""
+
+
+def _executable(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...],
+                args: tuple) -> Callable:
+    """The compiled :func:`_compiled` for arguments like ``args`` (theta, fixed, one chunk's
+    state and inputs): this process's, else the disk cache's (identify.fit.mf_jax_cache), else
+    traced and compiled now and stored there."""
+    jax, _ = _jax()
+    key = mf_jax_cache.program_key(jax, stage, coefficients, others, args)
+    fn = _EXECUTABLES.get(key)
+    if fn is None:
+        fn = mf_jax_cache.load(jax, key, args)
+        if fn is not None:
+            try:  # an entry that loads but does not run (see mf_jax_cache) is traced afresh
+                jax.block_until_ready(fn(*args))
+            except Exception:  # noqa: BLE001
+                fn = None
+        if fn is None:
+            fn = _compiled(stage, coefficients, others).lower(*args).compile()
+            mf_jax_cache.store(jax, key, fn, args)
+        _EXECUTABLES[key] = fn
+    return fn
 
 
 def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
@@ -146,12 +167,16 @@ def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
 
 
 def _chunk(tree, index: np.ndarray, n: int):
-    """The points ``index`` of every length-``n`` array leaf of ``tree`` (scalars as they are)."""
-    jax, jnp = _jax()
+    """The points ``index`` of every length-``n`` array leaf of ``tree`` (scalars as they are),
+    as numpy arrays: the compiled function takes them as they are, ~0.01 ms a call more than
+    device arrays, where copying a chunk to the device cost 0.37 ms (jax.device_put) and a
+    jnp.asarray per leaf 0.1-0.2 s on the sample (~2000 dispatches, a compile for the
+    scalars); a chunk serves ~5 calls (one-off /tmp scratch script, 2026-11-24)."""
+    jax, _ = _jax()
 
     def take(leaf):
         a = np.asarray(leaf)
-        return jnp.asarray(a[..., index] if a.ndim and a.shape[-1] == n else leaf)
+        return a[..., index] if a.ndim and a.shape[-1] == n else leaf
     return jax.tree_util.tree_map(take, tree)
 
 
@@ -191,12 +216,12 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
     # the held values the equations read, not all ~260 (tracing a slice per value cost the
     # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
     others = _read_others(stage, base, s, omega)
-    fn = _compiled(stage, coefficients, others)
+    fn = None
     fixed = np.array([float(base[k]) for k in others])
     inputs = stage_inputs(stage, base, s, omega)
     starts = range(0, n, CHUNK)
-    # device copies of each chunk's points, made once (the last chunk padded with its first
-    # point, whose rows are dropped)
+    # each chunk's points, taken once (the last chunk padded with its first point, whose rows
+    # are dropped)
     chunks = []
     for a in starts:
         index = np.arange(a, min(a + CHUNK, n))
@@ -206,15 +231,16 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
 
     def call(theta, sc, ic):
         nonlocal others, fn, fixed
-        try:
-            return fn(theta, fixed, sc, ic)
-        except KeyError:  # a held value the set above missed (traced on the first call)
-            every = tuple(k for k in base if k not in set(coefficients))
-            if others == every:
-                raise
-            others, fn = every, _compiled(stage, coefficients, every)
-            fixed = np.array([float(base[k]) for k in every])
-            return fn(theta, fixed, sc, ic)
+        if fn is None:  # every chunk has the same shapes: one executable
+            try:
+                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+            except KeyError:  # a held value the set above missed (raised while tracing)
+                every = tuple(k for k in base if k not in set(coefficients))
+                if others == every:
+                    raise
+                others, fixed = every, np.array([float(base[k]) for k in every])
+                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+        return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
         unknown = [m for m in names if m not in position]
