@@ -180,6 +180,9 @@ def main() -> None:
     ap.add_argument("--fnomin", type=float, help="--trailer: nominal load [N]")
     ap.add_argument("--nompres", type=float, help="--trailer: nominal pressure [Pa]")
     ap.add_argument("--r0", type=float, help="--trailer: unloaded radius [m]")
+    ap.add_argument("--passes", type=int, default=None,
+                    help="passes over the MF stages (default: fit_mf's, 1; mfid fit runs "
+                         "FitSettings.mf_passes, 2 since f7d0963)")
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
     ap.add_argument("--bin", action="store_true",
                     help="segment logged runs and bin dense sweeps first, as mfid fit does")
@@ -221,7 +224,8 @@ def main() -> None:
             s = FitSettings()
             table, _ = mf_table(trailer, base["FNOMIN"], segment=s.segment,
                                 alpha_deg=s.bin_alpha_deg, kappa=s.bin_kappa)
-        mf = fit_mf(table, base)
+        passes = {} if args.passes is None else {"passes": args.passes}
+        mf = fit_mf(table, base, **passes)
         total_fit = time.perf_counter() - t0
         total_cpu = time.process_time() - c0
         jk_fit = None

@@ -54,7 +54,7 @@ from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.fit import mf_data
-from identify.fit.engine import MF_SOLVE
+from identify.fit.engine import MF_SOLVE, residual_jacobian
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_constraints import stage_constraints
@@ -369,6 +369,51 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
                        n_lhs=n_lhs, screen=screen, passes=passes, progress=progress)
 
 
+PASS_GAIN = 0.1
+"""A later pass solves a stage again only when a Gauss-Newton step from its values would lower
+its objective by more than this many residual variances s^2 (chi^2 by 0.2)."""
+
+
+def gauss_newton_gain(problem: FitProblem, x: np.ndarray) -> float:
+    """0.5 ||P_J r||^2 / s^2 at ``x``: what a Gauss-Newton step would remove from the cost
+    0.5 r^T r, in residual variances (r the weighted residuals, J their Jacobian, P_J the
+    projection on its columns, s^2 = r^T r / (n - k))."""
+    r = problem.residuals(x)
+    J = residual_jacobian(problem, x)
+    step = np.linalg.lstsq(J, -r, rcond=None)[0]
+    s2 = float(r @ r) / max(r.size - x.size, 1)
+    return 0.5 * float(np.sum((J @ step) ** 2)) / s2 if s2 > 0 else 0.0
+
+
+def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
+                before: tuple[FitResult, StageProblem], label: str, pass_no: int,
+                progress: Progress | None) -> tuple[FitResult, StageProblem, int]:
+    """A later pass of a stage something it reads has moved in: the same free coefficients
+    and holds as before, at the current values; solved locally when a Gauss-Newton step would
+    gain more than PASS_GAIN s^2, else kept; a solve that stops at its budget (a crawl from an
+    optimum the inputs barely moved) keeps the values of the pass before. Returns the result,
+    the problem and the model evaluations this pass spent (counting J as one)."""
+    result, old = before
+    sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
+                       hold=dict(old.held))
+    x0 = sp.problem.x0()
+    gain = gauss_newton_gain(sp.problem, x0)
+    if gain <= PASS_GAIN:
+        _say(progress, f"{label}: kept (a solve would gain {gain:.2g} s^2)")
+        return result, sp, 2
+    _say(progress, f"{label}: solve on all {sp.problem.measured.size} points (a "
+                   f"Gauss-Newton step would gain {gain:.3g} s^2)")
+    again = fit(sp.problem, starts=x0[None, :], max_nfev=MAX_NFEV, tol=MF_SOLVE)
+    if again.converged:
+        return dataclasses.replace(again, n_starts=result.n_starts,
+                                   starts_at_best=result.starts_at_best), sp, again.nfev + 2
+    _say(progress, f"{label}: the solve stopped at its budget; the values of the pass before "
+                   "are kept")
+    return dataclasses.replace(result, message=(
+        f"{result.message} (kept: pass {pass_no + 1} stopped at its budget)")), sp, \
+        again.nfev + 2
+
+
 def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.DataFrame:
     """The operating points of a stage (MFFit.points)."""
     return trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
@@ -406,27 +451,20 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 held[stage] = dict(sp.held)
                 points[stage] = _stage_points(trailer, sp, stage)
                 continue
-            _say(progress, f"{label}: points and identifiability screen")
-            sp = stage_problem(stage, trailer, params, free=free, screen=screen)
-            if sp is None:
-                skipped[stage] = _skip_reason(stage, trailer)
-                _say(progress, f"{label}: skipped, {skipped[stage]}")
-                continue
-            if pass_no == 0:
-                result = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i), progress)
+            if stage in done:  # a later pass: the free set and holds of the pass before
+                result, sp, new_nfev = _pass_again(stage, trailer, params, done[stage][:2],
+                                                   label, pass_no, progress)
             else:
-                _say(progress, f"{label}: solve on all {sp.problem.measured.size} points")
-                result = fit(sp.problem, starts=sp.problem.x0()[None, :], max_nfev=MAX_NFEV,
-                             tol=MF_SOLVE)
-                if not result.converged and stage in done:
-                    # a crawl from an optimum the inputs barely moved: keep that optimum
-                    before, sp, _ = done[stage]
-                    _say(progress, f"{label}: the solve stopped at its budget; the values of "
-                                   "the pass before are kept")
-                    result = dataclasses.replace(before, nfev=result.nfev, message=(
-                        f"{before.message} (kept: pass {pass_no + 1} stopped at its budget)"))
-            if screen:
-                result, sp = _refine(result, sp, stage, trailer, params, free, progress)
+                _say(progress, f"{label}: points and identifiability screen")
+                sp = stage_problem(stage, trailer, params, free=free, screen=screen)
+                if sp is None:
+                    skipped[stage] = _skip_reason(stage, trailer)
+                    _say(progress, f"{label}: skipped, {skipped[stage]}")
+                    continue
+                result = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i), progress)
+                if screen:
+                    result, sp = _refine(result, sp, stage, trailer, params, free, progress)
+                new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
             # the stage's whole wall time: screen (and the Jacobian's compile), search, solves,
@@ -434,7 +472,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
             before_s, before_n = spent.get(stage, (0.0, 0))
             result = dataclasses.replace(result,
                                          seconds=before_s + time.perf_counter() - t_stage,
-                                         nfev=before_n + result.nfev)
+                                         nfev=before_n + new_nfev)
             spent[stage] = (result.seconds, result.nfev)
             params.update({n: float(result.parameters[n]) for n in result.free})
             read = names_read(stage, params, sp.state, sp.omega)
