@@ -10,8 +10,15 @@ When the minimum reached from the truth is as low as the reported one but far aw
 named coefficients, the data hold two minima the noise cannot tell apart, and the reported
 (linearised) intervals describe only the one the search found (docs/intervals.md).
 
+``--lhs N`` also solves the stage from N Latin-hypercube starts in the fit's start box around
+the reported values (identify.fit.mf_search.start_points, seed ``--seed``) and lists every
+distinct minimum they reach, lowest first, with its objective difference to the reported fit
+in the same units: a minimum below the reported one is one the fit's search missed; one
+within the 95 % region's 3.84 is a second answer the data cannot rule out.
+
     python bench/ttc_truth.py --seeds 2 --keep /tmp/tt
     python bench/stage_valleys.py /tmp/tt/ttc-seed2 --stage Fx0 --names PCX1 PEX1 PEX4
+    python bench/stage_valleys.py /tmp/tt/ttc-seed2 --stage Fy --names RBY1 RCY1 REY1 --lhs 8
 """
 from __future__ import annotations
 
@@ -22,6 +29,8 @@ from pathlib import Path
 import numpy as np
 
 from identify.fit import engine
+from identify.fit.engine import MF_SOLVE
+from identify.fit.mf_search import start_points
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.run import FitSettings
@@ -41,6 +50,9 @@ def main() -> None:
     ap.add_argument("seed_dir", help="a ttc-seedN folder kept by bench/ttc_truth.py --keep")
     ap.add_argument("--stage", default="Fx0")
     ap.add_argument("--names", nargs="+", default=["PCX1", "PEX1", "PEX4"])
+    ap.add_argument("--lhs", type=int, default=0,
+                    help="also list the minima reached from this many box starts")
+    ap.add_argument("--seed", type=int, default=0, help="seed of the --lhs starts")
     args = ap.parse_args()
     base = Path(args.seed_dir)
     mset = load_folder(base / "folder")
@@ -88,6 +100,36 @@ def main() -> None:
     print(f"from the truth - reported: {dchi2:+.1f} in iid chi^2; the reported intervals are "
           f"{np.sqrt(inflation):.2f} x the iid ones (median), so {dchi2 / inflation:+.2f} on "
           "their scale (a 95 % region of one coefficient: 3.84)")
+    if args.lhs > 0:
+        _minima(problem, args, cost, c0, s2, inflation, again.parameters)
+
+
+def _minima(problem, args, cost, c0, s2, inflation, from_truth) -> None:
+    """Solve ``problem`` (at the reported values) from the reported values and ``args.lhs``
+    box starts; print the distinct minima, with the one reached from the truth
+    (``from_truth``): the named coefficients within 2 % and the objectives within 1 in iid
+    chi^2 are one."""
+    starts = start_points(problem, args.lhs, args.seed)
+    ends = [fit(problem, starts=x[None, :], tol=MF_SOLVE).parameters for x in starts]
+
+    def same(a, b) -> bool:
+        x, y = (np.array([v[n] for n in args.names]) for v in (a, b))
+        return bool(np.all(np.abs(x - y) <= 0.02 * np.maximum(np.abs(y), 1e-2))
+                    and abs(cost(a) - cost(b)) <= s2)
+
+    found: list[dict[str, float]] = []
+    for values in sorted(ends + [from_truth], key=cost):
+        if not any(same(values, f) for f in found):
+            found.append(values)
+    print(f"minima from the reported values, {args.lhs} box starts (seed {args.seed}) and the "
+          "truth, lowest first; chi^2 difference to the reported fit on the reported "
+          "intervals' scale:")
+    for values in found:
+        hits = sum(same(e, values) for e in ends)
+        print(f"{'':16s}{cost(values) / c0:11.5f}"
+              + "".join(f"{values[n]:10.4g}" for n in args.names)
+              + f"   {(cost(values) - c0) / s2 / inflation:+8.2f}   ({hits} of "
+                f"{len(starts)} starts)")
 
 
 if __name__ == "__main__":
