@@ -13,7 +13,8 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   coefficients included), minus those the data cannot identify (identify.fit.mf_screen: not
   covered by the data, no effect, not separable or negligible at the start values; after the
   global fit a coefficient that had no effect only because another was 0 at the start is
-  freed and the stage re-fitted locally), and holds every other value at what the earlier
+  freed and the stage re-fitted from the optimum and from the search's other candidates near
+  it, whose basin can become the lower one), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
 * evaluates the model with useMode 211 (docs/model.md, section 2).
