@@ -41,7 +41,9 @@ from identify.fit.run import FitSettings
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.segment import SegmentSettings
+from identify.workflows.fit import _base_tir  # the start .tir exactly as mfid fit builds it
 from identify.workflows.fit import _mf_trailer  # the table exactly as mfid fit builds it
+from identify.workflows.tir_assembly import LIMIT_COLUMNS
 from identify.workflows.trailer_prep import prepare_trailer
 
 
@@ -69,6 +71,12 @@ def main() -> None:
     trailer = _mf_trailer(td, float(mset.manifest.tyre.nominal_load_N), settings, None)
     fit_dir = next((base / "fits").iterdir())
     fitted = _numbers(read_tir(next(fit_dir.glob("*.tir"))).values)
+    # the validity limits the stages' constraints had: the written .tir has the data's ranges
+    # (identify.workflows.tir_assembly.apply_limits, after the fit), the stages had the start
+    # .tir's (kappa, alpha to +/-1.5, Fz 100-10000 N): with the data's, a point the fit's
+    # validity constraints excluded can look like a missed lower minimum
+    start_tir = _numbers(_base_tir(mset, int(fitted.get("FITTYP", 61))))
+    fitted.update({k: start_tir[k] for pair in LIMIT_COLUMNS for k in pair if k in start_tir})
     truth = _numbers(json.loads((base / "ttc" / "truth.json").read_text())["tir"])
     reported = next(f for f in json.loads((fit_dir / "fit.json").read_text())["fits"]
                     if f.get("relation") == "MF" and f.get("form") == args.stage)
