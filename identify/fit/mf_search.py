@@ -32,7 +32,7 @@ from identify.fit.engine import SEARCH
 from identify.fit.metric import thesis_error_by_group
 from identify.fit.mf_jacobian import CHUNK
 from identify.fit.mf_stage_defs import stage_model
-from identify.fit.optimize import BEST_ATOL, BEST_RTOL
+from identify.fit.optimize import BEST_RTOL
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import spec
@@ -81,9 +81,9 @@ dropped: on thousands of points such an optimum is worse beyond doubt (5 standar
 of a chi^2 difference of one parameter), and its constrained polish on all points would cost
 as much as the best one's."""
 DISTINCT_RTOL = 1e-4
-"""Two end points are the same candidate when their subsample objectives agree to
-identify.fit.optimize.BEST_RTOL, or every coefficient agrees to this fraction of
-max(|value|, 1e-3)."""
+"""Two end points are the same candidate when their objectives agree to
+identify.fit.optimize.BEST_RTOL, every coefficient agrees to this fraction of max(|value|,
+1e-3), or they are within MERGE_CHI2 in chi^2 (:func:`_same_optimum`)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
 MERGE_CHI2 = 1.0
@@ -169,8 +169,8 @@ class Search:
     ----------
     candidates : ndarray       distinct end points to solve on all points, best first (c, k)
     n_starts : int             starts searched
-    starts_at_best : int       starts whose end point reached the best subsample objective
-                               (identify.fit.optimize.BEST_RTOL)
+    starts_at_best : int       starts whose end point is the best one's optimum (the same
+                               point, or within MERGE_CHI2 of it in chi^2)
     points : int               points of the subsample
     nfev : int                 model evaluations of the search (on the subsample)
     converged : bool           the best end point's solve converged (within SEARCH_NFEV)
@@ -228,6 +228,30 @@ class _Reached:
         return None
 
 
+def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
+                  n_free: int) -> bool:
+    """``x`` (another start's end point, objective ``x_obj``) is ``end``'s optimum (objective
+    ``obj``): the same objective to identify.fit.optimize.BEST_RTOL (mirror images such as
+    Mz0's (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict bit for bit the same), every coefficient
+    within DISTINCT_RTOL of max(|value|, 1e-3), or within MERGE_CHI2 of it in chi^2 in the
+    metric of its solver's Jacobian (||J (x - x_e)||^2 <= MERGE_CHI2 s^2, as a start's merge:
+    a start stopped along a flat valley has its end's objective only to the solver's noise
+    stop). The objective without identify.fit.optimize.BEST_ATOL: the search's objectives are
+    0.5 r^T r of weighted residuals, O(1e-5) on a TTC session, where 1e-8 took two basins 0.07
+    apart in chi^2 (the Fy stage of seed 2, RBY1 = 7.6 and 11.4: 3e5 apart in that metric)
+    for one."""
+    if abs(x_obj - obj) <= BEST_RTOL * abs(obj):
+        return True
+    scale = np.maximum(np.abs(end.x), 1e-3)
+    if np.all(np.abs(x - end.x) <= DISTINCT_RTOL * scale):
+        return True
+    if end.jac is None or end.jac.shape[1] != x.size or end.fun is None:
+        return False
+    s2 = 2.0 * end.cost / max(end.fun.size - n_free, 1)
+    d = end.jac @ (x - end.x)
+    return bool(d @ d <= MERGE_CHI2 * s2)
+
+
 def search(problem: FitProblem, starts: np.ndarray) -> Search:
     """Solve every start by least squares on ``problem`` (the stage's subsample) with the
     SEARCH tolerances and SEARCH_NFEV evaluations, and pick the candidates (see module). A
@@ -250,24 +274,20 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     objs = np.where(np.isfinite(objs), objs, np.inf)
     order = np.argsort(objs, kind="stable")
     best = objs[order[0]]
-    at_best = int(np.sum(np.abs(objs - best) <= BEST_RTOL * abs(best) + BEST_ATOL))
-    chosen: list[np.ndarray] = []
-    kept: list[float] = []
+    n_free = len(problem.free)
+    at_best = sum(_same_optimum(ends[order[0]], best, e.x, o, n_free)
+                  for e, o in zip(ends, objs))
+    chosen: list[tuple[engine.Estimate, float]] = []
     for i in order:
-        x = ends[i].x
         if chosen and not objs[i] <= best + CANDIDATE_RTOL * abs(best):
             break
-        # the same optimum: the same objective (the search's loose tolerance leaves flat
-        # directions unconverged, so the points may differ) or the same point
-        scale = np.maximum(np.abs(x), 1e-3)
-        if any(abs(objs[i] - o) <= BEST_RTOL * abs(o) + BEST_ATOL for o in kept) or \
-                any(np.all(np.abs(x - c) <= DISTINCT_RTOL * scale) for c in chosen):
+        if any(_same_optimum(c, o, ends[i].x, objs[i], n_free) for c, o in chosen):
             continue
-        chosen.append(x)
-        kept.append(float(objs[i]))
+        chosen.append((ends[i], float(objs[i])))
         if len(chosen) == MAX_CANDIDATES:
             break
-    return Search(candidates=np.vstack(chosen), n_starts=len(ends), starts_at_best=at_best,
+    return Search(candidates=np.vstack([c.x for c, _ in chosen]), n_starts=len(ends),
+                  starts_at_best=int(at_best),
                   points=int(problem.measured.size), nfev=counter.calls,
                   converged=bool(ends[order[0]].success))
 

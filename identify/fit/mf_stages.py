@@ -13,7 +13,8 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   coefficients included), minus those the data cannot identify (identify.fit.mf_screen: not
   covered by the data, no effect, not separable or negligible at the start values; after the
   global fit a coefficient that had no effect only because another was 0 at the start is
-  freed and the stage re-fitted locally), and holds every other value at what the earlier
+  freed and the stage re-fitted from the optimum and from the search's other candidates near
+  it, whose basin can become the lower one), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
 * evaluates the model with useMode 211 (docs/model.md, section 2).
@@ -61,6 +62,7 @@ from identify.fit.mf_constraints import stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import MFFit, point_columns
 from identify.fit.mf_search import (
+    CHI2_GAP,
     MAX_NFEV,
     N_LHS,
     REFIT_NFEV,
@@ -231,13 +233,14 @@ def _say(progress: Progress | None, text: str) -> None:
 
 
 def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
-                give_up: bool = False) -> FitResult | int:
-    """Search on the subsample, then solve the candidates on all points (see module).
-    ``give_up`` (a re-fit): when the search on the subsample did not converge, return its
-    number of model evaluations instead (a re-fit whose added coefficients run off along a
-    flat valley, e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC session: the re-fit would not be
-    taken, and solving it on all points cost minutes), and solve on all points within
-    REFIT_NFEV instead of MAX_NFEV."""
+                give_up: bool = False) -> tuple[FitResult | int, list[dict[str, float]]]:
+    """Search on the subsample, then solve the candidates on all points (see module):
+    (result, the candidates solved on all points, name -> value of the free coefficients,
+    best first on the last rung). ``give_up`` (a re-fit): when the search on the subsample did
+    not converge, return its number of model evaluations instead of a result (a re-fit whose
+    added coefficients run off along a flat valley, e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC
+    session: the re-fit would not be taken, and solving it on all points cost minutes), and
+    solve on all points within REFIT_NFEV instead of MAX_NFEV."""
     t0 = time.perf_counter()
     stage, n = sp.problem.form, sp.problem.measured.size
     index = subsample(n)
@@ -246,7 +249,7 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
                    f"{sub.measured.size if index is not None else 'all'} of {n} points")
     found = search(sub, starts)
     if give_up and not found.converged:
-        return found.nfev
+        return found.nfev, []
     candidates, nfev = list(found.candidates), found.nfev
     for size in ladder_sizes(n):
         _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
@@ -257,22 +260,53 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
     _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
     result = fit(sp.problem, starts=np.vstack(candidates),
                  max_nfev=REFIT_NFEV if give_up else MAX_NFEV, tol=MF_SOLVE)
+    named = [dict(zip(sp.problem.free, map(float, x))) for x in candidates]
     return dataclasses.replace(result, n_starts=found.n_starts,
                                starts_at_best=found.starts_at_best,
-                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev)
+                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev), named
+
+
+def _rivals(problem: FitProblem, result: FitResult,
+            candidates: Sequence[Mapping[str, float]]) -> list[Mapping[str, float]]:
+    """The candidates of a global fit on ``problem`` (see :func:`_global_fit`) other than the
+    one nearest its optimum ``result`` (relative to max(|value|, 1e-3)) whose objective on all
+    points is within CHI2_GAP (chi^2, the optimum's residual variance) of the optimum's."""
+    if len(candidates) < 2:
+        return []
+    free = result.free
+    best = np.array([result.parameters[n] for n in free])
+    scale = np.maximum(np.abs(best), 1e-3)
+    xs = [np.array([c[n] for n in free]) for c in candidates]
+    nearest = int(np.argmin([np.sum(((x - best) / scale) ** 2) for x in xs]))
+    s2 = result.wls / max(result.n_points - len(free), 1)
+    out = []
+    for i, (c, x) in enumerate(zip(candidates, xs)):
+        if i == nearest:
+            continue
+        r = problem.residuals(x)
+        if float(r @ r) - result.wls <= CHI2_GAP * s2:
+            out.append(c)
+    return out
 
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
-            params: Mapping[str, float], free,
+            params: Mapping[str, float], free, others: Sequence[Mapping[str, float]] = (),
             progress: Progress | None = None) -> tuple[FitResult, StageProblem]:
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
-    significant moves have given an effect, and re-fit from the optimum (the new ones start at
-    their carried-forward values; on the search's subsample first, then on all points, as
-    the global fit; a re-fit that does not lower the objective is not taken). At most
+    significant moves have given an effect, and re-fit from the optimum and from the global
+    search's other candidates ``others`` (:func:`_global_fit`) within CHI2_GAP of it on all
+    points (:func:`_rivals`; the new ones start at their carried-forward values; on the
+    search's subsample first, then on all points, as the global fit; a re-fit that does not
+    lower the objective is not taken). Two basins that the search found within a fraction of
+    a per cent of each other can swap order once the added coefficients are free: on a
+    generated TTC session's Fx0 (seed 2) the higher one, PCX1 = 1.83, PEX1 = 0.69, was the
+    lower with PEX4 held at 0, and its re-fit with PEX4 ended 8.7 in chi^2 above the re-fit
+    of the other (PCX1 = 1.49, PEX1 = 0.13, truth 1.6, 0.3). At most
     MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best, adds
     the re-fits' seconds and model evaluations to the search's, and its message says what was
     added."""
     added_all: list[str] = []
+    rivals_used = 0
     for _ in range(MAX_ROUNDS):
         moved = {n: float(result.parameters[n]) for n in result.free
                  if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
@@ -285,8 +319,12 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         trial = stage_problem(stage, trailer, values, free=free, hold=held)
         _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
         # from the optimum as the global search does: on the subsample first (the added
-        # coefficients can move the optimum far), then on all points
-        refit = _global_fit(trial, trial.problem.x0()[None, :], None, give_up=True)
+        # coefficients can move the optimum far), then on all points; and from the search's
+        # other candidates near it (the added coefficients can make another basin the lower)
+        rivals = _rivals(sp.problem, result, others)
+        starts = np.vstack([trial.problem.x0()] + [
+            [c.get(n, float(values[n])) for n in trial.problem.free] for c in rivals])
+        refit, candidates = _global_fit(trial, starts, None, give_up=True)
         spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
         if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
             result = dataclasses.replace(result, nfev=result.nfev + spent)
@@ -296,14 +334,17 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                    "converge" for n in added}})
             break
         added_all += added
-        sp = trial
+        rivals_used += len(rivals)
+        sp, others = trial, candidates
         result = dataclasses.replace(
             refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
             seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
     if added_all:
         result = dataclasses.replace(
-            result, message=f"{result.message} (then re-fitted from the global optimum with "
-                            f"{', '.join(added_all)}, which had no effect at the start)")
+            result, message=f"{result.message} (then re-fitted from the global optimum"
+                            + (f" and {rivals_used} other candidate(s)" if rivals_used else "")
+                            + f" with {', '.join(added_all)}, which had no effect at the "
+                              "start)")
     return result, sp
 
 
@@ -461,9 +502,11 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                     skipped[stage] = _skip_reason(stage, trailer)
                     _say(progress, f"{label}: skipped, {skipped[stage]}")
                     continue
-                result = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i), progress)
+                result, others = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i),
+                                             progress)
                 if screen:
-                    result, sp = _refine(result, sp, stage, trailer, params, free, progress)
+                    result, sp = _refine(result, sp, stage, trailer, params, free, others,
+                                         progress)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
