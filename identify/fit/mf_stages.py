@@ -45,10 +45,8 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from dataclasses import dataclass
 from typing import Collection, Mapping, Sequence
 
-import lmfit
 import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
@@ -58,9 +56,7 @@ from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE, residual_jacobian
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
-from identify.fit.mf_constraints import stage_constraints
-from identify.fit.mf_jacobian import stage_jacobian
-from identify.fit.mf_result import MFFit, point_columns
+from identify.fit.mf_result import MFFit
 from identify.fit.mf_search import (
     CHI2_GAP,
     MAX_NFEV,
@@ -76,155 +72,23 @@ from identify.fit.mf_search import (
     subsample,
 )
 from identify.fit.mf_screen import Z_GATE
-from identify.fit.mf_screen import screen as sensitivity_screen
 from identify.fit.mf_stage_defs import (
     DEFAULT_STAGES,
-    NEEDS,
     STAGES,
-    StageDef,
     names_read,
-    stage_model,
-    subset_state,
 )
+from identify.fit.mf_problem import StageProblem, stage_problem, subproblem
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.modes import FIT_MODE
-from identify.model.parameters import bounds, defaults, spec
-from identify.model.state import OperatingState, prepare
+from identify.model.parameters import defaults
 
 __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
            "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
 
 MAX_ROUNDS = 2
 """Refinement re-fits per stage after the global fit (see _refine)."""
-
-
-@dataclass(frozen=True)
-class StageProblem:
-    """A stage ready to fit.
-
-    Attributes
-    ----------
-    problem : FitProblem       relation "MF", form = stage name
-    rows : ndarray             row positions of the stage's points in the trailer table
-    held : dict name -> reason  candidate coefficients held by the identifiability rules
-    state : OperatingState     the stage's points, prepared with useMode 211
-    omega : ndarray or None    the measured wheel speed [rad/s] (stage geometry only)
-    """
-
-    problem: FitProblem
-    rows: np.ndarray
-    held: Mapping[str, str]
-    state: OperatingState
-    omega: np.ndarray | None = None
-    params: Mapping[str, float] | None = None
-
-
-def _candidates(sd: StageDef, free) -> list[str]:
-    names = [n for n in sd.coefficients if spec(n).fit_default_vary]
-    if free is None:
-        return names
-    if isinstance(free, Mapping):
-        return list(free[sd.name]) if sd.name in free else names
-    return [n for n in names if n in set(free)]
-
-
-def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float], *,
-                  free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
-                  screen: bool = True,
-                  hold: Mapping[str, str] | None = None) -> StageProblem | None:
-    """Build the FitProblem of one stage at the current values ``params``.
-
-    Parameters
-    ----------
-    stage : str
-        Stage name (``"geometry"``, ``"Fx0"`` ... ``"My"``).
-    trailer : DataFrame
-        The trailer table (see identify.fit.mf_data).
-    params : mapping
-        Every .tir value (start values; held values are taken from here).
-    free : mapping or collection, optional
-        Mapping stage -> coefficients replaces a stage's candidate list; a collection limits
-        every stage's candidates to its members. The identifiability rules still apply.
-    screen : bool
-        Apply the identifiability rules (coverage and sensitivity); False frees every
-        candidate.
-    hold : mapping name -> reason, optional
-        Hold exactly these candidates (no screening).
-
-    Returns
-    -------
-    StageProblem or None
-        None when the table holds no point for the stage.
-    """
-    sd = STAGES[stage]
-    rows = mf_data.select(trailer, sd.selection, sd.quantity)
-    if rows.size == 0:
-        return None
-    pts = trailer.iloc[rows]
-    col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
-    s = prepare(params, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
-                p=col["p"], mode=FIT_MODE)
-    omega = pts["omega"].to_numpy(float) if sd.quantity == "Re" else None
-    model = stage_model(stage, params, s, omega)
-    jacobian = stage_jacobian(stage, params, s, omega)
-    measured = mf_data.quantity_values(pts, sd.quantity)
-    held: dict[str, str] = {}
-    names = _candidates(sd, free)
-    if hold is not None:
-        held = {n: why for n, why in hold.items() if n in names}
-    elif screen:
-        cov = mf_data.Coverage.of(pts, float(params["FNOMIN"]))
-        for n in names:
-            why = cov.missing(NEEDS.get(n, ()))
-            if why:
-                held[n] = why
-
-    extra = {"quantity": sd.quantity, **point_columns(pts)}
-
-    def build(vary: Collection[str], constraints=()) -> FitProblem:
-        P = lmfit.Parameters()
-        for n in names:
-            v = float(params[n])
-            if n in vary:  # free: start inside the table's bounds
-                lo, hi = bounds(n, v)
-                P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
-            else:  # held: exactly the carried-forward value
-                P.add(n, value=v, vary=False)
-        return FitProblem("MF", stage, P, model, measured,
-                          mf_data.pressure_groups(pts), objective="wls", sigma=None,
-                          constraints=tuple(constraints),
-                          sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
-                          extra=extra, noise="sweep-residual", jacobian=jacobian,
-                          covariance="sweeps")
-
-    if screen and hold is None:
-        more, _ = sensitivity_screen(build([n for n in names if n not in held]))
-        held.update(more)
-    vary = [n for n in names if n not in held]
-
-    def merge(values):
-        return {**params, **values}
-
-    # the validity grid at the data's pressure levels (a continuously measured pressure
-    # channel has as many distinct values as samples)
-    cons = stage_constraints(stage, params, merge, mf_data.level_values(
-        pts["p"].to_numpy(float), mf_data.PRESSURE_RESOLUTION))
-    return StageProblem(build(vary, cons), rows, held, s, omega, dict(params))
-
-
-def _subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:
-    """``sp``'s problem on its points ``index`` (the search's subsample): the same parameters,
-    free set and constraints."""
-    p = sp.problem
-    s = subset_state(sp.state, index)
-    omega = None if sp.omega is None else sp.omega[index]
-    return dataclasses.replace(
-        p, model=stage_model(p.form, sp.params, s, omega), measured=p.measured[index],
-        pressure_bar=p.pressure_bar[index],
-        sweeps=None if p.sweeps is None else p.sweeps[index], extra={},
-        jacobian=stage_jacobian(p.form, sp.params, s, omega, exact=p.jacobian is not None))
 
 
 def _say(progress: Progress | None, text: str) -> None:
@@ -244,7 +108,7 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
     t0 = time.perf_counter()
     stage, n = sp.problem.form, sp.problem.measured.size
     index = subsample(n)
-    sub = sp.problem if index is None else _subproblem(sp, index)
+    sub = sp.problem if index is None else subproblem(sp, index)
     _say(progress, f"MF {stage}: search, {len(starts)} starts on "
                    f"{sub.measured.size if index is not None else 'all'} of {n} points")
     found = search(sub, starts)
@@ -253,7 +117,7 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
     candidates, nfev = list(found.candidates), found.nfev
     for size in ladder_sizes(n):
         _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
-        rung = _subproblem(sp, subsample(n, size))
+        rung = subproblem(sp, subsample(n, size))
         moved = [refine_on(rung, x) for x in candidates]
         nfev += sum(k for _, k in moved) + len(moved)
         candidates = prune(rung, [x for x, _ in moved])

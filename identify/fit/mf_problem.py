@@ -1,0 +1,154 @@
+"""An MF stage's fitting problem: its points, free and held coefficients, model, Jacobian and
+validity constraints (:func:`stage_problem`), and the same problem on a subset of its points
+(:func:`subproblem`, the search's subsample). identify.fit.mf_stages fits it; the staged
+jackknife (identify.fit.mf_uncertainty) and MCMC rebuild it at the final values.
+"""
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Collection, Mapping, Sequence
+
+import lmfit
+import numpy as np
+import pandas as pd
+
+from identify.fit import mf_data
+from identify.fit.mf_constraints import stage_constraints
+from identify.fit.mf_jacobian import stage_jacobian
+from identify.fit.mf_result import point_columns
+from identify.fit.mf_screen import screen as sensitivity_screen
+from identify.fit.mf_stage_defs import NEEDS, STAGES, StageDef, stage_model, subset_state
+from identify.fit.problem import FitProblem
+from identify.model.modes import FIT_MODE
+from identify.model.parameters import bounds, spec
+from identify.model.state import OperatingState, prepare
+
+__all__ = ["StageProblem", "stage_problem", "subproblem"]
+
+
+@dataclass(frozen=True)
+class StageProblem:
+    """A stage ready to fit.
+
+    Attributes
+    ----------
+    problem : FitProblem       relation "MF", form = stage name
+    rows : ndarray             row positions of the stage's points in the trailer table
+    held : dict name -> reason  candidate coefficients held by the identifiability rules
+    state : OperatingState     the stage's points, prepared with useMode 211
+    omega : ndarray or None    the measured wheel speed [rad/s] (stage geometry only)
+    """
+
+    problem: FitProblem
+    rows: np.ndarray
+    held: Mapping[str, str]
+    state: OperatingState
+    omega: np.ndarray | None = None
+    params: Mapping[str, float] | None = None
+
+
+def _candidates(sd: StageDef, free) -> list[str]:
+    names = [n for n in sd.coefficients if spec(n).fit_default_vary]
+    if free is None:
+        return names
+    if isinstance(free, Mapping):
+        return list(free[sd.name]) if sd.name in free else names
+    return [n for n in names if n in set(free)]
+
+
+def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float], *,
+                  free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
+                  screen: bool = True,
+                  hold: Mapping[str, str] | None = None) -> StageProblem | None:
+    """Build the FitProblem of one stage at the current values ``params``.
+
+    Parameters
+    ----------
+    stage : str
+        Stage name (``"geometry"``, ``"Fx0"`` ... ``"My"``).
+    trailer : DataFrame
+        The trailer table (see identify.fit.mf_data).
+    params : mapping
+        Every .tir value (start values; held values are taken from here).
+    free : mapping or collection, optional
+        Mapping stage -> coefficients replaces a stage's candidate list; a collection limits
+        every stage's candidates to its members. The identifiability rules still apply.
+    screen : bool
+        Apply the identifiability rules (coverage and sensitivity); False frees every
+        candidate.
+    hold : mapping name -> reason, optional
+        Hold exactly these candidates (no screening).
+
+    Returns
+    -------
+    StageProblem or None
+        None when the table holds no point for the stage.
+    """
+    sd = STAGES[stage]
+    rows = mf_data.select(trailer, sd.selection, sd.quantity)
+    if rows.size == 0:
+        return None
+    pts = trailer.iloc[rows]
+    col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    s = prepare(params, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
+                p=col["p"], mode=FIT_MODE)
+    omega = pts["omega"].to_numpy(float) if sd.quantity == "Re" else None
+    model = stage_model(stage, params, s, omega)
+    jacobian = stage_jacobian(stage, params, s, omega)
+    measured = mf_data.quantity_values(pts, sd.quantity)
+    held: dict[str, str] = {}
+    names = _candidates(sd, free)
+    if hold is not None:
+        held = {n: why for n, why in hold.items() if n in names}
+    elif screen:
+        cov = mf_data.Coverage.of(pts, float(params["FNOMIN"]))
+        for n in names:
+            why = cov.missing(NEEDS.get(n, ()))
+            if why:
+                held[n] = why
+
+    extra = {"quantity": sd.quantity, **point_columns(pts)}
+
+    def build(vary: Collection[str], constraints=()) -> FitProblem:
+        P = lmfit.Parameters()
+        for n in names:
+            v = float(params[n])
+            if n in vary:  # free: start inside the table's bounds
+                lo, hi = bounds(n, v)
+                P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
+            else:  # held: exactly the carried-forward value
+                P.add(n, value=v, vary=False)
+        return FitProblem("MF", stage, P, model, measured,
+                          mf_data.pressure_groups(pts), objective="wls", sigma=None,
+                          constraints=tuple(constraints),
+                          sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
+                          extra=extra, noise="sweep-residual", jacobian=jacobian,
+                          covariance="sweeps")
+
+    if screen and hold is None:
+        more, _ = sensitivity_screen(build([n for n in names if n not in held]))
+        held.update(more)
+    vary = [n for n in names if n not in held]
+
+    def merge(values):
+        return {**params, **values}
+
+    # the validity grid at the data's pressure levels (a continuously measured pressure
+    # channel has as many distinct values as samples)
+    cons = stage_constraints(stage, params, merge, mf_data.level_values(
+        pts["p"].to_numpy(float), mf_data.PRESSURE_RESOLUTION))
+    return StageProblem(build(vary, cons), rows, held, s, omega, dict(params))
+
+
+def subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:
+    """``sp``'s problem on its points ``index`` (the search's subsample): the same parameters,
+    free set and constraints."""
+    p = sp.problem
+    s = subset_state(sp.state, index)
+    omega = None if sp.omega is None else sp.omega[index]
+    return dataclasses.replace(
+        p, model=stage_model(p.form, sp.params, s, omega), measured=p.measured[index],
+        pressure_bar=p.pressure_bar[index],
+        sweeps=None if p.sweeps is None else p.sweeps[index], extra={},
+        jacobian=stage_jacobian(p.form, sp.params, s, omega, exact=p.jacobian is not None))
