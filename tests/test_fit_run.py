@@ -251,11 +251,16 @@ def test_covariance_and_unidentified_round_trip():
 
 
 def test_degrees_of_freedom_round_trip_and_intervals():
-    r = _result(covariance="sweep-jackknife", clusters=45, dof={"A": 3.0, "C": math.inf})
+    from identify.fit.result import Rival
+
+    r = _result(covariance="sweep-jackknife", clusters=45, dof={"A": 3.0, "C": math.inf},
+                rivals=(Rival({"A": 2.5}, 1.7),))
     d = json.loads(json_text(r.to_dict()))
     assert d["dof"] == {"A": 3.0, "C": None}
+    assert d["rivals"] == [{"values": {"A": 2.5}, "dchi2": 1.7}]
     back = FitResult.from_dict(d)
     assert back.to_dict() == d and back.dof == {"A": 3.0, "C": math.inf}
+    assert back.rivals == (Rival({"A": 2.5}, 1.7),)
     se = back.stderr["A"]
     lo, hi = back.interval("A")
     assert (hi - lo) / 2 == pytest.approx(3.182446 * se, rel=1e-6)  # t(0.975, 3)

@@ -10,6 +10,9 @@ converged fit is **poorly identified** when any of these holds (thresholds below
   or it has no finite standard error (the covariance is singular in that direction);
 - two coefficients are correlated beyond :data:`MAX_CORRELATION` (only a combination of them
   is determined);
+- another minimum of the objective as good as the reported one, within :data:`RIVAL_CHI2` on
+  the intervals' scale (FitResult.rivals), lies outside a coefficient's interval (the data
+  hold two values of it; the linearised interval describes one);
 - fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient.
 
 Otherwise its status is "ok". :func:`suspects` ranks the coefficients the problems name, so
@@ -70,6 +73,30 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
     return out
 
 
+RIVAL_CHI2 = 3.84
+"""A rival minimum (FitResult.rivals) within this chi^2 of the optimum, on the reported
+intervals' scale, lies inside the 95 % region of one coefficient."""
+
+
+def _rivaled(r: FitResult) -> list[tuple[str, str, str]]:
+    """(name, short reason, the line of :func:`problems`) of free coefficients that another
+    minimum as good as the reported one puts outside their interval (FitResult.rivals)."""
+    out = []
+    for rival in r.rivals:
+        if not rival.dchi2 <= RIVAL_CHI2:
+            continue
+        for n, v in rival.values.items():
+            if n not in r.free:
+                continue
+            lo, hi = r.interval(n)
+            if lo <= v <= hi:
+                continue
+            why = (f"another minimum within the 95 % region at {n} = {v:.4g} "
+                   f"(chi^2 {rival.dchi2:+.2f} on the intervals' scale)")
+            out.append((n, why, f"{n} = {r.parameters[n]:.4g}: {why}"))
+    return out
+
+
 def _bound_side(r: FitResult, name: str) -> tuple[str, float]:
     """("lower" or "upper", that bound) of the bound the estimate of ``name`` is at."""
     lo, hi = r.bounds.get(name, (-math.inf, math.inf))
@@ -88,6 +115,7 @@ def problems(r: FitResult) -> list[str]:
         side, bound = _bound_side(r, n)
         out.append(f"{n} = {r.parameters[n]:.4g} is at its {side} bound {bound:g}")
     out += [why for _, _, why in _wide(r)]
+    out += [why for _, _, why in _rivaled(r)]
     for a, b, c in _pairs(r):
         out.append(f"{a} and {b} are correlated {c:+.4f}: only their combination is "
                    "determined")
@@ -104,7 +132,7 @@ def unidentified(r: FitResult) -> dict[str, str]:
     out: dict[str, str] = {}
     for n in r.at_bound:
         out.setdefault(n, f"at its {_bound_side(r, n)[0]} bound")
-    for n, reason, _ in _wide(r):
+    for n, reason, _ in (*_wide(r), *_rivaled(r)):
         out.setdefault(n, reason)
     for a, b, c in _pairs(r):
         out.setdefault(a, f"correlated {c:+.4f} with {b}")

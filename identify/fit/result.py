@@ -118,6 +118,30 @@ class MCMCSummary:
 
 
 @dataclass(frozen=True)
+class Rival:
+    """Another local minimum of a fit's objective that the data cannot rule out.
+
+    Attributes
+    ----------
+    values : Mapping[str, float]   the free coefficients where it differs from the reported
+                                   optimum by more than 1.96 of their standard errors
+    dchi2 : float                  its objective above the reported one, in chi^2 units on the
+                                   scale of the reported intervals (3.84: the edge of a 95 %
+                                   region of one coefficient)
+    """
+
+    values: Mapping[str, float]
+    dchi2: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"values": _nums(self.values), "dchi2": _num(self.dchi2)}
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Rival:
+        return cls(values=_floats(d.get("values")), dchi2=_float(d.get("dchi2")))
+
+
+@dataclass(frozen=True)
 class FitResult:
     """One fitted relation or MF stage.
 
@@ -164,6 +188,9 @@ class FitResult:
                                             -> why (at a bound, near-null direction, a
                                             correlation above 0.99:
                                             identify.fit.identifiability.unidentified)
+    rivals : tuple of Rival                 other minima within reach of the optimum (the MF
+                                            stages' search candidates solved again:
+                                            identify.fit.mf_stages; docs/intervals.md)
     dof : Mapping[str, float]               degrees of freedom of each standard error
                                             (identify.fit.covariance.interval_dof): the 95 %
                                             interval is value +/- t(0.975, dof) standard
@@ -203,6 +230,7 @@ class FitResult:
     clusters: int = 0
     unidentified: Mapping[str, str] = field(default_factory=dict)
     dof: Mapping[str, float] = field(default_factory=dict)
+    rivals: tuple[Rival, ...] = ()
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -253,6 +281,7 @@ class FitResult:
             "covariance": self.covariance, "clusters": self.clusters,
             "unidentified": dict(self.unidentified),
             "dof": _nums(self.dof),
+            "rivals": [v.to_dict() for v in self.rivals],
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -299,7 +328,8 @@ class FitResult:
                    clusters=int(d.get("clusters") or 0),
                    unidentified={str(k): str(v)
                                  for k, v in (d.get("unidentified") or {}).items()},
-                   dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()})
+                   dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()},
+                   rivals=tuple(Rival.from_dict(v) for v in d.get("rivals") or ()))
 
     @property
     def fitted(self) -> dict[str, float]:
