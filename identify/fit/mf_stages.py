@@ -53,7 +53,7 @@ from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.fit import mf_data
-from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian
+from identify.fit.engine import MF_SOLVE, residual_jacobian
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
@@ -78,9 +78,10 @@ from identify.fit.mf_stage_defs import (
     names_read,
 )
 from identify.fit.mf_problem import StageProblem, stage_problem, subproblem
+from identify.fit.mf_rivals import with_rivals
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
-from identify.fit.result import FitResult, Rival
+from identify.fit.result import FitResult
 from identify.model.modes import FIT_MODE
 from identify.model.parameters import defaults
 
@@ -211,79 +212,6 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                             + f" with {', '.join(added_all)}, which had no effect at the "
                               "start)")
     return result, sp, others
-
-
-RIVAL_CHI2 = 3.84
-"""A minimum whose objective is within this chi^2 of the reported one, on the scale of the
-reported intervals, is within the 95 % region of a coefficient (FitResult.rivals)."""
-MIRROR = ("QBZ9", "QBZ10")
-"""Mz0's mirror pair: (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict identically (canonical_br)."""
-
-
-def _with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],
-                 label: str, progress: Progress | None) -> FitResult:
-    """``result`` with the other minima the data cannot rule out (FitResult.rivals).
-
-    Every candidate of the global search that ended more than one standard error from the
-    optimum in some coefficient is solved again on all points (locally, REFIT_NFEV); a
-    converged end whose objective is within RIVAL_CHI2 of the optimum's, in chi^2 on the scale
-    of the reported intervals (iid chi^2 divided by the median ratio of the stage's variances
-    to the iid ones), and that differs by more than 1.96 standard errors in some coefficient
-    is a rival. A linearised interval describes the minimum the search reported; where the
-    data hold a second one as good, the coefficients that differ are not determined on their
-    own (identify.fit.identifiability: "another minimum within the 95 % region"). On a
-    generated TTC session's Fx0 stage two such basins lie on either side of the truth
-    (docs/intervals.md)."""
-    free = result.free
-    if not free or not result.converged or not candidates:
-        return result
-    xb = np.array([result.parameters[n] for n in free])
-    se = np.array([result.stderr.get(n, np.nan) for n in free])
-    if not np.all(np.isfinite(se) & (se > 0)):
-        return result
-    problem = sp.problem
-    r = problem.residuals(xb)
-    s2 = float(r @ r) / max(r.size - xb.size, 1)
-    iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
-    ok = np.isfinite(iid) & (iid > 0)
-    inflation = float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0
-    found: list[Rival] = []
-    ends: list[np.ndarray] = []
-    spent = 0
-    for c in candidates:
-        x0 = np.array([float(c.get(n, result.parameters[n])) for n in free])
-        x0 = _mirrored(free, x0, xb)
-        if np.all(np.abs(x0 - xb) <= se):
-            continue
-        end = fit(problem, starts=x0[None, :], max_nfev=REFIT_NFEV, tol=MF_SOLVE)
-        spent += end.nfev
-        if not end.converged:
-            continue
-        xr = _mirrored(free, np.array([end.parameters[n] for n in free]), xb)
-        far = np.abs(xr - xb) > 1.959964 * se
-        dchi2 = (end.wls - result.wls) / s2 / inflation if s2 > 0 else np.inf
-        if not far.any() or dchi2 > RIVAL_CHI2:
-            continue
-        if any(np.all(np.abs(xr - seen) <= se) for seen in ends):
-            continue  # the same rival again
-        ends.append(xr)
-        found.append(Rival({n: float(v) for n, v, f in zip(free, xr, far) if f}, float(dchi2)))
-    if found:
-        _say(progress, f"{label}: {len(found)} other minimum(s) within the 95 % region: "
-                       + "; ".join(", ".join(f"{n} = {v:.4g}" for n, v in f.values.items())
-                                   + f" (chi^2 {f.dchi2:+.2f})" for f in found))
-    return dataclasses.replace(result, rivals=tuple(found), nfev=result.nfev + spent)
-
-
-def _mirrored(free: Sequence[str], x: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """``x`` with Mz0's mirror pair flipped when that brings it nearer ``ref``."""
-    if not all(n in free for n in MIRROR):
-        return x
-    i, j = (list(free).index(n) for n in MIRROR)
-    flipped = x.copy()
-    flipped[[i, j]] *= -1
-    near = abs(flipped[i] - ref[i]) + abs(flipped[j] - ref[j])
-    return flipped if near < abs(x[i] - ref[i]) + abs(x[j] - ref[j]) else x
 
 
 def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
@@ -446,7 +374,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 if screen:
                     result, sp, others = _refine(result, sp, stage, trailer, params, free,
                                                  others, progress)
-                result = _with_rivals(result, sp, others, label, progress)
+                result = with_rivals(result, sp, others, label, progress)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
