@@ -11,17 +11,15 @@ import numpy as np
 
 from identify.core.progress import Progress
 from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian
+from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
 from identify.fit.mf_search import REFIT_NFEV
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult, Rival
 
-__all__ = ["MIRROR", "RIVAL_CHI2", "with_rivals"]
+__all__ = ["MIRROR", "with_rivals"]
 
 
-RIVAL_CHI2 = 3.84
-"""A minimum whose objective is within this chi^2 of the reported one, on the scale of the
-reported intervals, is within the 95 % region of a coefficient (FitResult.rivals)."""
 MIRROR = ("QBZ9", "QBZ10")
 """Mz0's mirror pair: (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict identically (canonical_br)."""
 
@@ -48,11 +46,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     if not np.all(np.isfinite(se) & (se > 0)):
         return result
     problem = sp.problem
-    r = problem.residuals(xb)
-    s2 = float(r @ r) / max(r.size - xb.size, 1)
-    iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
-    ok = np.isfinite(iid) & (iid > 0)
-    inflation = float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0
+    scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
     ends: list[np.ndarray] = []
     spent = 0
@@ -67,8 +61,12 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
             continue
         xr = _mirrored(free, np.array([end.parameters[n] for n in free]), xb)
         far = np.abs(xr - xb) > 1.959964 * se
-        dchi2 = (end.wls - result.wls) / s2 / inflation if s2 > 0 else np.inf
-        if not far.any() or dchi2 > RIVAL_CHI2:
+        if not far.any():
+            continue
+        if scale is None:
+            scale = _chi2_scale(problem, xb, se)
+        dchi2 = (end.wls - result.wls) / scale if scale > 0 else np.inf
+        if dchi2 > RIVAL_CHI2:
             continue
         if any(np.all(np.abs(xr - seen) <= se) for seen in ends):
             continue  # the same rival again
@@ -76,9 +74,19 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         found.append(Rival({n: float(v) for n, v, f in zip(free, xr, far) if f}, float(dchi2)))
     if found and progress is not None:
         progress(f"{label}: {len(found)} other minimum(s) within the 95 % region: "
-                       + "; ".join(", ".join(f"{n} = {v:.4g}" for n, v in f.values.items())
-                                   + f" (chi^2 {f.dchi2:+.2f})" for f in found))
+                 + "; ".join(", ".join(f"{n} = {v:.4g}" for n, v in f.values.items())
+                             + f" (chi^2 {f.dchi2:+.2f})" for f in found))
     return dataclasses.replace(result, rivals=tuple(found), nfev=result.nfev + spent)
+
+
+def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
+    """s^2 x the median ratio of the variances ``se``^2 to the iid ones at ``xb``: an objective
+    difference divided by it is chi^2 on the scale of the reported intervals."""
+    r = problem.residuals(xb)
+    s2 = float(r @ r) / max(r.size - xb.size, 1)
+    iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
+    ok = np.isfinite(iid) & (iid > 0)
+    return s2 * (float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0)
 
 
 def _mirrored(free: Sequence[str], x: np.ndarray, ref: np.ndarray) -> np.ndarray:
