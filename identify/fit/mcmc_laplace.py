@@ -54,9 +54,9 @@ def weighted_jacobian(posterior: _Posterior, x: np.ndarray,
 
 def likelihood_mode(posterior: _Posterior, xb: np.ndarray, h: np.ndarray) -> np.ndarray:
     """The maximum of the MCMC likelihood near the least-squares optimum ``xb`` (their
-    weights can differ, e.g. the MF stages' sweep-relative noise): a few bounded Gauss-Newton
-    (trust-region, identify.fit.engine.least_squares) steps on the noise-weighted residuals;
-    ``xb`` if that does not improve."""
+    weights can differ, e.g. the MF stages' per-sweep residual noise levels): a few bounded
+    Gauss-Newton (trust-region, identify.fit.engine.least_squares) steps on the
+    noise-weighted residuals; ``xb`` if that does not improve."""
     def residuals(x):
         return (posterior._predict(np.r_[x, 0.0][None, :])[0] - posterior.meas) * posterior.w
 
