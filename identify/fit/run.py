@@ -74,10 +74,10 @@ class FitSettings:
     segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
                            their quasi-steady sweeps only (identify.workflows.sweep_bins)
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
-                           second solves every stage again, locally, with the coefficients
-                           later stages fitted (SSZ1..4 act on the Mz0 points through s Fx;
-                           on a generated TTC session the second pass lowered the Mz0 and Mz
-                           objectives by 6 % and 12 % for 16 % more fit time)
+                           second solves again, locally, the stages something they read has
+                           moved in since they were fitted (SSZ1..4 act on the Mz0 points
+                           through s Fx), where a Gauss-Newton step would gain more than
+                           PASS_GAIN; numbers in README ("fit") and docs/intervals.md
     """
 
     seed: int = 0
