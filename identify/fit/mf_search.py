@@ -141,13 +141,18 @@ def ladder_sizes(n: int) -> list[int]:
     return sizes
 
 
+def _residual_variance(cost: float, n_points: int, n_free: int) -> float:
+    """s^2 = r^T r / (n - k) from the least-squares cost 0.5 r^T r (n - k at least 1)."""
+    return 2.0 * cost / max(n_points - n_free, 1)
+
+
 def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
     """The candidates within CHI2_GAP of the best on ``problem`` (a rung), best first."""
     costs = np.array([problem.objective_value(x) for x in candidates])  # 0.5 r^T r
     costs = np.where(np.isfinite(costs), costs, np.inf)
     order = np.argsort(costs, kind="stable")
     best = costs[order[0]]
-    s2 = 2.0 * best / max(problem.measured.size - len(problem.free), 1)
+    s2 = _residual_variance(best, problem.measured.size, len(problem.free))
     return [candidates[i] for i in order if 2.0 * (costs[i] - best) <= CHI2_GAP * s2]
 
 
@@ -193,7 +198,7 @@ class _Reached:
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
                  n_free: int, jac=None):
-        self.ends = [(j, e.x, e.jac, e.cost, 2.0 * e.cost / max(e.fun.size - n_free, 1))
+        self.ends = [(j, e.x, e.jac, e.cost, _residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
                      if e.success and e.jac is not None and e.jac.shape[1] == n_free]
         self.paths = [(j, paths[j], s2) for j, _, _, _, s2 in self.ends]
@@ -247,7 +252,7 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
         return True
     if end.jac is None or end.jac.shape[1] != x.size or end.fun is None:
         return False
-    s2 = 2.0 * end.cost / max(end.fun.size - n_free, 1)
+    s2 = _residual_variance(end.cost, end.fun.size, n_free)
     d = end.jac @ (x - end.x)
     return bool(d @ d <= MERGE_CHI2 * s2)
 
