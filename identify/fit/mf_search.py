@@ -146,6 +146,13 @@ def _residual_variance(cost: float, n_points: int, n_free: int) -> float:
     return 2.0 * cost / max(n_points - n_free, 1)
 
 
+def _within_merge(J: np.ndarray, dx: np.ndarray, s2: float) -> bool:
+    """A step ``dx`` within MERGE_CHI2 in chi^2 in the metric of ``J``: ||J dx||^2 <=
+    MERGE_CHI2 s^2."""
+    d = J @ dx
+    return bool(d @ d <= MERGE_CHI2 * s2)
+
+
 def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
     """The candidates within CHI2_GAP of the best on ``problem`` (a rung), best first."""
     costs = np.array([problem.objective_value(x) for x in candidates])  # 0.5 r^T r
@@ -215,21 +222,17 @@ class _Reached:
     def __call__(self, x: np.ndarray, cost: float) -> str | None:
         self.path.append((np.array(x, dtype=float), cost))
         for j, xe, Je, ce, s2 in self.ends:
-            if cost <= ce + 0.5 * MERGE_CHI2 * s2:
-                d = Je @ (x - xe)
-                if d @ d <= MERGE_CHI2 * s2:
-                    self.into = j
-                    return f"reached the end point of start {j + 1}"
+            if cost <= ce + 0.5 * MERGE_CHI2 * s2 and _within_merge(Je, x - xe, s2):
+                self.into = j
+                return f"reached the end point of start {j + 1}"
         at, J = self._at
         if J is None or not np.array_equal(at, x):
             return None
         for j, path, s2 in self.paths:
             for xt, ct in path:
-                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2:
-                    d = J @ (x - xt)
-                    if d @ d <= MERGE_CHI2 * s2:
-                        self.into = j
-                        return f"reached the path of start {j + 1}"
+                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2 and _within_merge(J, x - xt, s2):
+                    self.into = j
+                    return f"reached the path of start {j + 1}"
         return None
 
 
@@ -253,8 +256,7 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
     if end.jac is None or end.jac.shape[1] != x.size or end.fun is None:
         return False
     s2 = _residual_variance(end.cost, end.fun.size, n_free)
-    d = end.jac @ (x - end.x)
-    return bool(d @ d <= MERGE_CHI2 * s2)
+    return _within_merge(end.jac, x - end.x, s2)
 
 
 def search(problem: FitProblem, starts: np.ndarray) -> Search:
