@@ -24,6 +24,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
+from identify.fit.mf_rivals import RIVAL_CHI2  # the search for rivals keeps those within it
 from identify.fit.result import FitResult
 
 __all__ = ["MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
@@ -71,11 +72,6 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
                         f"{n} = {v:.4g}: 95 % interval [{a:.3g}, "
                         f"{b:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
     return out
-
-
-RIVAL_CHI2 = 3.84
-"""A rival minimum (FitResult.rivals) within this chi^2 of the optimum, on the reported
-intervals' scale, lies inside the 95 % region of one coefficient."""
 
 
 def _rivaled(r: FitResult) -> list[tuple[str, str, str]]:
