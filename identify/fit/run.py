@@ -74,10 +74,12 @@ class FitSettings:
     segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
                            their quasi-steady sweeps only (identify.workflows.sweep_bins)
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
-                           second solves every stage again, locally, with the coefficients
-                           later stages fitted (SSZ1..4 act on the Mz0 points through s Fx;
-                           on a generated TTC session the second pass lowered the Mz0 and Mz
-                           objectives by 6 % and 12 % for 16 % more fit time)
+                           second solves again, locally, the stages something they read has
+                           moved in, where a Gauss-Newton step would gain more than PASS_GAIN
+                           (SSZ1..4 act on the Mz0 points through s Fx; on a generated TTC
+                           session, seed 2, it lowered the Mz0 and Mz objectives by 6 % and
+                           12 %, commit f7d0963, for 6 % more fit time, bench/fit_cost.py
+                           --passes, commit 3252be2)
     """
 
     seed: int = 0
