@@ -266,6 +266,11 @@ def test_degrees_of_freedom_round_trip_and_intervals():
     # written before dof was recorded: 1.96 standard errors
     old = {k: v for k, v in d.items() if k != "dof"}
     assert FitResult.from_dict(old).quantile("A") == pytest.approx(1.959964, abs=1e-6)
+    # the report names the t quantiles of the free coefficients with finite dof: one, a span
+    assert "; 95 % intervals +/- 3.18 s.e. (Student's t)" in back.report()
+    spread = dataclasses.replace(back, dof={"A": 3.0, "C": 10.0})
+    assert "+/- 2.23-3.18 s.e. (Student's t)" in spread.report()
+    assert "Student's t" not in FitResult.from_dict(old).report()
 
 
 def test_mcmc_summary_round_trip():
