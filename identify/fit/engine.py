@@ -44,7 +44,7 @@ __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE"
            "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
            "least_squares", "polish", "problem_covariance", "pseudo_solve", "residual_jacobian",
-           "standard_errors", "t_quantile"]
+           "residual_variance", "standard_errors", "t_quantile"]
 
 
 @dataclass(frozen=True)
@@ -244,6 +244,11 @@ class _Stop:
             self.noise(intermediate_result)
 
 
+def residual_variance(cost: float, n_points: int, n_free: int) -> float:
+    """s^2 = r^T r / (n - k) from a least-squares cost 0.5 r^T r (n - k at least 1)."""
+    return 2.0 * cost / max(n_points - n_free, 1)
+
+
 class _NoiseStop:
     """scipy least_squares callback: StopIteration once the cost has fallen by less than
     noise_ftol x s^2 over the last noise_window iterations (see Tolerances.noise_ftol)."""
@@ -258,7 +263,7 @@ class _NoiseStop:
         w = self.tol.noise_window
         if len(self.costs) <= w:
             return
-        s2 = 2.0 * cost / max(intermediate_result.fun.size - self.k, 1)
+        s2 = residual_variance(cost, intermediate_result.fun.size, self.k)
         if self.costs[-1 - w] - cost < self.tol.noise_ftol * s2:
             self.fired = True
             raise StopIteration

@@ -141,11 +141,6 @@ def ladder_sizes(n: int) -> list[int]:
     return sizes
 
 
-def _residual_variance(cost: float, n_points: int, n_free: int) -> float:
-    """s^2 = r^T r / (n - k) from the least-squares cost 0.5 r^T r (n - k at least 1)."""
-    return 2.0 * cost / max(n_points - n_free, 1)
-
-
 def _within_merge(J: np.ndarray, dx: np.ndarray, s2: float) -> bool:
     """A step ``dx`` within MERGE_CHI2 in chi^2 in the metric of ``J``: ||J dx||^2 <=
     MERGE_CHI2 s^2."""
@@ -159,7 +154,7 @@ def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]
     costs = np.where(np.isfinite(costs), costs, np.inf)
     order = np.argsort(costs, kind="stable")
     best = costs[order[0]]
-    s2 = _residual_variance(best, problem.measured.size, len(problem.free))
+    s2 = engine.residual_variance(best, problem.measured.size, len(problem.free))
     return [candidates[i] for i in order if 2.0 * (costs[i] - best) <= CHI2_GAP * s2]
 
 
@@ -205,7 +200,8 @@ class _Reached:
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
                  n_free: int, jac=None):
-        self.ends = [(j, e.x, e.jac, e.cost, _residual_variance(e.cost, e.fun.size, n_free))
+        self.ends = [(j, e.x, e.jac, e.cost,
+                      engine.residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
                      if e.success and e.jac is not None and e.jac.shape[1] == n_free]
         self.paths = [(j, paths[j], s2) for j, _, _, _, s2 in self.ends]
@@ -255,7 +251,7 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
         return True
     if end.jac is None or end.jac.shape[1] != x.size or end.fun is None:
         return False
-    s2 = _residual_variance(end.cost, end.fun.size, n_free)
+    s2 = engine.residual_variance(end.cost, end.fun.size, n_free)
     return _within_merge(end.jac, x - end.x, s2)
 
 
