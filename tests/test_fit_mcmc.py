@@ -13,7 +13,7 @@ from identify.fit.engine import problem_covariance
 from identify.fit.mcmc import _Posterior, run_mcmc
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
-from identify.fit.problem import FitProblem
+from identify.fit.problem import PRIOR_POINTS, FitProblem
 from tests.test_fit_engine import PRESSURES, _params, stiffness
 
 TRUTH = {"nom": 1.43e5, "p1": 0.17, "p2": 0.0, "p3": 0.47}
@@ -112,8 +112,6 @@ def test_sweep_residual_noise_levels_are_the_fits_own_per_sweep():
     shrunk towards the pooled one by PRIOR_POINTS; a sweep of small values with the same
     additive noise gets the same level (the "sweep" model gave it one 20 times smaller than a
     sweep of 20 times larger values); a one-point sweep takes nearly the pooled level."""
-    from identify.fit.problem import PRIOR_POINTS
-
     rng = np.random.default_rng(4)
     x = np.linspace(-1.0, 1.0, 400)
     sweeps = np.repeat([0, 1], 200)
@@ -362,8 +360,6 @@ def test_laplace_move_samples_the_target_even_from_a_wrong_approximation():
     sd in every coefficient and half as wide still gives the exact mean and sd (Monte Carlo
     error ~0.02 sd; measured <= 0.02 sd and sd ratios 0.99-1.00). The test has power: the same
     run without the density ratio comes out 0.45 sd off with sd ratios of 0.73."""
-    import emcee
-
     from identify.fit.mcmc import LaplaceMove
 
     rng = np.random.default_rng(1)

@@ -15,11 +15,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from identify.fit.identifiability import POOR, assess
 from identify.fit.mf_search import search, start_points
 from identify.fit.mf_stages import fit_mf, stage_problem
 from identify.fit.optimize import fit
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
+from identify.model.modes import FIT_MODE
 from identify.model.parameters import defaults
 from identify.simulate import default_tir_path
 
@@ -44,7 +46,7 @@ def _fx0_table(truth: dict[str, float], seed: int, noise: float = NOISE) -> pd.D
     t = pd.concat(rows, ignore_index=True)
     fx = np.asarray(evaluate(truth, *(t[c].to_numpy() for c in ("Fz", "kappa", "alpha", "gamma",
                                                                    "Vx")),
-                             p=t["p"].to_numpy(), mode=211)["Fx"])
+                             p=t["p"].to_numpy(), mode=FIT_MODE)["Fx"])
     rng = np.random.default_rng(seed)
     return t.assign(Fx=fx + noise * np.max(np.abs(fx)) * rng.standard_normal(fx.size))
 
@@ -99,8 +101,6 @@ def test_the_other_minimum_within_the_95_percent_region_is_reported(case):
     """The other basin (chi^2 about 1.7 above the reported one, within a 95 % region of 3.84)
     is kept as a rival, and the coefficients it puts outside their intervals are not
     identifiable on their own: their linearised intervals here miss the truth (PCX1 1.6)."""
-    from identify.fit.identifiability import POOR, assess
-
     truth, _, _, result = case
     assert len(result.rivals) == 1
     rival = result.rivals[0]

@@ -17,9 +17,10 @@ import numpy as np
 import pytest
 
 from identify.fit import engine, mf_data, mf_jacobian, mf_jax_cache
-from identify.fit.mf_search import SUBSAMPLE, search, start_points, subsample
-from identify.fit.mf_stage_defs import STAGES, stage_inputs, stage_predict
+from identify.fit.mf_search import SUBSAMPLE, prune, search, start_points, subsample
+from identify.fit.mf_stage_defs import STAGES, names_read, stage_inputs, stage_model, stage_predict
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
+from identify.fit.mf_uncertainty import _upstream_jacobian
 from identify.fit.optimize import fit
 from tests.test_fit_calibration_mf import add_noise
 from tests import test_fit_mf_stages as _stages
@@ -137,12 +138,10 @@ def test_progress_reports_every_stage_with_its_time(truth, data):
 
 def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data):
     """MF_SOLVE stops once chi^2 no longer moves; the optimum is STRICT's to < 0.05 sd."""
-    from identify.fit.engine import MF_SOLVE, STRICT
-
     noisy = add_noise(data, 5)
     sp = stage_problem("Mz0", noisy, _perturb(truth, STAGES["Mz0"].coefficients, seed=2))
-    strict = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=STRICT, max_nfev=400)
-    noise = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=MF_SOLVE, max_nfev=400)
+    strict = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=engine.STRICT, max_nfev=400)
+    noise = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=engine.MF_SOLVE, max_nfev=400)
     assert strict.converged and noise.converged
     assert noise.nfev <= strict.nfev
     for n in strict.free:
@@ -150,8 +149,6 @@ def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data
 
 
 def test_ladder_drops_candidates_worse_beyond_doubt(truth, data):
-    from identify.fit.mf_search import prune
-
     noisy = add_noise(data, 4)
     p = stage_problem("Fx0", noisy, truth).problem
     best = fit(p, starts=p.x0()[None, :]).parameters
@@ -228,9 +225,6 @@ def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth
 def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, data):
     """The staged jackknife's d residuals / d (earlier stages' coefficients): batched, and
     exactly zero for names the stage does not read (Mx reads no longitudinal coefficient)."""
-    from identify.fit.mf_stage_defs import names_read, stage_model
-    from identify.fit.mf_uncertainty import _upstream_jacobian
-
     sp = stage_problem("Mx", data, truth)
     p = sp.problem
     x = p.x0()

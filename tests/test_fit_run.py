@@ -23,7 +23,7 @@ import pytest
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_float, json_safe, json_text
 from identify.core.tyre import TyreInfo
-from identify.fit.result import FitResult, MCMCSummary
+from identify.fit.result import FitResult, MCMCSummary, Rival
 from identify.fit.run import SCHEMA, FitRun, FitSettings, Provenance
 from identify.io.fitdir import read_fit_dir, write_fit_dir
 from identify.workflows.discover import discover_folder
@@ -251,8 +251,6 @@ def test_covariance_and_unidentified_round_trip():
 
 
 def test_degrees_of_freedom_round_trip_and_intervals():
-    from identify.fit.result import Rival
-
     r = _result(covariance="sweep-jackknife", clusters=45, dof={"A": 3.0, "C": math.inf},
                 rivals=(Rival({"A": 2.5}, 1.7),))
     d = json.loads(json_text(r.to_dict()))
@@ -268,6 +266,11 @@ def test_degrees_of_freedom_round_trip_and_intervals():
     # written before dof was recorded: 1.96 standard errors
     old = {k: v for k, v in d.items() if k != "dof"}
     assert FitResult.from_dict(old).quantile("A") == pytest.approx(1.959964, abs=1e-6)
+    # the report names the t quantiles of the free coefficients with finite dof: one, a span
+    assert "; 95 % intervals +/- 3.18 s.e. (Student's t)" in back.report()
+    spread = dataclasses.replace(back, dof={"A": 3.0, "C": 10.0})
+    assert "+/- 2.23-3.18 s.e. (Student's t)" in spread.report()
+    assert "Student's t" not in FitResult.from_dict(old).report()
 
 
 def test_mcmc_summary_round_trip():

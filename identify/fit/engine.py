@@ -41,10 +41,10 @@ from identify.fit.problem import FitProblem
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
            "NOISE_STATUS", "SEARCH", "STOP_STATUS", "STRICT", "CountingModel", "Estimate",
            "Tolerances",
-           "counted", "covariance", "covariance_of", "fd_jacobian", "interval_dof",
+           "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
            "least_squares", "polish", "problem_covariance", "pseudo_solve", "residual_jacobian",
-           "standard_errors", "t_quantile"]
+           "residual_variance", "standard_errors", "t_quantile"]
 
 
 @dataclass(frozen=True)
@@ -244,6 +244,11 @@ class _Stop:
             self.noise(intermediate_result)
 
 
+def residual_variance(cost: float, n_points: int, n_free: int) -> float:
+    """s^2 = r^T r / (n - k) from a least-squares cost 0.5 r^T r (n - k at least 1)."""
+    return 2.0 * cost / max(n_points - n_free, 1)
+
+
 class _NoiseStop:
     """scipy least_squares callback: StopIteration once the cost has fallen by less than
     noise_ftol x s^2 over the last noise_window iterations (see Tolerances.noise_ftol)."""
@@ -258,7 +263,7 @@ class _NoiseStop:
         w = self.tol.noise_window
         if len(self.costs) <= w:
             return
-        s2 = 2.0 * cost / max(intermediate_result.fun.size - self.k, 1)
+        s2 = residual_variance(cost, intermediate_result.fun.size, self.k)
         if self.costs[-1 - w] - cost < self.tol.noise_ftol * s2:
             self.fired = True
             raise StopIteration
@@ -383,6 +388,11 @@ def _whitening(metric: np.ndarray) -> np.ndarray | None:
     return V / np.sqrt(np.maximum(w, 1e-12 * w[-1]))
 
 
+def fd_steps(x: np.ndarray, rel_step: float = 1e-6, floor: float = 1e-4) -> np.ndarray:
+    """The central-difference steps of :func:`fd_jacobian`: rel_step x max(|x_j|, floor)."""
+    return rel_step * np.maximum(np.abs(np.asarray(x, dtype=float)), floor)
+
+
 def fd_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
                 bounds: tuple[np.ndarray, np.ndarray] | None = None, *,
                 rel_step: float = 1e-6, floor: float = 1e-4) -> np.ndarray:
@@ -395,9 +405,9 @@ def fd_jacobian(fun: Callable[[np.ndarray], np.ndarray], x: np.ndarray,
     x = np.asarray(x, dtype=float)
     lo, hi = ((np.full(x.size, -np.inf), np.full(x.size, np.inf)) if bounds is None
               else (np.asarray(b, dtype=float) for b in bounds))
+    steps = fd_steps(x, rel_step, floor)
     cols = []
-    for j in range(x.size):
-        h = rel_step * max(abs(x[j]), floor)
+    for j, h in enumerate(steps):
         xp, xm = x.copy(), x.copy()
         xp[j] = min(x[j] + h, hi[j])
         xm[j] = max(x[j] - h, lo[j])

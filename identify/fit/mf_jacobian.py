@@ -73,8 +73,9 @@ still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sa
 def _jax():
     """(jax, jax.numpy) with 64-bit floats, or None when JAX is not installed.
 
-    Imported on first use, not with this module: importing JAX takes ~2 s, which every
-    ``mfid`` command would pay otherwise (measured on the 2-core machine).
+    Imported on first use, not with this module: importing JAX takes ~0.25 s, which every
+    ``mfid`` command would pay otherwise (0.24-0.25 s for this function in three fresh
+    processes, files cached, the 2-core machine under load, 2026-11-24).
     """
     # one XLA thread (a chunk is small; a second thread contends with the BLAS and the other
     # processes of a batch); a user's own XLA_FLAGS win

@@ -141,13 +141,20 @@ def ladder_sizes(n: int) -> list[int]:
     return sizes
 
 
+def _within_merge(J: np.ndarray, dx: np.ndarray, s2: float) -> bool:
+    """A step ``dx`` within MERGE_CHI2 in chi^2 in the metric of ``J``: ||J dx||^2 <=
+    MERGE_CHI2 s^2."""
+    d = J @ dx
+    return bool(d @ d <= MERGE_CHI2 * s2)
+
+
 def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
     """The candidates within CHI2_GAP of the best on ``problem`` (a rung), best first."""
     costs = np.array([problem.objective_value(x) for x in candidates])  # 0.5 r^T r
     costs = np.where(np.isfinite(costs), costs, np.inf)
     order = np.argsort(costs, kind="stable")
     best = costs[order[0]]
-    s2 = 2.0 * best / max(problem.measured.size - len(problem.free), 1)
+    s2 = engine.residual_variance(best, problem.measured.size, len(problem.free))
     return [candidates[i] for i in order if 2.0 * (costs[i] - best) <= CHI2_GAP * s2]
 
 
@@ -193,7 +200,8 @@ class _Reached:
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
                  n_free: int, jac=None):
-        self.ends = [(j, e.x, e.jac, e.cost, 2.0 * e.cost / max(e.fun.size - n_free, 1))
+        self.ends = [(j, e.x, e.jac, e.cost,
+                      engine.residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
                      if e.success and e.jac is not None and e.jac.shape[1] == n_free]
         self.paths = [(j, paths[j], s2) for j, _, _, _, s2 in self.ends]
@@ -210,21 +218,17 @@ class _Reached:
     def __call__(self, x: np.ndarray, cost: float) -> str | None:
         self.path.append((np.array(x, dtype=float), cost))
         for j, xe, Je, ce, s2 in self.ends:
-            if cost <= ce + 0.5 * MERGE_CHI2 * s2:
-                d = Je @ (x - xe)
-                if d @ d <= MERGE_CHI2 * s2:
-                    self.into = j
-                    return f"reached the end point of start {j + 1}"
+            if cost <= ce + 0.5 * MERGE_CHI2 * s2 and _within_merge(Je, x - xe, s2):
+                self.into = j
+                return f"reached the end point of start {j + 1}"
         at, J = self._at
         if J is None or not np.array_equal(at, x):
             return None
         for j, path, s2 in self.paths:
             for xt, ct in path:
-                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2:
-                    d = J @ (x - xt)
-                    if d @ d <= MERGE_CHI2 * s2:
-                        self.into = j
-                        return f"reached the path of start {j + 1}"
+                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2 and _within_merge(J, x - xt, s2):
+                    self.into = j
+                    return f"reached the path of start {j + 1}"
         return None
 
 
@@ -247,9 +251,8 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
         return True
     if end.jac is None or end.jac.shape[1] != x.size or end.fun is None:
         return False
-    s2 = 2.0 * end.cost / max(end.fun.size - n_free, 1)
-    d = end.jac @ (x - end.x)
-    return bool(d @ d <= MERGE_CHI2 * s2)
+    s2 = engine.residual_variance(end.cost, end.fun.size, n_free)
+    return _within_merge(end.jac, x - end.x, s2)
 
 
 def search(problem: FitProblem, starts: np.ndarray) -> Search:

@@ -75,7 +75,7 @@ def _central_differences(sp: StageProblem, values: Mapping[str, float],
     problem = sp.problem
     w = problem.weights()
     phi = np.array([float(params[n]) for n in names])
-    h = 1e-6 * np.maximum(np.abs(phi), 1e-4)  # engine.fd_jacobian's step, no bounds
+    h = engine.fd_steps(phi)  # engine.fd_jacobian's steps, no bounds
     up, down = phi + h, phi - h
     n = problem.measured.size
     batch = max(1, BATCH_ELEMENTS // max(2 * n, 1))

@@ -250,8 +250,8 @@ class FitResult:
         q = [self.quantile(n) for n in self.free if math.isfinite(self.dof.get(n, math.inf))]
         if not q:
             return ""
-        span = f"{min(q):.3g}" if f"{min(q):.3g}" == f"{max(q):.3g}" else \
-            f"{min(q):.3g}-{max(q):.3g}"
+        low, high = f"{min(q):.3g}", f"{max(q):.3g}"
+        span = low if low == high else f"{low}-{high}"
         return f"; 95 % intervals +/- {span} s.e. (Student's t)"
 
     @property
