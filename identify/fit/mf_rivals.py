@@ -10,7 +10,7 @@ from typing import Mapping, Sequence
 import numpy as np
 
 from identify.core.progress import Progress
-from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian
+from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian, residual_variance
 from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
 from identify.fit.mf_search import REFIT_NFEV
@@ -83,7 +83,7 @@ def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
     """s^2 x the median ratio of the variances ``se``^2 to the iid ones at ``xb``: an objective
     difference divided by it is chi^2 on the scale of the reported intervals."""
     r = problem.residuals(xb)
-    s2 = float(r @ r) / max(r.size - xb.size, 1)
+    s2 = residual_variance(0.5 * float(r @ r), r.size, xb.size)
     iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
     ok = np.isfinite(iid) & (iid > 0)
     return s2 * (float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0)

@@ -53,7 +53,7 @@ from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.fit import mf_data
-from identify.fit.engine import MF_SOLVE, residual_jacobian
+from identify.fit.engine import MF_SOLVE, residual_jacobian, residual_variance
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
@@ -288,7 +288,7 @@ def gauss_newton_gain(problem: FitProblem, x: np.ndarray) -> float:
     r = problem.residuals(x)
     J = residual_jacobian(problem, x)
     step = np.linalg.lstsq(J, -r, rcond=None)[0]
-    s2 = float(r @ r) / max(r.size - x.size, 1)
+    s2 = residual_variance(0.5 * float(r @ r), r.size, x.size)
     return 0.5 * float(np.sum((J @ step) ** 2)) / s2 if s2 > 0 else 0.0
 
 
