@@ -117,7 +117,8 @@ class FitProblem:
         small forces shares with a sweep of large ones (an Fy0 sweep at zero slip angle, Fy
         ~200 N, carries the same 40 N as a +-12 deg sweep of Fy ~3 kN: with ``"sweep"`` its
         noise counted 14 times larger than the others', sigma came out 6 % instead of
-        0.8 %, and the sample's Fy0 chain did not converge in 20,000 steps).
+        0.8 %, and the sample's Fy0 chain did not converge in 20,905 steps: ``mfid fit
+        --mcmc`` on the bundled sample at commit 7945cea, README "MCMC").
         A homoscedastic likelihood on data whose noise grows with the value makes the
         credible intervals of the coefficients set by the largest values too narrow (the
         calibration trials measured 80-84 % coverage of 90 % intervals for rolling resistance
