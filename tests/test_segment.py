@@ -160,3 +160,18 @@ def test_revolution_average_keeps_a_nan_sample_local():
     near = (np.abs(at - 207) < 20)
     np.testing.assert_allclose(out["My"].to_numpy()[~near], 50.0, rtol=1e-12)
     assert np.isnan(out["My"].to_numpy()[near]).any() and np.isfinite(out["My"][at > 240]).all()
+
+
+def test_revolution_average_fills_a_single_nan_on_a_steep_sweep():
+    """A NaN on the steep part of a fast drive/brake sweep (90 N a sample; the loader drops
+    the row for Fx, but an optional channel that follows the sweep, such as My, keeps its NaN
+    and meets the same mechanism, shown here on Fx): left out of the revolution's integral
+    it moved the centre of the average by up to half a sample and put the twiced mean up to
+    140 N off the curve; filled linearly in the wheel's angle it stays within the 2 N of the
+    clean sweep."""
+    frame, fx, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    spiked = frame.copy()
+    spiked.loc[150, "Fx"] = np.nan
+    out, count = revolution_average(spiked, SegmentSettings())
+    assert count.removed == 40 and np.isfinite(out.loc[150, "Fx"])
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
