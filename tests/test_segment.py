@@ -175,3 +175,15 @@ def test_revolution_average_fills_a_single_nan_on_a_steep_sweep():
     out, count = revolution_average(spiked, SegmentSettings())
     assert count.removed == 40 and np.isfinite(out.loc[150, "Fx"])
     assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+
+
+def test_revolution_average_note_says_how_a_gap_in_the_wheel_speed_is_filled():
+    """Without a radius channel a stretch of NaN wheel speed is interpolated in time, not
+    V / R: the note said 'V / R (nan m)'."""
+    frame, fx, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    frame.loc[100:130, "omega"] = np.nan
+    out, count = revolution_average(frame, SegmentSettings())
+    assert "nan" not in count.note and "interpolated in time for 10 %" in count.note
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+    _, count = revolution_average(frame.assign(re=0.3), SegmentSettings())
+    assert "V / R (0.300 m) for 10 %" in count.note

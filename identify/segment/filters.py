@@ -96,7 +96,9 @@ def _wheel_speed(frame: pd.DataFrame) -> tuple[np.ndarray | None, str]:
     if not (np.isfinite(speed) & (speed > 0)).any():
         return None, ""
     share = measured.mean() if len(measured) else 0.0
-    how = ("wheel speed" if share == 1 else f"wheel speed, V / R ({radius:.3f} m) for "
+    other = (f"V / R ({radius:.3f} m)" if np.isfinite(radius)
+             else "interpolated in time")  # no radius: _wheel_angle fills the gaps
+    how = ("wheel speed" if share == 1 else f"wheel speed, {other} for "
            f"{100 * (1 - share):.0f} % of the samples")
     return speed, how
 
