@@ -59,8 +59,10 @@ def test_revolution_average_removes_the_eccentricity_ripple(tmp_path):
     assert ripple(off) > 0.0015  # 0.8 % once per revolution: 0.8 % * 2 pi / 18 / sqrt(2)
     assert ripple(on) < 0.1 * ripple(off)
     removed = {f.name: f for f in on.segmentation.filters}["revolution average"]
-    # one revolution (18-20 samples at 40 km/h) at both ends of each of the 45 sweeps
-    assert removed.applied and 2 * 18 * 45 <= removed.removed <= 2 * 20 * 45
+    # one revolution (18-20 samples at 40 km/h) at both ends of each of the 45 sweeps, and on
+    # both sides of each gap in the log within a sweep (the generator's time gap and two NaN
+    # stretches, rows the loader drops: at most 3)
+    assert removed.applied and 2 * 18 * 45 <= removed.removed <= 2 * 20 * (45 + 3)
 
 
 def _ripple_sweep(speed_factor):
@@ -187,3 +189,18 @@ def test_revolution_average_note_says_how_a_gap_in_the_wheel_speed_is_filled():
     assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
     _, count = revolution_average(frame.assign(re=0.3), SegmentSettings())
     assert "V / R (0.300 m) for 10 %" in count.note
+
+
+def test_revolution_average_does_not_average_across_a_gap_in_the_log():
+    """30 samples missing (1.6 revolutions; the loader drops a NaN stretch's rows, and the
+    TTC generator's gap is as long): averaged across, the straight line between the gap's
+    ends let 14 N of the 24 N ripple through and put Fx 15 N off the curve; each side
+    averaged on its own, a revolution of it trimmed as at a segment's ends, the sweep
+    keeps the 2 N of a clean one."""
+    frame, fx, ripple = _ripple_sweep(lambda k: np.ones_like(k))
+    gap = frame.drop(index=range(150, 180))
+    out, count = revolution_average(gap, SegmentSettings())
+    assert count.removed == 80  # a revolution at each end of both sides
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+    alone, _ = revolution_average(gap.assign(Fx=ripple[gap.index]), SegmentSettings())
+    assert np.abs(alone["Fx"]).max() < 0.05

@@ -16,7 +16,9 @@ In the order applied:
     1.85 % low in every seed of bench/ttc_truth.py. The twiced filter has no second moment
     (2 T^2/12 - 2 T^2/12), so it reproduces every cubic exactly and leaves a curved
     characteristic in place. The samples at both ends of a segment where the double window
-    does not fit (one revolution each) are removed.
+    does not fit (one revolution each) are removed, and so are those on both sides of a gap in
+    the log longer than half a revolution (rows the loader dropped: a time gap, a NaN
+    stretch): each side of it is trimmed as a segment's end is.
 ``set slip angle``
     Samples of a slip-ratio sweep further than ``set_alpha_deg`` from the segment's set slip
     angle (the ramps between set slip angles inside a quasi-steady stretch) are removed.
@@ -71,13 +73,21 @@ def revolution_average(frame: pd.DataFrame,
             continue
         ahead = np.concatenate(([True], theta[1:] > np.maximum.accumulate(theta)[:-1]))
         rows, theta = rows[ahead], theta[ahead]  # a repeated time stamp: the sample is dropped
-        once, i = _revolution_mean(theta, values[rows])  # at rows[i]
-        twice, j = _revolution_mean(theta[i], once)  # at rows[i[j]]
-        if j.size == 0:
-            continue
-        out = frame.iloc[rows[i[j]]].copy()
-        out[cols] = 2 * once[j] - twice
-        parts.append(out)
+        # a gap in the log (rows the loader dropped: a step over 1.5 of the median sample
+        # interval, as identify.io.quirk_checks.time_order counts one) of over half a
+        # revolution: each side is averaged on its own, as a segment (a straight line across
+        # it is no measurement; a log of under two samples a revolution has no gap)
+        dt = np.diff(t[rows])
+        gap = (np.diff(theta) > np.pi) & (dt > 1.5 * np.median(dt))
+        cuts = np.flatnonzero(gap) + 1
+        for stretch, angle in zip(np.split(rows, cuts), np.split(theta, cuts)):
+            if angle[-1] - angle[0] < 4 * np.pi:
+                continue
+            once, i = _revolution_mean(angle, values[stretch])  # at stretch[i]
+            twice, j = _revolution_mean(angle[i], once)  # at stretch[i[j]]
+            out = frame.iloc[stretch[i[j]]].copy()
+            out[cols] = 2 * once[j] - twice
+            parts.append(out)
     result = pd.concat(parts) if parts else frame.iloc[:0]
     return result, FilterCount(name, len(frame) - len(result), len(result), True,
                                f"one revolution of the wheel's angle, twiced ({how})")
