@@ -37,6 +37,7 @@ from identify.fit.engine import MF_SOLVE
 from identify.fit.mf_search import start_points
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
+from identify.fit.result import FitResult
 from identify.fit.run import FitSettings
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
@@ -80,6 +81,7 @@ def main() -> None:
     truth = _numbers(json.loads((base / "ttc" / "truth.json").read_text())["tir"])
     reported = next(f for f in json.loads((fit_dir / "fit.json").read_text())["fits"]
                     if f.get("relation") == "MF" and f.get("form") == args.stage)
+    recorded = FitResult.from_dict(reported)  # its intervals: Student's t at the recorded dof
     free = {args.stage: list(reported["parameters"])}
     sp = stage_problem(args.stage, trailer, fitted, free=free, hold={})
     problem = sp.problem
@@ -131,7 +133,7 @@ def main() -> None:
             print(f"{name:>8s} = {truth[name]:<10.4g}{d:+8.1f} in iid chi^2, "
                   f"{d / inflation:+6.2f} on the reported intervals' scale (95 %: 3.84); "
                   f"the reported 95 % interval {fitted[name]:.4g} +- "
-                  f"{1.959964 * reported['stderr'][name]:.3g}")
+                  f"{recorded.quantile(name) * reported['stderr'][name]:.3g}")
 
 
 def _minima(problem, args, cost, c0, s2, inflation, from_truth) -> None:

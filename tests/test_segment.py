@@ -59,8 +59,10 @@ def test_revolution_average_removes_the_eccentricity_ripple(tmp_path):
     assert ripple(off) > 0.0015  # 0.8 % once per revolution: 0.8 % * 2 pi / 18 / sqrt(2)
     assert ripple(on) < 0.1 * ripple(off)
     removed = {f.name: f for f in on.segmentation.filters}["revolution average"]
-    # one revolution (18-20 samples at 40 km/h) at both ends of each of the 45 sweeps
-    assert removed.applied and 2 * 18 * 45 <= removed.removed <= 2 * 20 * 45
+    # one revolution (18-20 samples at 40 km/h) at both ends of each of the 45 sweeps, and on
+    # both sides of each gap in the log within a sweep (the generator's time gap and two NaN
+    # stretches, rows the loader drops: at most 3)
+    assert removed.applied and 2 * 18 * 45 <= removed.removed <= 2 * 20 * (45 + 3)
 
 
 def _ripple_sweep(speed_factor):
@@ -160,3 +162,45 @@ def test_revolution_average_keeps_a_nan_sample_local():
     near = (np.abs(at - 207) < 20)
     np.testing.assert_allclose(out["My"].to_numpy()[~near], 50.0, rtol=1e-12)
     assert np.isnan(out["My"].to_numpy()[near]).any() and np.isfinite(out["My"][at > 240]).all()
+
+
+def test_revolution_average_fills_a_single_nan_on_a_steep_sweep():
+    """A NaN on the steep part of a fast drive/brake sweep (90 N a sample; the loader drops
+    the row for Fx, but an optional channel that follows the sweep, such as My, keeps its NaN
+    and meets the same mechanism, shown here on Fx): left out of the revolution's integral
+    it moved the centre of the average by up to half a sample and put the twiced mean up to
+    140 N off the curve; filled linearly in the wheel's angle it stays within the 2 N of the
+    clean sweep."""
+    frame, fx, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    spiked = frame.copy()
+    spiked.loc[150, "Fx"] = np.nan
+    out, count = revolution_average(spiked, SegmentSettings())
+    assert count.removed == 40 and np.isfinite(out.loc[150, "Fx"])
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+
+
+def test_revolution_average_note_says_how_a_gap_in_the_wheel_speed_is_filled():
+    """Without a radius channel a stretch of NaN wheel speed is interpolated in time, not
+    V / R: the note said 'V / R (nan m)'."""
+    frame, fx, _ = _ripple_sweep(lambda k: np.ones_like(k))
+    frame.loc[100:130, "omega"] = np.nan
+    out, count = revolution_average(frame, SegmentSettings())
+    assert "nan" not in count.note and "interpolated in time for 10 %" in count.note
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+    _, count = revolution_average(frame.assign(re=0.3), SegmentSettings())
+    assert "V / R (0.300 m) for 10 %" in count.note
+
+
+def test_revolution_average_does_not_average_across_a_gap_in_the_log():
+    """30 samples missing (1.6 revolutions; the loader drops a NaN stretch's rows, and the
+    TTC generator's gap is as long): averaged across, the straight line between the gap's
+    ends let 14 N of the 24 N ripple through and put Fx 15 N off the curve; each side
+    averaged on its own, a revolution of it trimmed as at a segment's ends, the sweep
+    keeps the 2 N of a clean one."""
+    frame, fx, ripple = _ripple_sweep(lambda k: np.ones_like(k))
+    gap = frame.drop(index=range(150, 180))
+    out, count = revolution_average(gap, SegmentSettings())
+    assert count.removed == 80  # a revolution at each end of both sides
+    assert np.abs(out["Fx"] - fx(out["kappa"])).max() < 2.0
+    alone, _ = revolution_average(gap.assign(Fx=ripple[gap.index]), SegmentSettings())
+    assert np.abs(alone["Fx"]).max() < 0.05

@@ -16,7 +16,9 @@ In the order applied:
     1.85 % low in every seed of bench/ttc_truth.py. The twiced filter has no second moment
     (2 T^2/12 - 2 T^2/12), so it reproduces every cubic exactly and leaves a curved
     characteristic in place. The samples at both ends of a segment where the double window
-    does not fit (one revolution each) are removed.
+    does not fit (one revolution each) are removed, and so are those on both sides of a gap in
+    the log longer than half a revolution (rows the loader dropped: a time gap, a NaN
+    stretch): each side of it is trimmed as a segment's end is.
 ``set slip angle``
     Samples of a slip-ratio sweep further than ``set_alpha_deg`` from the segment's set slip
     angle (the ramps between set slip angles inside a quasi-steady stretch) are removed.
@@ -71,13 +73,21 @@ def revolution_average(frame: pd.DataFrame,
             continue
         ahead = np.concatenate(([True], theta[1:] > np.maximum.accumulate(theta)[:-1]))
         rows, theta = rows[ahead], theta[ahead]  # a repeated time stamp: the sample is dropped
-        once, i = _revolution_mean(theta, values[rows])  # at rows[i]
-        twice, j = _revolution_mean(theta[i], once)  # at rows[i[j]]
-        if j.size == 0:
-            continue
-        out = frame.iloc[rows[i[j]]].copy()
-        out[cols] = 2 * once[j] - twice
-        parts.append(out)
+        # a gap in the log (rows the loader dropped: a step over 1.5 of the median sample
+        # interval, as identify.io.quirk_checks.time_order counts one) of over half a
+        # revolution: each side is averaged on its own, as a segment (a straight line across
+        # it is no measurement; a log of under two samples a revolution has no gap)
+        dt = np.diff(t[rows])
+        gap = (np.diff(theta) > np.pi) & (dt > 1.5 * np.median(dt))
+        cuts = np.flatnonzero(gap) + 1
+        for stretch, angle in zip(np.split(rows, cuts), np.split(theta, cuts)):
+            if angle[-1] - angle[0] < 4 * np.pi:
+                continue
+            once, i = _revolution_mean(angle, values[stretch])  # at stretch[i]
+            twice, j = _revolution_mean(angle[i], once)  # at stretch[i[j]]
+            out = frame.iloc[stretch[i[j]]].copy()
+            out[cols] = 2 * once[j] - twice
+            parts.append(out)
     result = pd.concat(parts) if parts else frame.iloc[:0]
     return result, FilterCount(name, len(frame) - len(result), len(result), True,
                                f"one revolution of the wheel's angle, twiced ({how})")
@@ -96,7 +106,9 @@ def _wheel_speed(frame: pd.DataFrame) -> tuple[np.ndarray | None, str]:
     if not (np.isfinite(speed) & (speed > 0)).any():
         return None, ""
     share = measured.mean() if len(measured) else 0.0
-    how = ("wheel speed" if share == 1 else f"wheel speed, V / R ({radius:.3f} m) for "
+    other = (f"V / R ({radius:.3f} m)" if np.isfinite(radius)
+             else "interpolated in time")  # no radius: _wheel_angle fills the gaps
+    how = ("wheel speed" if share == 1 else f"wheel speed, {other} for "
            f"{100 * (1 - share):.0f} % of the samples")
     return speed, how
 
@@ -123,10 +135,13 @@ def _revolution_mean(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.n
     averages to zero whatever the wheel speed does, so slip-ratio sweeps (the wheel speed
     moves with the slip ratio) and speed steps need no window of their own.
 
-    A NaN sample (an optional channel's spike or dropout, set NaN by identify.io.quirks) takes
-    the pieces next to it out of that column's integral, and the mean is over the rest of the
-    revolution; with less than half a revolution left it is NaN. (A plain running sum would
-    carry the NaN to every later sample of the segment.)"""
+    A NaN sample (a spike or dropout set NaN by identify.io.quirks) within half a revolution
+    of measured samples on both sides is first filled linearly in the angle (see
+    :func:`_fill_short_gaps`). A longer dropout takes the pieces next to it out of that
+    column's integral, and the mean is over the rest of the revolution; with less than half a
+    revolution left it is NaN. (A plain running sum would carry the NaN to every later sample
+    of the segment.)"""
+    x = _fill_short_gaps(theta, x)
     d = np.diff(theta)[:, None]
     finite = np.isfinite(x)
     piece = finite[1:] & finite[:-1]  # pieces with both ends measured
@@ -148,6 +163,28 @@ def _revolution_mean(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.n
     length = s_hi - s_lo
     with np.errstate(invalid="ignore", divide="ignore"):
         return np.where(length >= np.pi, (a_hi - a_lo) / length, np.nan), rows
+
+
+def _fill_short_gaps(theta: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``x`` (rows: samples at the increasing wheel angles ``theta`` [rad]) with every run of
+    NaN that has measured samples on both sides at most half a revolution (pi) apart filled
+    linearly in the angle. Left out of the revolution's integral instead, a single NaN moves
+    the centre of what is averaged by up to half a sample: on the steep part of a fast
+    drive/brake sweep (90 N a sample) that put the twiced mean up to 140 N off the curve."""
+    finite = np.isfinite(x)
+    if finite.all():
+        return x
+    n = len(theta)
+    index = np.arange(n)[:, None]
+    before = np.maximum.accumulate(np.where(finite, index, -1), axis=0)
+    after = np.minimum.accumulate(np.where(finite, index, n)[::-1], axis=0)[::-1]
+    gap = ~finite & (before >= 0) & (after < n)
+    lo, hi = np.where(gap, before, 0), np.where(gap, after, 0)
+    span = theta[hi] - theta[lo]
+    fill = gap & (span <= np.pi)
+    x_lo, x_hi = np.take_along_axis(x, lo, axis=0), np.take_along_axis(x, hi, axis=0)
+    w = (theta[:, None] - theta[lo]) / np.where(fill, span, 1.0)
+    return np.where(fill, x_lo + w * (x_hi - x_lo), x)
 
 
 def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame,
