@@ -342,8 +342,9 @@ def _write_chain_file(path, sampler, reparam: KyaRidge | None) -> None:
     blobs = sampler.get_blobs()
     if reparam is not None:
         chain = chain.copy()
-        chain[..., list(reparam.index)] = blobs[..., :3]
-        log_prob = log_prob - blobs[..., 3]
+        n = len(reparam.index)
+        chain[..., list(reparam.index)] = blobs[..., :n]
+        log_prob = log_prob - blobs[..., n]
     nw, ndim = chain.shape[1:]
     backend = emcee.backends.HDFBackend(str(path), name="mcmc")
     backend.reset(nw, ndim)
@@ -365,7 +366,8 @@ def _chain(sampler, reparam: KyaRidge | None, discard: int = 0, thin: int = 1) -
     c = sampler.get_chain(discard=discard, thin=thin)
     if reparam is not None:
         c = c.copy()
-        c[..., list(reparam.index)] = sampler.get_blobs(discard=discard, thin=thin)[..., :3]
+        c[..., list(reparam.index)] = sampler.get_blobs(discard=discard,
+                                                       thin=thin)[..., :len(reparam.index)]
     return c.reshape(-1, c.shape[-1])
 
 
@@ -466,7 +468,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
 
         def tau_fn():
             tz = sampler.get_autocorr_time(tol=0)
-            tx = emcee.autocorr.integrated_time(sampler.get_blobs()[..., :3], tol=0)
+            tx = emcee.autocorr.integrated_time(sampler.get_blobs()[..., :len(idx)], tol=0)
             tx_all = tz.copy()
             tx_all[idx] = tx
             return np.concatenate([tx_all, tz[idx]])

@@ -1,26 +1,36 @@
 """Reparametrisation of the Fy0 cornering-stiffness ridge for MCMC (issue 17).
 
-The cornering stiffness at zero camber and nominal pressure is
+The cornering stiffness is (docs/model.md, section 5)
 
-    Kya(Fz) = PKY1 Fz0' LKY sin(PKY4 atan(Fz / (PKY2 Fz0')))        [N/rad]
+    Kya = PKY1 Fz0' (1 + PPY1 dpi) (1 - PKY3 |g|) LKY
+          * sin(PKY4 atan(Fz / (Fz0' (PKY2 + PKY5 g^2) (1 + PPY2 dpi))))     [N/rad]
 
-(Fz0' = LFZO FNOMIN). With trailer loads well below its peak PKY2 Fz0' (the bundled sample:
-3, 5 and 7 kN against 13 kN) the data see only the nearly straight start of this curve and
-PKY1, PKY2, PKY4 lie on a thin curved ridge: emcee's affine-invariant moves follow a straight
-ridge at no cost but a curved one slowly (tau ~ 1700 steps on the sample). The data measure
-Kya at their load levels, so the chain samples
+(Fz0' = LFZO FNOMIN, g = gamma*). With trailer loads well below its peak (the bundled sample:
+3, 5 and 7 kN against 13 kN) the data see only the nearly straight start of this curve:
+PKY1, PKY2, PKY4 lie on a thin curved ridge, and so do the pressure pair PPY1, PPY2 (below the
+peak Kya depends on nearly only (1 + PPY1 dpi) / (1 + PPY2 dpi)) and the camber pair PKY3,
+PKY5. emcee's affine-invariant moves follow a straight ridge at no cost but a curved one
+slowly (tau ~ 1700 steps on the sample with PKY1, PKY2, PKY4 sampled directly; 200-270 for
+the camber and pressure pairs of a 26-coefficient stage on 21-point sweeps). The data measure
+Kya where they were taken, so the chain samples Kya at as many measured conditions
+("anchors") as there are such coefficients free, instead of the coefficients:
 
-    z = (Kya(F_lo), Kya(F_mid), Kya(F_hi))
+- Kya at the 5 %, 50 % and 95 % load quantiles, at the reference pressure (the measured
+  pressure level nearest nominal) and zero camber, for PKY1, PKY2, PKY4;
+- for PPY1 and PPY2 (when free and the pressures span 5 % of nominal): Kya at the lowest and
+  highest load at the measured pressure farthest from the reference (one anchor, the middle
+  load, when only one of the two is free);
+- for PKY3 and PKY5 (when free and |gamma*| reaches 0.02): the same at the largest measured
+  camber.
 
-at the 5 %, 50 % and 95 % quantiles of the stage's loads instead of (PKY1, PKY2, PKY4): each
-is fixed by the sweeps at one load level, so the posterior in z is close to an uncorrelated
-Gaussian. The prior stays flat in (PKY1, PKY2, PKY4) within their bounds: the density in z
-carries the Jacobian of the inverse map, log |det d(PKY1, PKY2, PKY4)/dz| = -log |det dz/dPKY|
-(:meth:`KyaRidge.inverse`). The inverse map is solved by Newton's method for all walkers at
-once from the least-squares optimum; the posterior is thereby the flat-prior one restricted to
-the branch of solutions connected to the optimum (points whose Newton iteration does not
-converge get zero density; tests/test_fit_mcmc.py checks the marginals against the exact
-posterior integrated on a grid in PKY space).
+Each anchor is fixed by the sweeps at one condition, so the posterior in these coordinates is
+close to an uncorrelated Gaussian. The prior stays flat in the coefficients within their
+bounds: the density in the anchors carries the Jacobian of the inverse map,
+log |det dx/dz| = -log |det dz/dx| (:meth:`KyaRidge.inverse`). The inverse map is solved by
+Newton's method for all walkers at once from the least-squares optimum; the posterior is
+thereby the flat-prior one restricted to the branch of solutions connected to the optimum
+(points whose Newton iteration does not converge get zero density; tests/test_fit_mcmc.py
+checks the marginals against the exact posterior integrated on a grid).
 """
 from __future__ import annotations
 
@@ -29,56 +39,89 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
+from identify.fit.mcmc_kya_newton import newton_rows
+
 __all__ = ["KyaRidge", "kya_ridge"]
 
 NAMES = ("PKY1", "PKY2", "PKY4")
+"""The coefficients every reparametrisation replaces (the load ridge)."""
+PRESSURE_NAMES = ("PPY1", "PPY2")
+CAMBER_NAMES = ("PKY3", "PKY5")
+ALL_NAMES = NAMES + PRESSURE_NAMES + CAMBER_NAMES
+"""Order of the coefficient vector of KyaRidge's maps."""
 QUANTILES = (0.05, 0.5, 0.95)
 """Load quantiles at which Kya is sampled."""
+MIN_PRESSURE_SPAN = 0.05
+"""Span of dpi (5 % of nominal pressure) below which PPY1, PPY2 are sampled directly."""
+MIN_CAMBER = 0.02
+"""|gamma*| (95 % quantile) below which PKY3, PKY5 are sampled directly."""
 NEWTON_ITER = 30
 NEWTON_TOL = 1e-11
-"""Relative residual |Kya(PKY) - z| / |z| at which the inverse map is accepted."""
+"""Relative residual |Kya(x) - z| / |z| at which the inverse map is accepted."""
+MAX_HALVINGS = 10
+"""Step halvings per Newton step before a row is given up."""
 
 
 @dataclass(frozen=True)
 class KyaRidge:
-    """The map between (PKY1, PKY2, PKY4) and Kya at three loads.
+    """The map between the cornering-stiffness coefficients and Kya at anchor conditions.
 
     Attributes
     ----------
-    index : tuple of int     positions of PKY1, PKY2, PKY4 in the problem's free vector
-    loads : tuple of float   F_lo, F_mid, F_hi [N]
+    index : tuple of int     positions of the replaced coefficients in the free vector
+    names : tuple of str     their names (PKY1, PKY2, PKY4 first, then PPY*, PKY3/PKY5)
+    anchors : tuple          (Fz [N], dpi [-], gamma* [rad]) per sampled coordinate
+    fixed : tuple of float   the seven ALL_NAMES coefficients' values where not replaced
     fz0p : float             LFZO FNOMIN [N]
     lky : float              LKY [-]
-    start : tuple of float   (PKY1, PKY2, PKY4) where Newton's method starts (the optimum)
+    start : tuple of float   the replaced coefficients where Newton's method starts
+    labels : tuple of str    names of the sampled coordinates, e.g. ``Kya@3000N``
     """
 
-    index: tuple[int, int, int]
-    loads: tuple[float, float, float]
+    index: tuple[int, ...]
+    names: tuple[str, ...]
+    anchors: tuple[tuple[float, float, float], ...]
+    fixed: tuple[float, ...]
     fz0p: float
     lky: float
-    start: tuple[float, float, float]
+    start: tuple[float, ...]
+    labels: tuple[str, ...]
 
     @property
-    def labels(self) -> tuple[str, ...]:
-        """Names of the sampled coordinates, e.g. ``Kya@3000N``."""
-        return tuple(f"Kya@{f:.0f}N" for f in self.loads)
+    def loads(self) -> tuple[float, float, float]:
+        """The three loads of the PKY1, PKY2, PKY4 anchors [N]."""
+        return tuple(a[0] for a in self.anchors[:3])
 
     def _kya(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Kya at the loads (W, 3) [N/rad] and its Jacobian d Kya / d PKY (W, 3, 3)."""
-        p1, p2, p4 = p[:, 0:1], p[:, 1:2], p[:, 2:3]
-        f = np.asarray(self.loads)[None, :]
-        a = p1 * self.fz0p * self.lky
-        c = p2 * self.fz0p
-        u = np.arctan(f / c)
-        s, co = np.sin(p4 * u), np.cos(p4 * u)
-        jac = np.stack([self.fz0p * self.lky * s,
-                        a * co * p4 * (-f / (c * c + f * f)) * self.fz0p,
-                        a * co * u], axis=-1)
+        """Kya at the anchors (W, n) [N/rad] and its Jacobian d Kya / d p (W, n, n) for
+        rows p (W, n) of the replaced coefficients."""
+        w, n = p.shape
+        full = np.broadcast_to(np.asarray(self.fixed, dtype=float), (w, len(ALL_NAMES))).copy()
+        pos = [ALL_NAMES.index(name) for name in self.names]
+        full[:, pos] = p
+        k1, k2, k4, p1, p2, k3, k5 = (full[:, i:i + 1] for i in range(len(ALL_NAMES)))
+        fz, dpi, g = (np.asarray(c, dtype=float)[None, :] for c in zip(*self.anchors))
+        ag = np.abs(g)
+        base = self.fz0p * self.lky
+        a = k1 * base * (1 + p1 * dpi) * (1 - k3 * ag)
+        b = (k2 + k5 * g ** 2) * (1 + p2 * dpi)
+        r = fz / self.fz0p
+        u = np.arctan(r / b)
+        s, co = np.sin(k4 * u), np.cos(k4 * u)
+        dk_db = a * co * k4 * (-r / (b * b + r * r))
+        d = {"PKY1": base * (1 + p1 * dpi) * (1 - k3 * ag) * s,
+             "PPY1": k1 * base * dpi * (1 - k3 * ag) * s,
+             "PKY3": -k1 * base * (1 + p1 * dpi) * ag * s,
+             "PKY4": a * co * u,
+             "PKY2": dk_db * (1 + p2 * dpi),
+             "PKY5": dk_db * g ** 2 * (1 + p2 * dpi),
+             "PPY2": dk_db * (k2 + k5 * g ** 2) * dpi}
+        jac = np.stack([np.broadcast_to(d[name], (w, n)) for name in self.names], axis=-1)
         return a * s, jac
 
     def forward(self, x: np.ndarray) -> np.ndarray:
-        """Free vectors x (W, k) -> sampled vectors z (W, k): PKY1, PKY2, PKY4 replaced by Kya
-        at the three loads, in their places."""
+        """Free vectors x (W, k) -> sampled vectors z (W, k): the replaced coefficients
+        replaced by Kya at the anchors, in their places."""
         x = np.atleast_2d(np.asarray(x, dtype=float))
         z = x.copy()
         z[:, list(self.index)] = self._kya(x[:, list(self.index)])[0]
@@ -87,112 +130,135 @@ class KyaRidge:
     def inverse(self, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Sampled vectors z (W, k) -> free vectors x (W, k) and log |det dx/dz| (W,).
 
-        Newton's method with backtracking on the relative residual for all rows at once (3 x 3
-        solves by Cramer's rule), from the map linearised at the optimum (a fixed start, so
-        that the map is a function of z alone); rows it does not bring to NEWTON_TOL start
-        again from the optimum itself. Rows that do not reach NEWTON_TOL
-        (or would change the sign of PKY2 or PKY4 from the optimum's) come back as NaN with
-        log-determinant -inf.
+        Newton's method with backtracking on the relative residual for all rows at once, from
+        the map linearised at the optimum (a fixed start, so that the map is a function of z
+        alone); rows it does not bring to NEWTON_TOL start again from the optimum itself.
+        Rows that do not reach NEWTON_TOL (or would change the sign of PKY2 or PKY4, or of
+        the stiffness curve's peak load at an anchor, from the optimum's) come back as NaN
+        with log-determinant -inf.
         """
         z = np.atleast_2d(np.asarray(z, dtype=float))
         idx = list(self.index)
         target = z[:, idx]
         start = np.asarray(self.start, dtype=float)
         y0, j0 = self._kya(start[None, :])
-        linear = start + _solve3(np.broadcast_to(j0, (len(z), 3, 3)), target - y0)
+        linear = start + _solve(np.broadcast_to(j0, (len(z),) + j0.shape[1:]), target - y0)
         p, err = self._newton(linear, target)
         again = np.flatnonzero(err > NEWTON_TOL)
         if again.size:
             p[again], err[again] = self._newton(
-                np.broadcast_to(start, (again.size, 3)).copy(), target[again])
+                np.broadcast_to(start, (again.size, start.size)).copy(), target[again])
         ok = err <= NEWTON_TOL
         with np.errstate(all="ignore"):
-            logdet = -np.log(np.abs(_det3(self._kya(p)[1])))
+            logdet = -np.linalg.slogdet(self._kya(p)[1])[1]
         ok &= np.isfinite(logdet)
         x = z.copy()
         x[:, idx] = np.where(ok[:, None], p, np.nan)
         return x, np.where(ok, logdet, -np.inf)
 
+    def _signs(self, p: np.ndarray) -> np.ndarray:
+        """(W, m) signs of PKY2, PKY4 and of the peak-load factor at every anchor."""
+        w = p.shape[0]
+        full = np.broadcast_to(np.asarray(self.fixed, dtype=float), (w, len(ALL_NAMES))).copy()
+        full[:, [ALL_NAMES.index(name) for name in self.names]] = p
+        _, dpi, g = (np.asarray(c, dtype=float)[None, :] for c in zip(*self.anchors))
+        b = (full[:, 1:2] + full[:, 6:7] * g ** 2) * (1 + full[:, 4:5] * dpi)
+        return np.sign(np.column_stack([full[:, 1], full[:, 2], b]))
+
     def _newton(self, p: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(PKY1, PKY2, PKY4) rows with Kya = target from the starts ``p``, and the relative
-        residuals (inf where the signs of PKY2, PKY4 differ from the optimum's)."""
-        sign = np.sign(np.asarray(self.start, dtype=float)[1:])
-        p = p.copy()
-        scale = np.maximum(np.abs(target), 1e-300)
-
-        def resid(q, t, s):
-            with np.errstate(all="ignore"):
-                r = np.max(np.abs(self._kya(q)[0] - t) / s, axis=1)
-            return np.where(np.all(q[:, 1:] * sign > 0, axis=1) & np.isfinite(r), r, np.inf)
-
-        err = resid(p, target, scale)
-        active = np.flatnonzero(err > NEWTON_TOL)
-        for _ in range(NEWTON_ITER):
-            if active.size == 0:
-                break
-            q, t, s = p[active], target[active], scale[active]
-            y, jac = self._kya(q)
-            step = _solve3(jac, y - t)
-            e0 = err[active]
-            lam = np.ones(active.size)
-            e1 = resid(q - step, t, s)
-            worse = np.flatnonzero(~(e1 < e0))
-            for _half in range(10):  # backtrack the rows whose residual did not fall
-                if worse.size == 0:
-                    break
-                lam[worse] *= 0.5
-                e1[worse] = resid(q[worse] - lam[worse, None] * step[worse], t[worse],
-                                  s[worse])
-                worse = worse[~(e1[worse] < e0[worse])]
-            better = e1 < e0
-            q[better] -= lam[better, None] * step[better]
-            p[active] = q
-            err[active] = np.where(better, e1, e0)
-            active = active[better & (err[active] > NEWTON_TOL)]
-        return p, err
+        """Coefficient rows with Kya = target from the starts ``p``, and the relative residuals
+        (inf where the signs of PKY2, PKY4 or a peak load differ from the optimum's), row by
+        row in compiled code (identify.fit.mcmc_kya_newton)."""
+        fz, dpi, g = (np.ascontiguousarray(c, dtype=float) for c in zip(*self.anchors))
+        sign = self._signs(np.asarray(self.start, dtype=float)[None, :])[0]
+        pos = np.array([ALL_NAMES.index(name) for name in self.names], dtype=np.int64)
+        return newton_rows(np.array(p, dtype=float), np.ascontiguousarray(target, dtype=float),
+                           np.asarray(self.fixed, dtype=float), pos, fz, dpi, g, self.fz0p,
+                           self.lky, sign, NEWTON_TOL, NEWTON_ITER, MAX_HALVINGS)
 
 
-def _det3(m: np.ndarray) -> np.ndarray:
-    """Determinants of (W, 3, 3) matrices."""
-    return (m[:, 0, 0] * (m[:, 1, 1] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 1])
-            - m[:, 0, 1] * (m[:, 1, 0] * m[:, 2, 2] - m[:, 1, 2] * m[:, 2, 0])
-            + m[:, 0, 2] * (m[:, 1, 0] * m[:, 2, 1] - m[:, 1, 1] * m[:, 2, 0]))
-
-
-def _solve3(m: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Solutions of (W, 3, 3) systems m x = b by Cramer's rule; 0 where m is singular."""
-    d = _det3(m)
-    out = np.empty_like(b)
-    for j in range(3):
-        mj = m.copy()
-        mj[:, :, j] = b
-        with np.errstate(all="ignore"):
-            out[:, j] = _det3(mj) / d
+def _solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Solutions of the (W, n, n) systems m x = b; 0 where m is singular or not finite."""
+    bad = ~np.all(np.isfinite(m), axis=(1, 2))
+    with np.errstate(all="ignore"):
+        bad |= ~(np.abs(np.linalg.det(np.where(bad[:, None, None], 1.0, m))) > 0)
+    eye = np.broadcast_to(np.eye(m.shape[-1]), m.shape)
+    out = np.linalg.solve(np.where(bad[:, None, None], eye, m), b[..., None])[..., 0]
+    out[bad] = 0.0
     return np.where(np.isfinite(out), out, 0.0)
 
 
+def _levels(values: np.ndarray) -> tuple[float, float, float]:
+    """5 %, 50 % and 95 % quantiles of ``values``."""
+    return tuple(float(q) for q in np.quantile(values, QUANTILES))
+
+
 def kya_ridge(free: Sequence[str], x: np.ndarray, fz: np.ndarray,
-              params: Mapping[str, float]) -> KyaRidge | None:
-    """The Fy0 ridge map for a problem with free names ``free`` at the optimum ``x``, or None
-    when PKY1, PKY2 and PKY4 are not all free or the loads ``fz`` [N] span less than 20 % of
-    Fz0' (three distinct levels are needed).
+              params: Mapping[str, float], dpi: np.ndarray | None = None,
+              gamma_star: np.ndarray | None = None) -> KyaRidge | None:
+    """The Fy0 stiffness map for a problem with free names ``free`` at the optimum ``x``, or
+    None when PKY1, PKY2 and PKY4 are not all free or the loads ``fz`` [N] span less than
+    20 % of Fz0' (three distinct levels are needed).
 
     Parameters
     ----------
-    free : sequence of str    the problem's free coefficients
-    x : ndarray               their values at the optimum
-    fz : ndarray [N]          the stage's vertical loads
-    params : mapping          the .tir values (FNOMIN, LFZO, LKY)
+    free : sequence of str      the problem's free coefficients
+    x : ndarray                 their values at the optimum
+    fz : ndarray [N]            the stage's vertical loads
+    params : mapping            the .tir values (FNOMIN, NOMPRES, LFZO, LKY and the seven
+                                coefficients of ALL_NAMES)
+    dpi : ndarray [-], optional         the stage's relative pressure increments (PPY1, PPY2
+                                        replaced only when given)
+    gamma_star : ndarray [-], optional  the stage's camber sin(gamma) (PKY3, PKY5 replaced
+                                        only when given)
     """
     if not set(NAMES) <= set(free):
         return None
     fz0p = float(params.get("LFZO", 1.0)) * float(params["FNOMIN"])
-    loads = tuple(float(q) for q in np.quantile(np.abs(np.asarray(fz, dtype=float)), QUANTILES))
-    if min(np.diff(loads)) < 0.1 * fz0p:
+    f_lo, f_mid, f_hi = _levels(np.abs(np.asarray(fz, dtype=float)))
+    if min(f_mid - f_lo, f_hi - f_mid) < 0.1 * fz0p:
         return None
-    index = tuple(list(free).index(n) for n in NAMES)
-    start = tuple(float(x[i]) for i in index)
-    if start[1] == 0 or start[2] == 0:
+    values = dict(zip(free, (float(v) for v in x)))
+    if values["PKY2"] == 0 or values["PKY4"] == 0:
         return None
-    return KyaRidge(index=index, loads=loads, fz0p=fz0p, lky=float(params.get("LKY", 1.0)),
-                    start=start)
+    d_ref, d_other = 0.0, None
+    if dpi is not None and any(n in free for n in PRESSURE_NAMES):
+        d = np.asarray(dpi, dtype=float)
+        levels = _levels(d)
+        d_ref = min(levels, key=abs)
+        d_other = max((levels[0], levels[2]), key=lambda v: abs(v - d_ref))
+        if levels[2] - levels[0] < MIN_PRESSURE_SPAN:
+            d_ref, d_other = 0.0, None
+    g_max = None
+    if gamma_star is not None and any(n in free for n in CAMBER_NAMES):
+        g_max = float(np.quantile(np.abs(np.asarray(gamma_star, dtype=float)), 0.95))
+        g_max = g_max if g_max >= MIN_CAMBER else None
+    nompres = float(params.get("NOMPRES", 0.0))
+
+    def label(f, dp=None, g=None):
+        tag = f"Kya@{f:.0f}N"
+        if dp is not None and nompres > 0:
+            tag += f",{nompres * (1 + dp) / 1e5:.2f}bar"
+        if g is not None:
+            tag += f",{np.rad2deg(np.arcsin(g)):.1f}deg"
+        return tag
+
+    names = list(NAMES)
+    anchors = [(f, d_ref, 0.0) for f in (f_lo, f_mid, f_hi)]
+    labels = [label(f, d_ref if d_other is not None else None) for f in (f_lo, f_mid, f_hi)]
+    for group, level in ((PRESSURE_NAMES, d_other), (CAMBER_NAMES, g_max)):
+        chosen = [n for n in group if n in free] if level is not None else []
+        loads = (f_lo, f_hi) if len(chosen) == 2 else (f_mid,)[:len(chosen)]
+        for f in loads:
+            if group is PRESSURE_NAMES:
+                anchors.append((f, level, 0.0))
+                labels.append(label(f, level))
+            else:
+                anchors.append((f, d_ref, level))
+                labels.append(label(f, d_ref if d_other is not None else None, level))
+        names += chosen
+    fixed = tuple(values.get(n, float(params.get(n, 0.0))) for n in ALL_NAMES)
+    return KyaRidge(index=tuple(list(free).index(n) for n in names), names=tuple(names),
+                    anchors=tuple(anchors), fixed=fixed, fz0p=fz0p,
+                    lky=float(params.get("LKY", 1.0)),
+                    start=tuple(values[n] for n in names), labels=tuple(labels))

@@ -424,5 +424,5 @@ def stage_mcmc(trailer: pd.DataFrame, mf: MFFit, stage: str, *, seed: int = 0,
     if reparam and stage == "Fy0":
         free = sp.problem.free
         ridge = kya_ridge(free, np.array([result.parameters[n] for n in free]), sp.state.fz,
-                          mf.params)
+                          mf.params, dpi=sp.state.dpi, gamma_star=sp.state.gamma_star)
     return run_mcmc(sp.problem, result, seed=seed, ar1=ar1, reparam=ridge, **kwargs)
