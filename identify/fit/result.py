@@ -52,7 +52,8 @@ class MCMCSummary:
     stopped : str                   why an unconverged chain stopped: "max_steps" (the step
                                     cap) or "budget" (the time budget); "" when converged
     reparametrised : tuple of str   coordinates sampled in place of some coefficients (e.g.
-                                    Kya@3000N for PKY1, PKY2, PKY4; identify.fit.mcmc_reparam)
+                                    Kya@3000N for PKY1, PKY2, PKY4, Kya@3000N,1.90bar for
+                                    PPY1, PPY2; identify.fit.mcmc_reparam)
     """
 
     median: Mapping[str, float]
