@@ -303,6 +303,8 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
     result, old = before
     sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
                        hold=dict(old.held))
+    # the holds of candidates outside the free set (its candidates) are kept with their reasons
+    sp = dataclasses.replace(sp, held={**old.held, **sp.held})
     x0 = sp.problem.x0()
     gain = gauss_newton_gain(sp.problem, x0)
     if gain <= PASS_GAIN:
