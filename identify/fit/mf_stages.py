@@ -71,6 +71,7 @@ from identify.fit.mf_search import (
     start_points,
     subsample,
 )
+from identify.fit.mf_conditional import AFTER_FIT, with_conditional
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_stage_defs import (
     DEFAULT_STAGES,
@@ -196,8 +197,8 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
             result = dataclasses.replace(result, nfev=result.nfev + spent)
             # e.g. a product of two weakly determined coefficients: keep the global optimum
             sp = dataclasses.replace(sp, held={**sp.held, **{
-                n: "sensitivity: effective only after the fit, and the re-fit with it did not "
-                   "converge" for n in added}})
+                n: f"sensitivity: {AFTER_FIT}, and the re-fit with it did not converge or "
+                   "ended higher" for n in added}})
             break
         added_all += added
         rivals_used += len(rivals)
@@ -380,6 +381,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
+            if screen:  # what rests on coefficients held since the re-fit with them failed
+                result = with_conditional(result, sp, stage, trailer, params)
             # the stage's whole wall time: screen (and the Jacobian's compile), search, solves,
             # every pass
             before_s, before_n = spent.get(stage, (0.0, 0))
