@@ -21,6 +21,7 @@ fit`` without MCMC and report, then
   ``--unloaded-radius``) unless ``--proposed`` keeps the values the import proposes.
 
     python bench/ttc_truth.py --seeds 0 1 2 [--no-bin] [--jobs 1] [--keep DIR] [--json FILE]
+                              [--tir FILE] [--set KEY=VALUE ...]   # another tyre as the truth
     python bench/ttc_truth.py --from-json FILE [--normal]  # the tables of saved records
 """
 from __future__ import annotations
@@ -56,10 +57,12 @@ BAR_PCT = 2.0
 Z95 = 1.959964
 
 
-def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) -> dict:
-    """One seed: simulate, import, fit, compare; a JSON-safe dict."""
+def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
+          tir: str | None = None, overrides: dict | None = None) -> dict:
+    """One seed: simulate, import, fit, compare; a JSON-safe dict. ``tir``: the truth .tir
+    (default the bundled tyre), ``overrides``: .tir values replaced in it."""
     where = Path(where)
-    truth_all = read_tir(default_tir_path()).params()
+    truth_all = {**read_tir(tir or default_tir_path()).params(), **(overrides or {})}
     simulate_ttc(truth_all, where / "ttc", seed=seed, overwrite=True)
     truth = json.loads((where / "ttc" / "truth.json").read_text())["tir"]
     nominal = {} if proposed else {"nominal_pressure_Pa": float(truth["NOMPRES"]),
@@ -292,7 +295,11 @@ def main() -> None:
                     help="records of an earlier run (--json): interval widths before/after")
     ap.add_argument("--normal", action="store_true",
                     help="count intervals of 1.96 standard errors (ignore the recorded dof)")
+    ap.add_argument("--tir", help="the truth .tir (default: the bundled 225/50 R17 tyre)")
+    ap.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE",
+                    help="replace .tir values of the truth, e.g. FNOMIN=1100 NOMPRES=83000")
     args = ap.parse_args()
+    overrides = {k: float(v) for k, v in (item.split("=", 1) for item in args.set)}
     global NORMAL
     NORMAL = args.normal
     if args.from_json:
@@ -309,7 +316,7 @@ def main() -> None:
         n = len(args.seeds)
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
             records = list(pool.map(trial, args.seeds, dirs, [not args.no_bin] * n,
-                                    [args.proposed] * n))
+                                    [args.proposed] * n, [args.tir] * n, [overrides] * n))
     for r in records:
         f = r["forces_pct"]
         how = "binned" if r["binned"] else "every sample"
