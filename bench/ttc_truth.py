@@ -57,6 +57,20 @@ BAR_PCT = 2.0
 Z95 = 1.959964
 
 
+def canonical_signs(values: dict) -> dict:
+    """``values`` with the combined-slip side force in one sign convention: S_Vyk =
+    D_Vyk sin(RVY5 atan(RVY6 kappa)), D_Vyk proportional to RVY1 + RVY2 dfz + RVY3 gamma, is
+    unchanged when RVY5 (or RVY6) and RVY1..3 all change sign, so a truth with RVY6 < 0 and a
+    fit with RVY6 > 0 are the same tyre; both are compared with RVY5, RVY6 >= 0."""
+    out = dict(values)
+    for odd in ("RVY5", "RVY6"):
+        if odd in out and float(out[odd]) < 0:
+            for n in (odd, "RVY1", "RVY2", "RVY3"):
+                if n in out:
+                    out[n] = -float(out[n])
+    return out
+
+
 def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
           tir: str | None = None, overrides: dict | None = None) -> dict:
     """One seed: simulate, import, fit, compare; a JSON-safe dict. ``tir``: the truth .tir
@@ -80,9 +94,11 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
     seconds = time.perf_counter() - t0
     cmp = compare_to_truth(read_tir(run.tir_path).params(), truth, pd.read_csv(run.csv_path))
     coefs = []
+    truth = canonical_signs(truth)
     for r in run.results:
         if r.relation != "MF":
             continue
+        values = canonical_signs(r.parameters)
         stages[r.form] = {"seconds": r.seconds, "points": r.n_points,
                           "converged": bool(r.converged), "covariance": r.covariance,
                           "clusters": r.clusters}
@@ -91,8 +107,8 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
                 continue
             se = float(r.stderr.get(name, math.nan))
             why = (r.unidentified.get(name) if r.converged else "stage did not converge")
-            z = (r.parameters[name] - float(truth[name])) / se if se > 0 else math.inf
-            coefs.append({"stage": r.form, "name": name, "value": r.parameters[name],
+            z = (values[name] - float(truth[name])) / se if se > 0 else math.inf
+            coefs.append({"stage": r.form, "name": name, "value": values[name],
                           "se": se, "q": r.quantile(name), "truth": float(truth[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
