@@ -5,9 +5,10 @@ QSX7 = QSX8 = 0); after the fit, a coefficient that then has an effect is freed 
 re-fitted (identify.fit.mf_stages._refine). When that re-fit does not converge or ends higher,
 the coefficient stays held at its start value, which the data did not choose, and the free
 coefficients it trades with carry whatever the held value makes them: on a TTC session
-generated from another tyre (QSX4 = 4.9, QSX6 = 22.8, QSX7 = 0.71; QSX4..QSX6 held at their
-defaults 5, 1, 10) the Mx stage reported QSX7 = 0.17 +- 0.047 and QSX3 31 % above the truth,
-each 10-20 standard errors off, as "identifiable".
+generated from another tyre (MFeval's reference tyre at Formula Student size: QSX4 = 4.9,
+QSX6 = 22.8, QSX7 = 0.71; QSX4..QSX6 held at their defaults 5, 1, 10) the Mx stage reported
+QSX7 = 0.17 +- 0.047 and QSX3 14 % above the truth, 11 and 12 standard errors off, as
+"identifiable".
 
 Their intervals are right only if the held values are exact. This module measures how much
 they rest on them: the variance of each free coefficient with the held ones free as well,
