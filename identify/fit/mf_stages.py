@@ -72,6 +72,7 @@ from identify.fit.mf_search import (
     start_points,
     subsample,
 )
+from identify.fit.mf_branches import with_other_branch
 from identify.fit.mf_conditional import AFTER_FIT, with_conditional
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_stage_defs import (
@@ -403,7 +404,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 if screen:
                     result, sp, others = _refine(result, sp, stage, trailer, params, free,
                                                  others, progress)
-                result = with_rivals(result, sp, others, label, progress)
+                result, branch = with_other_branch(result, sp, label, progress)
+                result = with_rivals(result, sp, branch + list(others), label, progress)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
