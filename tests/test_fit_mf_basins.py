@@ -102,8 +102,13 @@ def test_the_other_minimum_within_the_95_percent_region_is_reported(case):
     is kept as a rival, and the coefficients it puts outside their intervals are not
     identifiable on their own: their linearised intervals here miss the truth (PCX1 1.6)."""
     truth, _, _, result = case
-    assert len(result.rivals) == 1
-    rival = result.rivals[0]
+    basins = [r for r in result.rivals if "PCX1" in r.values]
+    assert len(basins) == 1
+    # the only other one: the solve from the other branch of the slip-stiffness load curve
+    # (identify.fit.mf_branches) ends at PKX2 ~ 0 as low as the optimum, PKX2 = 0.002: the
+    # data do not fix PKX2's sign (it is also correlated 0.997 with PKX3)
+    assert all(set(r.values) == {"PKX2"} for r in result.rivals if r not in basins)
+    rival = basins[0]
     assert 0.5 < rival.dchi2 < 3.84
     assert {"PCX1", "PEX1"} <= set(rival.values)
     lo, hi = result.interval("PCX1")

@@ -28,10 +28,18 @@ from identify.fit.mf_search import MAX_NFEV
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
 
-__all__ = ["BRANCHES", "other_branch", "with_other_branch"]
+__all__ = ["BRANCHES", "DISTINCT_SE", "TAKE_CHI2", "other_branch", "with_other_branch"]
 
 BRANCHES = {"Fx0": ("PKX1", "PKX2", "PKX3")}
 """Stage -> (value, slope, curvature) coefficients of a load curve (c0 + c1 dfz) exp(c2 dfz)."""
+TAKE_CHI2 = 0.01
+"""The other branch's end replaces the search's optimum when lower by more than this in chi^2
+(the optimum's residual variance); equal ends are one minimum seen twice, and the other goes
+to the rivals."""
+DISTINCT_SE = 2.0
+"""The other branch is tried only when |c1| exceeds this many of its standard errors: nearer 0
+the two branches are one minimum (a generated Fx0 stage of the bundled tyre, PKX2 = 0.0004,
+gave two 'rivals' at chi^2 0 that differed in PKX2 alone)."""
 
 
 def other_branch(stage: str, values: Mapping[str, float]) -> dict[str, float] | None:
@@ -49,13 +57,18 @@ def other_branch(stage: str, values: Mapping[str, float]) -> dict[str, float] | 
 def with_other_branch(result: FitResult, sp: StageProblem, label: str,
                       progress: Progress | None) -> tuple[FitResult, list[dict[str, float]]]:
     """``result`` or, when the solve from the other branch (:func:`other_branch`, its
-    coefficients all free) converges lower, that end (with the search's counts, the two
-    solves' evaluations and seconds, and a note in its message); and the end not taken as a
-    candidate for identify.fit.mf_rivals (empty when the solve did not converge)."""
+    coefficients all free, c1 more than DISTINCT_SE standard errors from 0) converges lower
+    by TAKE_CHI2,
+    that end (with the search's counts, the two solves' evaluations and seconds, and a note in
+    its message); and the end not taken as a candidate for identify.fit.mf_rivals (empty when
+    the solve did not converge or was not tried)."""
     free = result.free
     start = other_branch(result.form, result.parameters)
     if start is None or not result.converged or not set(start) <= set(free):
         return result, []
+    c1 = BRANCHES[result.form][1]
+    if not abs(result.parameters[c1]) > DISTINCT_SE * result.stderr.get(c1, np.inf):
+        return result, []  # the two branches meet where c1 is indistinguishable from 0
     x0 = np.array([[start.get(n, float(result.parameters[n])) for n in free]])
     lo, hi = sp.problem.bounds()
     if np.any(x0[0] < lo) or np.any(x0[0] > hi):
@@ -64,7 +77,8 @@ def with_other_branch(result: FitResult, sp: StageProblem, label: str,
     nfev, seconds = result.nfev + end.nfev, result.seconds + end.seconds
     if not end.converged:
         return dataclasses.replace(result, nfev=nfev, seconds=seconds), []
-    if end.wls < result.wls:
+    s2 = result.wls / max(result.n_points - len(free), 1)
+    if (result.wls - end.wls) / s2 > TAKE_CHI2:
         if progress is not None:
             progress(f"{label}: the other branch of {', '.join(BRANCHES[result.form])} fits "
                      f"better (objective {end.wls / result.wls:.4g} of the search's)")
