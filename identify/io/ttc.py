@@ -46,6 +46,7 @@ __all__ = [
     "is_ttc_mat",
     "is_ttc_naming",
     "read_ttc",
+    "ttc_name",
 ]
 
 MAT_MAGIC = b"MATLAB"
@@ -92,6 +93,14 @@ TTC_CHANNELS: dict[str, TtcChannel] = {
 }
 #: TTC channel name -> TYDEX channel name of identify.io.trailer.
 TTC_TO_TYDEX: dict[str, str] = {k: c.tydex for k, c in TTC_CHANNELS.items() if c.tydex}
+
+
+def ttc_name(name: str) -> str:
+    """A channel name as TTC writes it: ``"fz  "`` -> ``"FZ"`` (a name padded to the width of
+    a MATLAB char matrix, or in another case); a name that is not a TTC channel only
+    stripped."""
+    name = str(name).strip()
+    return name.upper() if name.upper() in TTC_CHANNELS else name
 
 
 def is_ttc_naming(names) -> bool:
@@ -202,9 +211,9 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     """The channels, their units and the strings of a loaded .mat file (either version)."""
     struct = mat.get("channel")
     names, unit_list = ([], [])
-    if isinstance(struct, Mapping):
-        names = [_text(v) for v in np.atleast_1d(struct.get("name", []))]
-        unit_list = [_text(v) for v in np.atleast_1d(struct.get("units", []))]
+    if isinstance(struct, Mapping):  # names padded to a char matrix's width, any case
+        names = [ttc_name(_text(v)) for v in np.atleast_1d(struct.get("name", []))]
+        unit_list = [_text(v).strip() for v in np.atleast_1d(struct.get("units", []))]
     units = dict(zip(names, unit_list))
     data: dict[str, np.ndarray] = {}
     for key, value in mat.items():
@@ -213,7 +222,12 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         array = np.asarray(value)
         if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
             continue  # not a channel (a string, a struct, a matrix)
-        data[key] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+        data[ttc_name(key)] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+    n = data["ET"].size if "ET" in data else None
+    # a number or vector of another length that the channel struct does not list (a rim
+    # width, a calibration constant) is not a channel
+    data = {k: v for k, v in data.items()
+            if k in units or k in TTC_CHANNELS or n is None or v.size == n}
     # in the channel struct's order: a v7.3 file lists its variables by name
     order = {name: i for i, name in enumerate(names)}
     data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
@@ -248,7 +262,7 @@ def _read_dat(path: Path, problems: Problems):
                            f"names and a line of units before the data (found {found})",
                      line=min(len(lines) + 1, 3))
         return None
-    names = [n.strip() for n in names]
+    names = [ttc_name(n) for n in names]
     unit_cells = [u.strip() for u in unit_cells]
     if len(unit_cells) != len(names):
         problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)

@@ -1,0 +1,100 @@
+"""TTC files as real sessions write them, unlike the generator's (issue 14): other spellings of
+channel names and units, variables that are not channels, older rounds without some channels,
+and .dat text with other line endings, separators and encodings. Each is read (with a warning
+and its count where something is odd) or refused in one line naming the file and channel."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import scipy.io
+from typer.testing import CliRunner
+
+from identify.io.common import Problems
+from identify.io.ttc import TTC_CHANNELS, read_ttc
+from tests.ttc_cases import _small_channels
+
+runner = CliRunner()
+
+
+def _mat(path, ch, names=None, units=None, extra=None, shape=lambda v: v.reshape(-1, 1)):
+    """A v5 .mat of channels ``ch`` whose channel struct lists ``names`` and ``units``."""
+    names = list(ch) if names is None else names
+    units = [TTC_CHANNELS[k].si_unit for k in ch] if units is None else units
+    content = {k: shape(np.asarray(v)) for k, v in ch.items()}
+    content["channel"] = {"name": np.array(names, dtype=object),
+                          "units": np.array(units, dtype=object)}
+    content["tireid"] = "small"
+    content.update(extra or {})
+    scipy.io.savemat(path, content, format="5")
+    return path
+
+
+def _read(path):
+    problems = Problems()
+    run = read_ttc(path, problems)
+    assert problems.total == 0, [str(p) for p in problems.finish()]
+    return run
+
+
+@pytest.mark.parametrize("names", [
+    [n.lower() for n in _small_channels()],               # another case
+    [n + "   " for n in _small_channels()],               # padded (a char matrix's rows)
+    [" " + n.lower() + " " for n in _small_channels()],
+], ids=["lower", "padded", "lower-padded"])
+def test_channel_struct_names_in_another_case_or_padded(tmp_path, names):
+    ch = _small_channels()
+    run = _read(_mat(tmp_path / "B1run1.mat", ch, names,
+                     [TTC_CHANNELS[k].si_unit + "  " for k in ch]))
+    assert run.units == {k: TTC_CHANNELS[k].si_unit for k in ch}
+    np.testing.assert_array_equal(run.data["FZ"], ch["FZ"])
+
+
+def test_channel_struct_as_a_char_matrix(tmp_path):
+    """MATLAB's char(...) of the names: one row per name, padded with blanks to the longest."""
+    ch = _small_channels()
+    width = max(map(len, ch))
+    unit_width = max(len(TTC_CHANNELS[k].si_unit) for k in ch)
+    path = tmp_path / "B1run1.mat"
+    content = {k: v.reshape(-1, 1) for k, v in ch.items()}
+    content["channel"] = {"name": np.array([k.ljust(width) for k in ch]),
+                          "units": np.array([TTC_CHANNELS[k].si_unit.ljust(unit_width)
+                                             for k in ch])}
+    scipy.io.savemat(path, content, format="5")
+    assert _read(path).units["MZ"] == "N-m"
+
+
+def test_variables_in_lower_case_are_the_ttc_channels(tmp_path):
+    ch = {k.lower(): v for k, v in _small_channels().items()}
+    run = _read(_mat(tmp_path / "B1run1.mat", ch, list(ch),
+                     [TTC_CHANNELS[k.upper()].si_unit for k in ch]))
+    assert set(run.data) == set(_small_channels()) and run.units["P"] == "kPa"
+
+
+def test_variables_that_are_not_channels_are_left_out(tmp_path):
+    """A scalar (a rim width), a vector of another length, a matrix, a cell array, a struct
+    and a string next to the channels: none is a channel, none stops the import."""
+    ch = _small_channels()
+    extra = {"RIMWIDTH": 7.0, "calib": np.arange(5.0), "gains": np.eye(3),
+             "notes": np.array(["a", "bb"], dtype=object), "meta": {"rig": "belt", "k": 3.0},
+             "comment": "hello", "nothing": np.zeros((0, 0))}
+    run = _read(_mat(tmp_path / "B1run1.mat", ch, extra=extra))
+    assert set(run.data) == set(ch)
+
+
+def test_a_listed_channel_of_another_length_is_still_one_line(tmp_path):
+    ch = _small_channels()
+    ch["FY"] = ch["FY"][:150]
+    problems = Problems()
+    path = _mat(tmp_path / "B1run1.mat", ch)
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()] == [f"{path}: FY: 150 samples, but ET has 200"]
+
+
+def test_dat_names_in_another_case_or_padded(tmp_path):
+    ch = _small_channels()
+    path = tmp_path / "B1run1.dat"
+    rows = "\n".join("\t".join(f"{ch[k][i]:g}" for k in ch) for i in range(200))
+    path.write_text("title\n" + "\t".join(f" {k.lower()} " for k in ch) + "\n"
+                    + "\t".join(TTC_CHANNELS[k].si_unit for k in ch) + "\n" + rows + "\n")
+    run = _read(path)
+    assert set(run.data) == set(ch) and run.units["FZ"] == "N"
