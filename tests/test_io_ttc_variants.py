@@ -10,6 +10,7 @@ import scipy.io
 from typer.testing import CliRunner
 
 from identify.io.common import Problems
+from identify.io.trailer import channels_to_tidy, read_channels
 from identify.io.ttc import TTC_CHANNELS, read_ttc
 from tests.ttc_cases import _small_channels
 
@@ -98,3 +99,75 @@ def test_dat_names_in_another_case_or_padded(tmp_path):
                     + "\t".join(TTC_CHANNELS[k].si_unit for k in ch) + "\n" + rows + "\n")
     run = _read(path)
     assert set(run.data) == set(ch) and run.units["FZ"] == "N"
+
+
+def _dat_lines(ch=None, units=None, sep="\t"):
+    ch = _small_channels() if ch is None else ch
+    units = {k: TTC_CHANNELS[k].si_unit for k in ch} | dict(units or {})
+    rows = [sep.join(f"{ch[k][i]:.6g}" for k in ch) for i in range(len(ch["ET"]))]
+    return ["B1 run 1", sep.join(ch), sep.join(units[k] for k in ch), *rows]
+
+
+def _write(path, lines, end="\n", encoding="utf-8", last=True):
+    path.write_bytes((end.join(lines) + (end if last else "")).encode(encoding))
+    return path
+
+
+def _tidy(path):
+    (ch,) = read_channels(path, problems=Problems(strict=True))
+    warnings = []
+    return ch, channels_to_tidy(ch, warnings=warnings), warnings
+
+
+def test_dat_title_in_windows_1252(tmp_path):
+    lines = _dat_lines()
+    lines[0] = "Prüfstand 18° run"
+    run = _read(_write(tmp_path / "B1run1.dat", lines, encoding="cp1252"))
+    assert run.attrs["title"] == "Prüfstand 18° run" and run.data["ET"].size == 200
+
+
+@pytest.mark.parametrize("sep,end", [(",", "\n"), ("\t", "\r\n")], ids=["comma", "crlf"])
+def test_dat_comma_separated_or_crlf(tmp_path, sep, end):
+    ch = _small_channels()
+    run = _read(_write(tmp_path / "B1run1.dat", _dat_lines(sep=sep), end=end))
+    np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=1e-3)
+
+
+def test_dat_trailing_tab_on_the_data_rows_only(tmp_path):
+    """With NaN cells in the data (which send the reader to count fields per row)."""
+    lines = _dat_lines()
+    lines[3:] = [line + "\t" for line in lines[3:]]
+    lines[10] = "\t".join(["NaN" if i == 7 else c for i, c in enumerate(lines[10].split("\t"))])
+    run = _read(_write(tmp_path / "B1run1.dat", lines))
+    assert np.isnan(run.data["FY"][7]) and np.isfinite(run.data["FY"]).sum() == 199
+
+
+def test_dat_cut_inside_its_last_row_is_a_warning_and_the_row_is_dropped(tmp_path):
+    lines = _dat_lines()
+    lines[-1] = "\t".join(lines[-1].split("\t")[:5])
+    path = _write(tmp_path / "B1run1.dat", lines, last=False)
+    ch, frame, warnings = _tidy(path)
+    assert len(frame) == 199
+    (cut,) = [w for w in warnings if w.kind == "truncated"]
+    assert str(cut) == (f"{path}:203: ET: the last row stops after 5 of 12 fields (the file "
+                        "ends inside it) (1 of 200 samples); row dropped")
+
+
+def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
+    lines = _dat_lines()
+    lines[50] = "\t".join(lines[50].split("\t")[:5])
+    path = _write(tmp_path / "B1run1.dat", lines)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()] == [
+        f"{path}:51: ragged row: 5 fields, the header has 12"]
+
+
+@pytest.mark.parametrize("unit,si", [("C", 303.15), ("F", 273.15 + 5 / 9)])
+def test_temperature_unit_c_or_f_and_a_blank_ratio_unit(tmp_path, unit, si):
+    ch = _small_channels() | {"TSTC": np.full(200, 30.0 if unit == "C" else 33.0)}
+    units = {"TSTC": unit, "SL": ""}
+    path = _write(tmp_path / "B1run1.dat", _dat_lines(ch, units))
+    _, frame, _ = _tidy(path)
+    np.testing.assert_allclose(frame["T_tread_centre"], si)
+    assert (frame["kappa"] == 0).all()

@@ -141,6 +141,10 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
             if ttc and "SR" in ch.data else None
         warnings.extend([sr] if sr else [])
+        if ch.attrs.get("cut_row"):  # a .dat file cut short inside its last row
+            warnings.append(DataWarning(ch.file, ch.run, "truncated", tuple(ch.data)[:1], 1,
+                                        n + 1, ch.attrs["cut_row_detail"], "row dropped",
+                                        int(ch.attrs["cut_row"])))
     for col, message, row in cleaned.errors:
         where = ({"line": ch.first_line + row} if ch.first_line is not None and row is not None
                  else {})

@@ -153,6 +153,7 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
     if found is None:
         return None
     data, units, attrs = found
+    units = {k: _unit(k, u) for k, u in units.items() if _unit(k, u)}
     if "ET" not in data:
         problems.add(path, "missing required channel (elapsed time)", key="ET")
         return None
@@ -164,6 +165,16 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
         return None
     long_names = {k: TTC_CHANNELS[k].long_name if k in TTC_CHANNELS else k for k in data}
     return RawRun(run or path.stem, data, units, long_names, {"axes": "SAE", **attrs})
+
+
+def _unit(name: str, unit: str) -> str:
+    """A TTC channel's unit with the spellings of a temperature (``C``, ``F``) and of a
+    dimensionless channel (a blank cell) that only its dimension makes clear."""
+    dim = TTC_CHANNELS[name].dimension if name in TTC_CHANNELS else None
+    text = unit.strip()
+    if dim == "temperature" and text.upper() in ("C", "F"):
+        return f"deg {text.upper()}"
+    return "none" if dim == "ratio" and not text else text
 
 
 def _text(value) -> str:
@@ -242,10 +253,26 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
 
 
+def _header_lines(path: Path) -> list[str]:
+    """The first three lines of a .dat file as text: UTF-8, else Windows-1252 (a title
+    written on Windows: ``18\xb0``); raises UnicodeDecodeError for bytes that are not text."""
+    with open_text(path, encoding="latin-1", newline="") as fh:  # latin-1: the bytes
+        raw = [fh.readline().encode("latin-1") for _ in range(3)]
+    raw[0] = raw[0].removeprefix(b"\xef\xbb\xbf")
+    out = []
+    for line in raw:
+        if b"\0" in line:
+            raise UnicodeDecodeError("utf-8", line, 0, 1, "a NUL byte")
+        try:
+            out.append(line.decode("utf-8"))
+        except UnicodeDecodeError:
+            out.append(line.decode("cp1252", errors="replace"))
+    return out
+
+
 def _read_dat(path: Path, problems: Problems):
     try:
-        with open_text(path, encoding="utf-8-sig", newline="") as fh:
-            head = [fh.readline() for _ in range(3)]
+        head = _header_lines(path)
     except UnicodeDecodeError:
         problems.add(path, "not a text file (a .dat file is tab-separated text)", line=1)
         return None
@@ -253,52 +280,82 @@ def _read_dat(path: Path, problems: Problems):
         problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
         return None
     lines = [h.rstrip("\r\n") for h in head if h]
-    names = lines[1].split("\t") if len(lines) > 1 else []
-    unit_cells = lines[2].split("\t") if len(lines) > 2 else []
+    # tab-separated; a file saved from a spreadsheet may be comma-separated
+    sep = "," if len(lines) > 1 and "\t" not in lines[1] and "," in lines[1] else "\t"
+    names = lines[1].split(sep) if len(lines) > 1 else []
+    unit_cells = lines[2].split(sep) if len(lines) > 2 else []
     if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
         found = (f"line {len(lines)} holds numbers" if lines and _numeric(
-            lines[-1].split("\t")) else f"{len(lines)} line(s)")
+            lines[-1].split(sep)) else f"{len(lines)} line(s)")
+        if len(lines) > 1 and len(names) < 2:
+            found = "line 2 holds no tab- or comma-separated names"
         problems.add(path, "short header: a TTC .dat file has a title line, a line of channel "
                            f"names and a line of units before the data (found {found})",
                      line=min(len(lines) + 1, 3))
         return None
     names = [ttc_name(n) for n in names]
     unit_cells = [u.strip() for u in unit_cells]
+    while len(names) > 1 and not names[-1] and len(unit_cells) == len(names) \
+            and not unit_cells[-1]:  # a trailing separator on the header lines
+        names, unit_cells = names[:-1], unit_cells[:-1]
     if len(unit_cells) != len(names):
         problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)
         return None
     for dup in sorted({n for n in names if names.count(n) > 1}):
         problems.add(path, "channel named twice", line=2, key=dup)
     try:
-        frame = pd.read_csv(path, sep="\t", skiprows=3, header=None, names=names,
+        frame = pd.read_csv(path, sep=sep, skiprows=3, header=None, names=names,
                             dtype=np.float64, index_col=False, engine="c",
+                            encoding="latin-1",
                             compression="infer" if path.suffix == ".gz" else None)
     except (ValueError, pd.errors.ParserError) as exc:
-        problems.add(path, f"data below the header are not tab-separated numbers ({exc})",
-                     line=4)
+        problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
+                           f"numbers ({exc})", line=4)
         return None
     if len(frame) == 0:
         problems.add(path, "no data rows below the header", line=3)
         return None
-    if frame.isna().to_numpy().any() and _ragged(path, len(names), problems):
-        return None  # pandas fills a short row with NaN: tell it from a NaN cell
+    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
+    if frame.isna().to_numpy().any():  # pandas fills a short row with NaN: tell it from NaN
+        cut = _ragged(path, len(names), sep, len(frame), problems)
+        if cut is None:
+            return None
+        if cut:  # the last row cut short (a file copied while written): dropped, warned
+            line, fields = cut.split()
+            frame = frame.iloc[:-1]
+            attrs["cut_row"] = line
+            attrs["cut_row_detail"] = (f"the last row stops after {fields} of {len(names)} "
+                                       "fields (the file ends inside it)")
     data = {n: frame[n].to_numpy(np.float64) for n in names}
-    units = {n: u for n, u in zip(names, unit_cells) if u}
-    return data, units, {"format": "ttc-dat", "title": lines[0].strip()}
+    return data, dict(zip(names, unit_cells)), attrs
 
 
-def _ragged(path: Path, width: int, problems: Problems) -> bool:
-    """Report the rows whose number of fields is not ``width``; True if there is one."""
-    with open_text(path, encoding="utf-8-sig", newline="") as fh:
+_SEP_NAME = {"\t": "tab", ",": "comma"}
+
+
+def _ragged(path: Path, width: int, sep: str, rows: int, problems: Problems) -> str | None:
+    """Report the rows whose number of fields is not ``width``: None if there is one; "" if
+    there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
+    (a file cut short: that row is dropped with a warning)."""
+    with open_text(path, encoding="latin-1", newline="") as fh:
         lines = fh.read().split("\n")[3:]
-    counts = np.array([line.count("\t") + 1 if line.strip() else width for line in lines])
+    counts = np.array([_fields(line, sep) if line.strip() else width for line in lines])
     bad = np.flatnonzero(counts != width)
+    filled = np.flatnonzero([bool(line.strip()) for line in lines])
+    if bad.size == 1 and filled.size and bad[0] == filled[-1] and counts[bad[0]] < width:
+        return f"{int(bad[0]) + 4} {int(counts[bad[0]])}"
     for i in bad[:10]:
         problems.add(path, f"ragged row: {counts[i]} fields, the header has {width}",
                      line=int(i) + 4, kind="ragged-row")
     for _ in bad[10:]:
         problems.add(path, "ragged row", kind="ragged-row")
-    return bad.size > 0
+    return None if bad.size else ""
+
+
+def _fields(line: str, sep: str) -> int:
+    """The fields of a data line, a trailing separator not counted (pandas drops it)."""
+    line = line.rstrip("\r")
+    return line.removesuffix(sep).count(sep) + 1
 
 
 def _numeric(cells) -> bool:
