@@ -171,3 +171,55 @@ def test_temperature_unit_c_or_f_and_a_blank_ratio_unit(tmp_path, unit, si):
     _, frame, _ = _tidy(path)
     np.testing.assert_allclose(frame["T_tread_centre"], si)
     assert (frame["kappa"] == 0).all()
+
+
+def _tidy_mat(tmp_path, ch):
+    path = _mat(tmp_path / "B1run1.mat", ch)
+    problems = Problems()
+    (run,) = read_channels(path, problems=problems)
+    warnings = []
+    frame = channels_to_tidy(run, warnings=warnings, problems=problems)
+    return path, frame, warnings, [str(p) for p in problems.finish()]
+
+
+def test_older_round_without_sl_takes_sr_as_kappa_with_a_warning(tmp_path):
+    ch = _small_channels(drop=("SL",)) | {"SR": np.linspace(-0.1, 0.1, 200)}
+    path, frame, warnings, problems = _tidy_mat(tmp_path, ch)
+    assert problems == []
+    np.testing.assert_array_equal(frame["kappa"], ch["SR"])
+    (used,) = [w for w in warnings if w.kind == "channel"]
+    assert used.channels == ("SR",) and used.action == "used as kappa" and used.count == 200
+    assert "no slip ratio SL: kappa is SR" in str(used)
+
+
+def test_sl_without_one_finite_value_is_a_warning_then_sr_is_kappa(tmp_path):
+    ch = _small_channels() | {"SL": np.full(200, np.nan), "SR": np.full(200, 0.02)}
+    _, frame, warnings, problems = _tidy_mat(tmp_path, ch)
+    assert problems == [] and (frame["kappa"] == 0.02).all()
+    assert [(w.channels, w.action) for w in warnings if w.kind == "channel"] == [
+        (("SL",), "channel not used"), (("SR",), "used as kappa")]
+
+
+def test_sl_without_one_finite_value_and_no_sr_is_a_warning_not_silence(tmp_path):
+    """Before: no warning at all, and the run's slip-ratio sweeps vanished."""
+    ch = _small_channels() | {"SL": np.full(200, np.nan)}
+    path, frame, warnings, problems = _tidy_mat(tmp_path, ch)
+    assert problems == [] and frame["kappa"].isna().all()
+    (empty,) = [w for w in warnings if w.kind == "channel"]
+    assert str(empty) == (f"{path}: SL: no finite value in the whole run (200 of 200 "
+                          "samples); channel not used")
+
+
+def test_sr_pinned_at_minus_one_does_not_stand_in_for_a_missing_sl(tmp_path):
+    ch = _small_channels(drop=("SL",)) | {"SR": np.full(200, -1.0)}
+    path, frame, _, problems = _tidy_mat(tmp_path, ch)
+    assert frame is None and problems == [f"{path}: SL: missing required channel"]
+
+
+def test_older_round_without_wheel_speed_is_a_warning(tmp_path):
+    ch = _small_channels(drop=("N",))
+    path, frame, warnings, problems = _tidy_mat(tmp_path, ch)
+    assert problems == [] and frame["omega"].isna().all() and len(frame) == 200
+    (absent,) = [w for w in warnings if w.kind == "channel"]
+    assert absent.channels == ("N",) and absent.action == "channel absent"
+    assert "effective-radius stage is skipped" in absent.detail

@@ -111,11 +111,14 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         file_names.update({v: k for k, v in TTC_TO_TYDEX.items()})
     cols: dict[str, np.ndarray] = {}
     names: dict[str, str] = {}
+    notes = _ttc_substitutes(ch, by_canon) if ttc else []
     for canon, (col, _, _, required) in CHANNELS.items():
         found = sorted(by_canon.get(canon, []),
                        key=lambda n: (n not in C_NAMES) if axes == "TYDEX-C" else 0)
         if found:
             cols[col], names[col] = ch.data[found[0]], found[0]
+        elif ttc and canon in _TTC_OPTIONAL:  # older TTC rounds: the wheel speed is missing
+            notes.append(((file_names[canon],), _TTC_OPTIONAL[canon], "channel absent"))
         elif required or (axes == "TYDEX-C" and canon == "MYW"):
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
@@ -138,6 +141,9 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                         first_line=ch.first_line)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
+        n_read = len(ch.data[names["t"]])
+        warnings.extend(DataWarning(ch.file, ch.run, "channel", which, n_read, n_read, detail,
+                                    action) for which, detail, action in notes)
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
             if ttc and "SR" in ch.data else None
         warnings.extend([sr] if sr else [])
@@ -168,6 +174,31 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         problems.add(ch.file, "median Fz is 0 N: the tyre carries no load",
                      key=names.get("Fz", "FZW"))
     return frame if problems.total == start else None
+
+
+#: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
+_TTC_OPTIONAL = {"WHROTSPD": "no wheel-speed channel: the revolution average takes V / RE, "
+                             "the effective-radius stage is skipped"}
+
+
+def _ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
+                     ) -> list[tuple[tuple[str, ...], str, str]]:
+    """Channels of a TTC file present without one finite value (not used), and SR in place
+    of a slip ratio SL that is missing or empty (older rounds log SR only); ``by_canon`` is
+    updated. Returns (channels, detail, action) of the warnings to give."""
+    out, empty = [], set()
+    for name, values in ch.data.items():
+        if TTC_TO_TYDEX.get(name) and not np.isfinite(values).any():
+            out.append(((name,), "no finite value in the whole run", "channel not used"))
+            empty.add(name)
+    sr = ch.data.get("SR")
+    if set(by_canon.get("LONGSLIP", ())) <= empty and sr is not None and np.isfinite(sr).any() \
+            and unused_slip_warning(sr, file=ch.file, run=ch.run, channel="SR") is None:
+        by_canon["LONGSLIP"] = ["SR"]
+        out.append((("SR",), "no slip ratio SL: kappa is SR, the slip ratio based on the "
+                             "loaded radius (its zero is not free rolling: the Fx fits' "
+                             "horizontal shift takes up the offset)", "used as kappa"))
+    return out
 
 
 #: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
