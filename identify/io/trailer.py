@@ -158,6 +158,11 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if cleaned.frame is None:
         return None
     frame = cleaned.frame
+    if names.get("kappa") == "SR":  # SR's zero is not free rolling: take its offset off
+        frame, detail = _sr_as_kappa(frame)
+        if warnings is not None:
+            warnings.append(DataWarning(ch.file, ch.run, "channel", ("SR",), n, n, detail,
+                                        "used as kappa"))
     # one median per channel (0.1-0.15 s each at 5e6 samples, one-off timings): the cleaned
     # required channels are finite, so the median is that of the finite samples the checks want
     medians = {c: float(np.median(frame[c].to_numpy())) for c in ("p", "Fz", "Vx")}
@@ -194,11 +199,38 @@ def _ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
     sr = ch.data.get("SR")
     if set(by_canon.get("LONGSLIP", ())) <= empty and sr is not None and np.isfinite(sr).any() \
             and unused_slip_warning(sr, file=ch.file, run=ch.run, channel="SR") is None:
-        by_canon["LONGSLIP"] = ["SR"]
-        out.append((("SR",), "no slip ratio SL: kappa is SR, the slip ratio based on the "
-                             "loaded radius (its zero is not free rolling: the Fx fits' "
-                             "horizontal shift takes up the offset)", "used as kappa"))
+        by_canon["LONGSLIP"] = ["SR"]  # its warning: channels_to_tidy, after _sr_as_kappa
     return out
+
+
+#: |Fx| / Fz below which a sample counts as free rolling for the offset of SR [-].
+SR_FREE_ROLLING = 0.02
+
+
+def _sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    """``frame`` with kappa = SR less its free-rolling value, and the warning's detail.
+
+    SR is based on the loaded radius: at free rolling it reads RL / Re - 1 (a few per cent
+    below zero, more at a higher load), which the MF stages would take for a slip: 1 + SR =
+    (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
+    value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
+    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted.
+    """
+    sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
+    free = np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)
+    what = "no slip ratio SL: kappa is SR, the slip ratio based on the loaded radius"
+    if free.sum() < 10:
+        return frame, (f"{what}, as read (fewer than 10 free-rolling samples to find its "
+                       "offset: the Fx fits take it for a slip)")
+    x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
+                         frame["alpha"].to_numpy(float) ** 2])
+    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
+    offset = x @ coef
+    mid = float(np.median(offset))
+    return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
+        f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
+        f"a + b Fz + c p + d alpha^2 fitted on {int(free.sum())} samples with |Fx| < "
+        f"{100 * SR_FREE_ROLLING:g} % of Fz)")
 
 
 #: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
