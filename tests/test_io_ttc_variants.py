@@ -242,3 +242,26 @@ def test_older_round_without_wheel_speed_is_a_warning(tmp_path):
     (absent,) = [w for w in warnings if w.kind == "channel"]
     assert absent.channels == ("N",) and absent.action == "channel absent"
     assert "effective-radius stage is skipped" in absent.detail
+
+
+def test_channel_struct_as_a_struct_array(tmp_path):
+    """channel(i).name / channel(i).units: one struct per channel."""
+    ch = _small_channels()
+    path = tmp_path / "B1run1.mat"
+    arr = np.zeros((1, len(ch)), dtype=[("name", object), ("units", object)])
+    for i, k in enumerate(ch):
+        arr[0, i] = (k, TTC_CHANNELS[k].si_unit)
+    scipy.io.savemat(path, {k: v.reshape(-1, 1) for k, v in ch.items()} | {"channel": arr},
+                     format="5")
+    assert _read(path).units == {k: TTC_CHANNELS[k].si_unit for k in ch}
+
+
+def test_a_lower_case_variable_next_to_its_upper_case_channel_is_not_taken_for_it(tmp_path):
+    ch = _small_channels()
+    fz = ch["FZ"].copy()
+    ch["fz"] = 0.5 * fz
+    run = _read(_mat(tmp_path / "B1run1.mat", ch, units=[
+        TTC_CHANNELS[k].si_unit if k in TTC_CHANNELS else "lbf" for k in ch]))
+    np.testing.assert_array_equal(run.data["FZ"], fz)
+    assert run.units["FZ"] == "N" and run.units["fz"] == "lbf"
+

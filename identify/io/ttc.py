@@ -222,8 +222,12 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     """The channels, their units and the strings of a loaded .mat file (either version)."""
     struct = mat.get("channel")
     names, unit_list = ([], [])
+    if isinstance(struct, (list, np.ndarray)) and len(struct) and all(
+            isinstance(e, Mapping) for e in np.ravel(struct)):  # a struct array, one per channel
+        struct = {k: [e.get(k, "") for e in np.ravel(struct)] for k in ("name", "units")}
     if isinstance(struct, Mapping):  # names padded to a char matrix's width, any case
-        names = [ttc_name(_text(v)) for v in np.atleast_1d(struct.get("name", []))]
+        names = [_text(v).strip() for v in np.atleast_1d(struct.get("name", []))]
+        names = [n if ttc_name(n) in names else ttc_name(n) for n in names]
         unit_list = [_text(v).strip() for v in np.atleast_1d(struct.get("units", []))]
     units = dict(zip(names, unit_list))
     data: dict[str, np.ndarray] = {}
@@ -233,7 +237,8 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         array = np.asarray(value)
         if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
             continue  # not a channel (a string, a struct, a matrix)
-        data[ttc_name(key)] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+        name = ttc_name(key) if ttc_name(key) not in mat else key  # "fz" next to "FZ": kept
+        data[name] = np.atleast_1d(array).reshape(-1).astype(np.float64)
     n = data["ET"].size if "ET" in data else None
     # a number or vector of another length that the channel struct does not list (a rim
     # width, a calibration constant) is not a channel
