@@ -265,3 +265,10 @@ def test_a_lower_case_variable_next_to_its_upper_case_channel_is_not_taken_for_i
     np.testing.assert_array_equal(run.data["FZ"], fz)
     assert run.units["FZ"] == "N" and run.units["fz"] == "lbf"
 
+
+def test_a_condition_channel_without_one_finite_value_is_one_line(tmp_path):
+    """Before: 'FZ: median load is nan in SI (not finite after the unit conversion)'."""
+    ch = _small_channels() | {"FZ": np.full(200, np.nan)}
+    path, frame, _, problems = _tidy_mat(tmp_path, ch)
+    assert frame is None
+    assert problems == [f"{path}: FZ: no finite value (all 200 samples are NaN/inf)"]

@@ -123,6 +123,10 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
                 if canon == "MYW" else ""), key=file_names[canon])
+    for col in _CONDITIONS:  # every stage selects by these: without one value, no run
+        if col in cols and not np.isfinite(cols[col]).any():
+            problems.add(ch.file, f"no finite value (all {cols[col].size} samples are "
+                                  "NaN/inf)", key=names[col])
     rl = cols.get("rl")
     if axes == "TYDEX-C":
         rl = rl if rl is not None else conditions.get("loaded_radius_m")
@@ -181,6 +185,8 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     return frame if problems.total == start else None
 
 
+#: Tidy columns that a run cannot do without even if a file has them, all NaN.
+_CONDITIONS = ("t", "Vx", "alpha", "gamma", "p", "Fz")
 #: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
 _TTC_OPTIONAL = {"WHROTSPD": "no wheel-speed channel: the revolution average takes V / RE, "
                              "the effective-radius stage is skipped"}
