@@ -272,3 +272,11 @@ def test_a_condition_channel_without_one_finite_value_is_one_line(tmp_path):
     path, frame, _, problems = _tidy_mat(tmp_path, ch)
     assert frame is None
     assert problems == [f"{path}: FZ: no finite value (all 200 samples are NaN/inf)"]
+
+
+def test_dat_with_a_decimal_comma(tmp_path):
+    ch = _small_channels()
+    lines = _dat_lines()
+    lines[3:] = [line.replace(".", ",") for line in lines[3:]]
+    run = _read(_write(tmp_path / "B1run1.dat", lines))
+    np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=1e-3)

@@ -259,10 +259,11 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
 
 
 def _header_lines(path: Path) -> list[str]:
-    """The first three lines of a .dat file as text: UTF-8, else Windows-1252 (a title
-    written on Windows: ``18\xb0``); raises UnicodeDecodeError for bytes that are not text."""
+    """The first four lines of a .dat file (the header, the first data row) as text: UTF-8,
+    else Windows-1252 (a title written on Windows: ``18\xb0``); raises UnicodeDecodeError for
+    bytes that are not text."""
     with open_text(path, encoding="latin-1", newline="") as fh:  # latin-1: the bytes
-        raw = [fh.readline().encode("latin-1") for _ in range(3)]
+        raw = [fh.readline().encode("latin-1") for _ in range(4)]
     raw[0] = raw[0].removeprefix(b"\xef\xbb\xbf")
     out = []
     for line in raw:
@@ -284,9 +285,12 @@ def _read_dat(path: Path, problems: Problems):
     except (OSError, EOFError) as exc:
         problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
         return None
-    lines = [h.rstrip("\r\n") for h in head if h]
+    first_row = head[3].rstrip("\r\n") if len(head) > 3 else ""
+    lines = [h.rstrip("\r\n") for h in head[:3] if h]
     # tab-separated; a file saved from a spreadsheet may be comma-separated
     sep = "," if len(lines) > 1 and "\t" not in lines[1] and "," in lines[1] else "\t"
+    # a decimal comma (a European locale's export): tab-separated, no point in the numbers
+    decimal = "," if sep == "\t" and "," in first_row and "." not in first_row else "."
     names = lines[1].split(sep) if len(lines) > 1 else []
     unit_cells = lines[2].split(sep) if len(lines) > 2 else []
     if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
@@ -309,7 +313,8 @@ def _read_dat(path: Path, problems: Problems):
     for dup in sorted({n for n in names if names.count(n) > 1}):
         problems.add(path, "channel named twice", line=2, key=dup)
     try:
-        frame = pd.read_csv(path, sep=sep, skiprows=3, header=None, names=names,
+        frame = pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None,
+                            names=names,
                             dtype=np.float64, index_col=False, engine="c",
                             encoding="latin-1",
                             compression="infer" if path.suffix == ".gz" else None)
