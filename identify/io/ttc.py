@@ -259,11 +259,10 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
 
 
 def _header_lines(path: Path) -> list[str]:
-    """The first four lines of a .dat file (the header, the first data row) as text: UTF-8,
-    else Windows-1252 (a title written on Windows: ``18\xb0``); raises UnicodeDecodeError for
-    bytes that are not text."""
+    """The three header lines of a .dat file as text: UTF-8, else Windows-1252 (a title
+    written on Windows: ``18\xb0``); raises UnicodeDecodeError for bytes that are not text."""
     with open_text(path, encoding="latin-1", newline="") as fh:  # latin-1: the bytes
-        raw = [fh.readline().encode("latin-1") for _ in range(4)]
+        raw = [fh.readline().encode("latin-1") for _ in range(3)]
     raw[0] = raw[0].removeprefix(b"\xef\xbb\xbf")
     out = []
     for line in raw:
@@ -285,12 +284,9 @@ def _read_dat(path: Path, problems: Problems):
     except (OSError, EOFError) as exc:
         problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
         return None
-    first_row = head[3].rstrip("\r\n") if len(head) > 3 else ""
-    lines = [h.rstrip("\r\n") for h in head[:3] if h]
+    lines = [h.rstrip("\r\n") for h in head if h]
     # tab-separated; a file saved from a spreadsheet may be comma-separated
     sep = "," if len(lines) > 1 and "\t" not in lines[1] and "," in lines[1] else "\t"
-    # a decimal comma (a European locale's export): tab-separated, no point in the numbers
-    decimal = "," if sep == "\t" and "," in first_row and "." not in first_row else "."
     names = lines[1].split(sep) if len(lines) > 1 else []
     unit_cells = lines[2].split(sep) if len(lines) > 2 else []
     if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
@@ -313,15 +309,16 @@ def _read_dat(path: Path, problems: Problems):
     for dup in sorted({n for n in names if names.count(n) > 1}):
         problems.add(path, "channel named twice", line=2, key=dup)
     try:
-        frame = pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None,
-                            names=names,
-                            dtype=np.float64, index_col=False, engine="c",
-                            encoding="latin-1",
-                            compression="infer" if path.suffix == ".gz" else None)
+        frame = _table(path, sep, names, ".")
     except (ValueError, pd.errors.ParserError) as exc:
-        problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
-                           f"numbers ({exc})", line=4)
-        return None
+        try:  # a decimal comma (a European locale's export), tab-separated
+            frame = _table(path, sep, names, ",") if sep == "\t" else None
+        except (ValueError, pd.errors.ParserError):
+            frame = None
+        if frame is None:
+            problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
+                               f"numbers ({exc})", line=4)
+            return None
     if len(frame) == 0:
         problems.add(path, "no data rows below the header", line=3)
         return None
@@ -338,6 +335,12 @@ def _read_dat(path: Path, problems: Problems):
                                        "fields (the file ends inside it)")
     data = {n: frame[n].to_numpy(np.float64) for n in names}
     return data, dict(zip(names, unit_cells)), attrs
+
+
+def _table(path: Path, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
+    return pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
+                       dtype=np.float64, index_col=False, engine="c", encoding="latin-1",
+                       compression="infer" if path.suffix == ".gz" else None)
 
 
 _SEP_NAME = {"\t": "tab", ",": "comma"}
