@@ -9,6 +9,7 @@ import pytest
 import scipy.io
 from typer.testing import CliRunner
 
+from identify.cli.app import app
 from identify.io.common import Problems
 from identify.io.trailer import channels_to_tidy, read_channels
 from identify.io.ttc import TTC_CHANNELS, read_ttc
@@ -280,3 +281,13 @@ def test_dat_with_a_decimal_comma(tmp_path):
     lines[3:] = [line.replace(".", ",") for line in lines[3:]]
     run = _read(_write(tmp_path / "B1run1.dat", lines))
     np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=1e-3)
+
+
+def test_import_of_dat_files_without_id_names_the_title_in_one_line(tmp_path):
+    path = _write(tmp_path / "B1run1.dat", _dat_lines())
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["import", str(path), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.splitlines() == [(
+        "error: --id: no tyre id: the files carry no 'tireid' (a TTC .dat has only its title "
+        "line: 'B1 run 1'); give --id")]

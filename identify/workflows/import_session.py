@@ -198,7 +198,9 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
     tireids = sorted({ch.attrs["tireid"] for _, ch, _ in kept if ch.attrs.get("tireid")})
     name = safe_id(tyre_id if tyre_id is not None else (tireids[0] if tireids else ""))
     if not name:
-        raise InputError(None, "no tyre id: the files carry no 'tireid'; give --id",
+        title = next((ch.attrs["title"] for _, ch, _ in kept if ch.attrs.get("title")), "")
+        hint = (f" (a TTC .dat has only its title line: {title[:60]!r})" if title else "")
+        raise InputError(None, f"no tyre id: the files carry no 'tireid'{hint}; give --id",
                          key="--id")
     say("segment: condition levels and sweeps")
     table = pd.concat([f for _, _, f in kept], ignore_index=True)
