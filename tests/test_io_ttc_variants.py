@@ -291,3 +291,17 @@ def test_import_of_dat_files_without_id_names_the_title_in_one_line(tmp_path):
     assert result.stderr.splitlines() == [(
         "error: --id: no tyre id: the files carry no 'tireid' (a TTC .dat has only its title "
         "line: 'B1 run 1'); give --id")]
+
+
+def test_two_tyres_are_not_imported_into_one_folder_without_id(tmp_path):
+    """Before: a generated session with a second tireid on its drive/brake run imported with
+    exit 0 into one folder named after the first tireid in alphabetical order."""
+    a = _mat(tmp_path / "B1run1.mat", _small_channels())
+    later = _small_channels() | {"ET": _small_channels()["ET"] + 100.0}  # not a's twin
+    b = _mat(tmp_path / "B1run2.mat", later, extra={"tireid": "other tyre"})
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["import", str(a), str(b), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.splitlines() == [
+        f"error: {a}: tireid 'small', but {b} has 'other tyre': one tyre per folder (give --id "
+        "to import them as one tyre)"]
