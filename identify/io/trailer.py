@@ -46,6 +46,7 @@ from identify.io.trailer_channels import (
     read_channels,
 )
 from identify.io.ttc import TTC_TO_TYDEX
+from identify.io.ttc_rounds import TTC_OPTIONAL, sr_as_kappa, ttc_substitutes
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 
 __all__ = [
@@ -111,14 +112,14 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         file_names.update({v: k for k, v in TTC_TO_TYDEX.items()})
     cols: dict[str, np.ndarray] = {}
     names: dict[str, str] = {}
-    notes = _ttc_substitutes(ch, by_canon) if ttc else []
+    notes = ttc_substitutes(ch, by_canon) if ttc else []
     for canon, (col, _, _, required) in CHANNELS.items():
         found = sorted(by_canon.get(canon, []),
                        key=lambda n: (n not in C_NAMES) if axes == "TYDEX-C" else 0)
         if found:
             cols[col], names[col] = ch.data[found[0]], found[0]
-        elif ttc and canon in _TTC_OPTIONAL:  # older TTC rounds: the wheel speed is missing
-            notes.append(((file_names[canon],), _TTC_OPTIONAL[canon], "channel absent"))
+        elif ttc and canon in TTC_OPTIONAL:  # older TTC rounds: the wheel speed is missing
+            notes.append(((file_names[canon],), TTC_OPTIONAL[canon], "channel absent"))
         elif required or (axes == "TYDEX-C" and canon == "MYW"):
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
@@ -163,7 +164,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         return None
     frame = cleaned.frame
     if names.get("kappa") == "SR":  # SR's zero is not free rolling: take its offset off
-        frame, detail = _sr_as_kappa(frame)
+        frame, detail = sr_as_kappa(frame)
         if warnings is not None:
             warnings.append(DataWarning(ch.file, ch.run, "channel", ("SR",), n, n, detail,
                                         "used as kappa"))
@@ -187,58 +188,6 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
 
 #: Tidy columns that a run cannot do without even if a file has them, all NaN.
 _CONDITIONS = ("t", "Vx", "alpha", "gamma", "p", "Fz")
-#: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
-_TTC_OPTIONAL = {"WHROTSPD": "no wheel-speed channel: the revolution average takes V / RE, "
-                             "the effective-radius stage is skipped"}
-
-
-def _ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
-                     ) -> list[tuple[tuple[str, ...], str, str]]:
-    """Channels of a TTC file present without one finite value (not used), and SR in place
-    of a slip ratio SL that is missing or empty (older rounds log SR only); ``by_canon`` is
-    updated. Returns (channels, detail, action) of the warnings to give."""
-    out, empty = [], set()
-    for name, values in ch.data.items():
-        if TTC_TO_TYDEX.get(name) and not np.isfinite(values).any():
-            out.append(((name,), "no finite value in the whole run", "channel not used"))
-            empty.add(name)
-    sr = ch.data.get("SR")
-    if set(by_canon.get("LONGSLIP", ())) <= empty and sr is not None and np.isfinite(sr).any() \
-            and unused_slip_warning(sr, file=ch.file, run=ch.run, channel="SR") is None:
-        by_canon["LONGSLIP"] = ["SR"]  # its warning: channels_to_tidy, after _sr_as_kappa
-    return out
-
-
-#: |Fx| / Fz below which a sample counts as free rolling for the offset of SR [-].
-SR_FREE_ROLLING = 0.02
-
-
-def _sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
-    """``frame`` with kappa = SR less its free-rolling value, and the warning's detail.
-
-    SR is based on the loaded radius: at free rolling it reads RL / Re - 1 (a few per cent
-    below zero, more at a higher load), which the MF stages would take for a slip: 1 + SR =
-    (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
-    value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
-    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted.
-    """
-    sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
-    free = np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)
-    what = "no slip ratio SL: kappa is SR, the slip ratio based on the loaded radius"
-    if free.sum() < 10:
-        return frame, (f"{what}, as read (fewer than 10 free-rolling samples to find its "
-                       "offset: the Fx fits take it for a slip)")
-    x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
-                         frame["alpha"].to_numpy(float) ** 2])
-    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
-    offset = x @ coef
-    mid = float(np.median(offset))
-    return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
-        f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
-        f"a + b Fz + c p + d alpha^2 fitted on {int(free.sum())} samples with |Fx| < "
-        f"{100 * SR_FREE_ROLLING:g} % of Fz)")
-
-
 #: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
 _PLAUSIBLE = (("p", "pressure"), ("Fz", "load"), ("Vx", "speed"), ("alpha", "angle"),
               ("gamma", "angle"))
