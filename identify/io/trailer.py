@@ -46,6 +46,7 @@ from identify.io.trailer_channels import (
     read_channels,
 )
 from identify.io.ttc import TTC_TO_TYDEX
+from identify.io.ttc_rounds import TTC_OPTIONAL, sr_as_kappa, ttc_substitutes
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 
 __all__ = [
@@ -111,15 +112,22 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         file_names.update({v: k for k, v in TTC_TO_TYDEX.items()})
     cols: dict[str, np.ndarray] = {}
     names: dict[str, str] = {}
+    notes = ttc_substitutes(ch, by_canon) if ttc else []
     for canon, (col, _, _, required) in CHANNELS.items():
         found = sorted(by_canon.get(canon, []),
                        key=lambda n: (n not in C_NAMES) if axes == "TYDEX-C" else 0)
         if found:
             cols[col], names[col] = ch.data[found[0]], found[0]
+        elif ttc and canon in TTC_OPTIONAL:  # older TTC rounds: the wheel speed is missing
+            notes.append(((file_names[canon],), TTC_OPTIONAL[canon], "channel absent"))
         elif required or (axes == "TYDEX-C" and canon == "MYW"):
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
                 if canon == "MYW" else ""), key=file_names[canon])
+    for col in _CONDITIONS:  # every stage selects by these: without one value, no run
+        if col in cols and not np.isfinite(cols[col]).any():
+            problems.add(ch.file, f"no finite value (all {cols[col].size} samples are "
+                                  "NaN/inf)", key=names[col])
     rl = cols.get("rl")
     if axes == "TYDEX-C":
         rl = rl if rl is not None else conditions.get("loaded_radius_m")
@@ -138,9 +146,16 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                         first_line=ch.first_line)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
+        n_read = len(ch.data[names["t"]])
+        warnings.extend(DataWarning(ch.file, ch.run, "channel", which, n_read, n_read, detail,
+                                    action) for which, detail, action in notes)
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
             if ttc and "SR" in ch.data else None
         warnings.extend([sr] if sr else [])
+        if ch.attrs.get("cut_row"):  # a .dat file cut short inside its last row
+            warnings.append(DataWarning(ch.file, ch.run, "truncated", tuple(ch.data)[:1], 1,
+                                        n + 1, ch.attrs["cut_row_detail"], "row dropped",
+                                        int(ch.attrs["cut_row"])))
     for col, message, row in cleaned.errors:
         where = ({"line": ch.first_line + row} if ch.first_line is not None and row is not None
                  else {})
@@ -148,6 +163,11 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     if cleaned.frame is None:
         return None
     frame = cleaned.frame
+    if names.get("kappa") == "SR":  # SR's zero is not free rolling: take its offset off
+        frame, detail = sr_as_kappa(frame)
+        if warnings is not None:
+            warnings.append(DataWarning(ch.file, ch.run, "channel", ("SR",), n, n, detail,
+                                        "used as kappa"))
     # one median per channel (0.1-0.15 s each at 5e6 samples, one-off timings): the cleaned
     # required channels are finite, so the median is that of the finite samples the checks want
     medians = {c: float(np.median(frame[c].to_numpy())) for c in ("p", "Fz", "Vx")}
@@ -166,6 +186,8 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     return frame if problems.total == start else None
 
 
+#: Tidy columns that a run cannot do without even if a file has them, all NaN.
+_CONDITIONS = ("t", "Vx", "alpha", "gamma", "p", "Fz")
 #: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
 _PLAUSIBLE = (("p", "pressure"), ("Fz", "load"), ("Vx", "speed"), ("alpha", "angle"),
               ("gamma", "angle"))

@@ -19,23 +19,30 @@ Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channe
 for :mod:`identify.io.trailer` (temperatures and radii become optional columns of the tidy
 table). Every unusable file gives one problem naming the file (and the channel when there is
 one): not a MATLAB v5/v7/v7.3 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
-channel without a unit.
+channel without a unit. The channel table is :mod:`identify.io.ttc_names`, the ``.dat`` reader
+:mod:`identify.io.ttc_dat`.
 """
 from __future__ import annotations
 
 import io
 from collections.abc import Mapping
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import pandas as pd
 import scipy.io
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
 from identify.io.mat73 import Mat73Error, is_mat73_header, read_mat73
 from identify.io.mat_guard import loadmat_crash, mat_problem
+from identify.io.ttc_dat import read_dat
+from identify.io.ttc_names import (
+    TTC_CHANNELS,
+    TTC_TO_TYDEX,
+    TtcChannel,
+    is_ttc_naming,
+    ttc_name,
+)
 
 __all__ = [
     "TTC_CHANNELS",
@@ -46,58 +53,12 @@ __all__ = [
     "is_ttc_mat",
     "is_ttc_naming",
     "read_ttc",
+    "ttc_name",
 ]
 
 MAT_MAGIC = b"MATLAB"
 #: The strings a TTC .mat file carries besides the channels.
 TTC_STRINGS = ("source", "testid", "tireid")
-
-
-@dataclass(frozen=True)
-class TtcChannel:
-    """One TTC channel: its dimension, units (SI and USCS files), meaning, TYDEX counterpart."""
-
-    dimension: str
-    si_unit: str
-    uscs_unit: str
-    long_name: str
-    tydex: str | None
-
-
-#: The TTC channels in file order (the public description's names and units).
-TTC_CHANNELS: dict[str, TtcChannel] = {
-    "ET": TtcChannel("time", "s", "s", "elapsed time", "RUNTIME"),
-    "V": TtcChannel("speed", "kph", "mph", "road speed", "LONGVEL"),
-    "N": TtcChannel("angular_velocity", "rpm", "rpm", "wheel rotational speed", "WHROTSPD"),
-    "SA": TtcChannel("angle", "deg", "deg", "slip angle", "SLIPANGL"),
-    "IA": TtcChannel("angle", "deg", "deg", "inclination angle", "INCLANGL"),
-    "RL": TtcChannel("length", "cm", "in", "loaded radius", "RLOADED"),
-    "RE": TtcChannel("length", "cm", "in", "effective rolling radius", "REFFECT"),
-    "P": TtcChannel("pressure", "kPa", "psi", "inflation pressure", "INFLPRES"),
-    "FX": TtcChannel("force", "N", "lbf", "longitudinal force", "FX"),
-    "FY": TtcChannel("force", "N", "lbf", "lateral force", "FYW"),
-    "FZ": TtcChannel("force", "N", "lbf", "normal force", "FZW"),
-    "MX": TtcChannel("moment", "N-m", "ft-lb", "overturning moment", "MXW"),
-    "MZ": TtcChannel("moment", "N-m", "ft-lb", "aligning moment", "MZW"),
-    "NFX": TtcChannel("ratio", "none", "none", "normalized longitudinal force", None),
-    "NFY": TtcChannel("ratio", "none", "none", "normalized lateral force", None),
-    "RST": TtcChannel("temperature", "deg C", "deg F", "road surface temperature", "TROAD"),
-    "TSTI": TtcChannel("temperature", "deg C", "deg F", "tread temperature inner", "TTREADI"),
-    "TSTC": TtcChannel("temperature", "deg C", "deg F", "tread temperature centre", "TTREADC"),
-    "TSTO": TtcChannel("temperature", "deg C", "deg F", "tread temperature outer", "TTREADO"),
-    "AMBTMP": TtcChannel("temperature", "deg C", "deg F", "ambient temperature", "TAMBIENT"),
-    "SR": TtcChannel("ratio", "none", "none", "slip ratio based on RL", None),
-    "SL": TtcChannel("ratio", "none", "none", "slip ratio based on RE", "LONGSLIP"),
-    "RUN": TtcChannel("ratio", "none", "none", "run number", None),
-}
-#: TTC channel name -> TYDEX channel name of identify.io.trailer.
-TTC_TO_TYDEX: dict[str, str] = {k: c.tydex for k, c in TTC_CHANNELS.items() if c.tydex}
-
-
-def is_ttc_naming(names) -> bool:
-    """True when channel names are TTC's (``ET`` and two more TTC names, no ``RUNTIME``)."""
-    names = set(names)
-    return "ET" in names and "RUNTIME" not in names and len(names & TTC_CHANNELS.keys()) >= 3
 
 
 def is_ttc_mat(path: str | Path) -> bool:
@@ -139,11 +100,12 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
     """
     path = Path(path)
     start = problems.total
-    read = _read_mat if is_ttc_mat(path) else _read_dat
+    read = _read_mat if is_ttc_mat(path) else read_dat
     found = read(path, problems)
     if found is None:
         return None
     data, units, attrs = found
+    units = {k: _unit(k, u) for k, u in units.items() if _unit(k, u)}
     if "ET" not in data:
         problems.add(path, "missing required channel (elapsed time)", key="ET")
         return None
@@ -155,6 +117,16 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
         return None
     long_names = {k: TTC_CHANNELS[k].long_name if k in TTC_CHANNELS else k for k in data}
     return RawRun(run or path.stem, data, units, long_names, {"axes": "SAE", **attrs})
+
+
+def _unit(name: str, unit: str) -> str:
+    """A TTC channel's unit with the spellings of a temperature (``C``, ``F``) and of a
+    dimensionless channel (a blank cell) that only its dimension makes clear."""
+    dim = TTC_CHANNELS[name].dimension if name in TTC_CHANNELS else None
+    text = unit.strip()
+    if dim == "temperature" and text.upper() in ("C", "F"):
+        return f"deg {text.upper()}"
+    return "none" if dim == "ratio" and not text else text
 
 
 def _text(value) -> str:
@@ -202,9 +174,13 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     """The channels, their units and the strings of a loaded .mat file (either version)."""
     struct = mat.get("channel")
     names, unit_list = ([], [])
-    if isinstance(struct, Mapping):
-        names = [_text(v) for v in np.atleast_1d(struct.get("name", []))]
-        unit_list = [_text(v) for v in np.atleast_1d(struct.get("units", []))]
+    if isinstance(struct, (list, np.ndarray)) and len(struct) and all(
+            isinstance(e, Mapping) for e in np.ravel(struct)):  # a struct array, one per channel
+        struct = {k: [e.get(k, "") for e in np.ravel(struct)] for k in ("name", "units")}
+    if isinstance(struct, Mapping):  # names padded to a char matrix's width, any case
+        names = [_text(v).strip() for v in np.atleast_1d(struct.get("name", []))]
+        names = [n if ttc_name(n) in names else ttc_name(n) for n in names]
+        unit_list = [_text(v).strip() for v in np.atleast_1d(struct.get("units", []))]
     units = dict(zip(names, unit_list))
     data: dict[str, np.ndarray] = {}
     for key, value in mat.items():
@@ -213,7 +189,13 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         array = np.asarray(value)
         if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
             continue  # not a channel (a string, a struct, a matrix)
-        data[key] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+        name = ttc_name(key) if ttc_name(key) not in mat else key  # "fz" next to "FZ": kept
+        data[name] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+    n = data["ET"].size if "ET" in data else None
+    # a number or vector of another length that the channel struct does not list (a rim
+    # width, a calibration constant) is not a channel
+    data = {k: v for k, v in data.items()
+            if k in units or k in TTC_CHANNELS or n is None or v.size == n}
     # in the channel struct's order: a v7.3 file lists its variables by name
     order = {name: i for i, name in enumerate(names)}
     data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
@@ -228,68 +210,3 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
 
 
-def _read_dat(path: Path, problems: Problems):
-    try:
-        with open_text(path, encoding="utf-8-sig", newline="") as fh:
-            head = [fh.readline() for _ in range(3)]
-    except UnicodeDecodeError:
-        problems.add(path, "not a text file (a .dat file is tab-separated text)", line=1)
-        return None
-    except (OSError, EOFError) as exc:
-        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
-        return None
-    lines = [h.rstrip("\r\n") for h in head if h]
-    names = lines[1].split("\t") if len(lines) > 1 else []
-    unit_cells = lines[2].split("\t") if len(lines) > 2 else []
-    if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
-        found = (f"line {len(lines)} holds numbers" if lines and _numeric(
-            lines[-1].split("\t")) else f"{len(lines)} line(s)")
-        problems.add(path, "short header: a TTC .dat file has a title line, a line of channel "
-                           f"names and a line of units before the data (found {found})",
-                     line=min(len(lines) + 1, 3))
-        return None
-    names = [n.strip() for n in names]
-    unit_cells = [u.strip() for u in unit_cells]
-    if len(unit_cells) != len(names):
-        problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)
-        return None
-    for dup in sorted({n for n in names if names.count(n) > 1}):
-        problems.add(path, "channel named twice", line=2, key=dup)
-    try:
-        frame = pd.read_csv(path, sep="\t", skiprows=3, header=None, names=names,
-                            dtype=np.float64, index_col=False, engine="c",
-                            compression="infer" if path.suffix == ".gz" else None)
-    except (ValueError, pd.errors.ParserError) as exc:
-        problems.add(path, f"data below the header are not tab-separated numbers ({exc})",
-                     line=4)
-        return None
-    if len(frame) == 0:
-        problems.add(path, "no data rows below the header", line=3)
-        return None
-    if frame.isna().to_numpy().any() and _ragged(path, len(names), problems):
-        return None  # pandas fills a short row with NaN: tell it from a NaN cell
-    data = {n: frame[n].to_numpy(np.float64) for n in names}
-    units = {n: u for n, u in zip(names, unit_cells) if u}
-    return data, units, {"format": "ttc-dat", "title": lines[0].strip()}
-
-
-def _ragged(path: Path, width: int, problems: Problems) -> bool:
-    """Report the rows whose number of fields is not ``width``; True if there is one."""
-    with open_text(path, encoding="utf-8-sig", newline="") as fh:
-        lines = fh.read().split("\n")[3:]
-    counts = np.array([line.count("\t") + 1 if line.strip() else width for line in lines])
-    bad = np.flatnonzero(counts != width)
-    for i in bad[:10]:
-        problems.add(path, f"ragged row: {counts[i]} fields, the header has {width}",
-                     line=int(i) + 4, kind="ragged-row")
-    for _ in bad[10:]:
-        problems.add(path, "ragged row", kind="ragged-row")
-    return bad.size > 0
-
-
-def _numeric(cells) -> bool:
-    try:
-        [float(c) for c in cells if c.strip()]
-    except ValueError:
-        return False
-    return any(c.strip() for c in cells)

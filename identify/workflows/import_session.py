@@ -196,9 +196,18 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
         dup = next(i for i in ids if ids.count(i) > 1)
         raise InputError(None, f"two runs are named '{dup}': rename one of the files")
     tireids = sorted({ch.attrs["tireid"] for _, ch, _ in kept if ch.attrs.get("tireid")})
+    if len(tireids) > 1:  # two tyres in one folder would be fitted as one
+        first = {t: next(q for q, ch, _ in kept if ch.attrs.get("tireid") == t) for t in tireids}
+        if tyre_id is None:
+            raise InputError(first[tireids[1]], f"tireid {tireids[1]!r}, but {first[tireids[0]]}"
+                                                f" has {tireids[0]!r}: one tyre per folder (give "
+                                                "--id to import them as one tyre)")
+        notes.append(f"tireids {', '.join(map(repr, tireids))} imported as one tyre (--id)")
     name = safe_id(tyre_id if tyre_id is not None else (tireids[0] if tireids else ""))
     if not name:
-        raise InputError(None, "no tyre id: the files carry no 'tireid'; give --id",
+        title = next((ch.attrs["title"] for _, ch, _ in kept if ch.attrs.get("title")), "")
+        hint = (f" (a TTC .dat has only its title line: {title[:60]!r})" if title else "")
+        raise InputError(None, f"no tyre id: the files carry no 'tireid'{hint}; give --id",
                          key="--id")
     say("segment: condition levels and sweeps")
     table = pd.concat([f for _, _, f in kept], ignore_index=True)

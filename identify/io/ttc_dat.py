@@ -1,0 +1,142 @@
+"""The Tire Test Consortium's ``.dat`` text files, as real sessions write them.
+
+Line 1 a title, line 2 the channel names, line 3 their units, data from line 4, tab-separated
+(comma-separated when line 2 holds no tab; a decimal comma is read too). The title may be
+Windows-1252 text; CRLF, a byte-order mark, a trailing separator, blank last lines and gzip are
+read. A file cut inside its last row (copied while the logger wrote it) drops that row: the
+``cut_row`` attributes say which, and the trailer loader warns. Every other problem is one
+line naming the file and line.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from identify.io.common import Problems, open_text
+from identify.io.ttc_names import ttc_name
+
+__all__ = ["read_dat"]
+
+
+def _header_lines(path: Path) -> list[str]:
+    """The three header lines of a .dat file as text: UTF-8, else Windows-1252 (a title
+    written on Windows: ``18\xb0``); raises UnicodeDecodeError for bytes that are not text."""
+    with open_text(path, encoding="latin-1", newline="") as fh:  # latin-1: the bytes
+        raw = [fh.readline().encode("latin-1") for _ in range(3)]
+    raw[0] = raw[0].removeprefix(b"\xef\xbb\xbf")
+    out = []
+    for line in raw:
+        if b"\0" in line:
+            raise UnicodeDecodeError("utf-8", line, 0, 1, "a NUL byte")
+        try:
+            out.append(line.decode("utf-8"))
+        except UnicodeDecodeError:
+            out.append(line.decode("cp1252", errors="replace"))
+    return out
+
+
+def read_dat(path: Path, problems: Problems):
+    """(channels, units, attrs) of a TTC ``.dat`` file as stored, or None after a problem."""
+    try:
+        head = _header_lines(path)
+    except UnicodeDecodeError:
+        problems.add(path, "not a text file (a .dat file is tab-separated text)", line=1)
+        return None
+    except (OSError, EOFError) as exc:
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
+    lines = [h.rstrip("\r\n") for h in head if h]
+    # tab-separated; a file saved from a spreadsheet may be comma-separated
+    sep = "," if len(lines) > 1 and "\t" not in lines[1] and "," in lines[1] else "\t"
+    names = lines[1].split(sep) if len(lines) > 1 else []
+    unit_cells = lines[2].split(sep) if len(lines) > 2 else []
+    if len(lines) < 3 or _numeric(unit_cells) or len(names) < 2:
+        found = (f"line {len(lines)} holds numbers" if lines and _numeric(
+            lines[-1].split(sep)) else f"{len(lines)} line(s)")
+        if len(lines) > 1 and len(names) < 2:
+            found = "line 2 holds no tab- or comma-separated names"
+        problems.add(path, "short header: a TTC .dat file has a title line, a line of channel "
+                           f"names and a line of units before the data (found {found})",
+                     line=min(len(lines) + 1, 3))
+        return None
+    names = [ttc_name(n) for n in names]
+    unit_cells = [u.strip() for u in unit_cells]
+    while len(names) > 1 and not names[-1] and len(unit_cells) == len(names) \
+            and not unit_cells[-1]:  # a trailing separator on the header lines
+        names, unit_cells = names[:-1], unit_cells[:-1]
+    if len(unit_cells) != len(names):
+        problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)
+        return None
+    for dup in sorted({n for n in names if names.count(n) > 1}):
+        problems.add(path, "channel named twice", line=2, key=dup)
+    try:
+        frame = _table(path, sep, names, ".")
+    except (ValueError, pd.errors.ParserError) as exc:
+        try:  # a decimal comma (a European locale's export), tab-separated
+            frame = _table(path, sep, names, ",") if sep == "\t" else None
+        except (ValueError, pd.errors.ParserError):
+            frame = None
+        if frame is None:
+            problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
+                               f"numbers ({exc})", line=4)
+            return None
+    if len(frame) == 0:
+        problems.add(path, "no data rows below the header", line=3)
+        return None
+    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
+    if frame.isna().to_numpy().any():  # pandas fills a short row with NaN: tell it from NaN
+        cut = _ragged(path, len(names), sep, len(frame), problems)
+        if cut is None:
+            return None
+        if cut:  # the last row cut short (a file copied while written): dropped, warned
+            line, fields = cut.split()
+            frame = frame.iloc[:-1]
+            attrs["cut_row"] = line
+            attrs["cut_row_detail"] = (f"the last row stops after {fields} of {len(names)} "
+                                       "fields (the file ends inside it)")
+    data = {n: frame[n].to_numpy(np.float64) for n in names}
+    return data, dict(zip(names, unit_cells)), attrs
+
+
+def _table(path: Path, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
+    return pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
+                       dtype=np.float64, index_col=False, engine="c", encoding="latin-1",
+                       compression="infer" if path.suffix == ".gz" else None)
+
+
+_SEP_NAME = {"\t": "tab", ",": "comma"}
+
+
+def _ragged(path: Path, width: int, sep: str, rows: int, problems: Problems) -> str | None:
+    """Report the rows whose number of fields is not ``width``: None if there is one; "" if
+    there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
+    (a file cut short: that row is dropped with a warning)."""
+    with open_text(path, encoding="latin-1", newline="") as fh:
+        lines = fh.read().split("\n")[3:]
+    counts = np.array([_fields(line, sep) if line.strip() else width for line in lines])
+    bad = np.flatnonzero(counts != width)
+    filled = np.flatnonzero([bool(line.strip()) for line in lines])
+    if bad.size == 1 and filled.size and bad[0] == filled[-1] and counts[bad[0]] < width:
+        return f"{int(bad[0]) + 4} {int(counts[bad[0]])}"
+    for i in bad[:10]:
+        problems.add(path, f"ragged row: {counts[i]} fields, the header has {width}",
+                     line=int(i) + 4, kind="ragged-row")
+    for _ in bad[10:]:
+        problems.add(path, "ragged row", kind="ragged-row")
+    return None if bad.size else ""
+
+
+def _fields(line: str, sep: str) -> int:
+    """The fields of a data line, a trailing separator not counted (pandas drops it)."""
+    line = line.rstrip("\r")
+    return line.removesuffix(sep).count(sep) + 1
+
+
+def _numeric(cells) -> bool:
+    try:
+        [float(c) for c in cells if c.strip()]
+    except ValueError:
+        return False
+    return any(c.strip() for c in cells)

@@ -1,0 +1,70 @@
+"""Channels that older Tire Test Consortium rounds lack or leave empty, and what stands in.
+
+Older rounds log SR (slip ratio based on the loaded radius) but no SL, or no wheel speed N; a
+channel may also be present without one finite value. :func:`ttc_substitutes` says which
+channels are empty and lets SR stand in for a missing or empty SL (never a pinned SR);
+:func:`sr_as_kappa` scales that SR to its free-rolling value. The trailer loader
+(:func:`identify.io.trailer.channels_to_tidy`) gives each as a warning.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from identify.io.quirks import unused_slip_warning
+from identify.io.trailer_channels import Channels
+from identify.io.ttc_names import TTC_TO_TYDEX
+
+__all__ = ["SR_FREE_ROLLING", "TTC_OPTIONAL", "sr_as_kappa", "ttc_substitutes"]
+
+
+#: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
+TTC_OPTIONAL = {"WHROTSPD": "no wheel-speed channel: the revolution average takes V / RE, "
+                             "the effective-radius stage is skipped"}
+
+
+def ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
+                     ) -> list[tuple[tuple[str, ...], str, str]]:
+    """Channels of a TTC file present without one finite value (not used), and SR in place
+    of a slip ratio SL that is missing or empty (older rounds log SR only); ``by_canon`` is
+    updated. Returns (channels, detail, action) of the warnings to give."""
+    out, empty = [], set()
+    for name, values in ch.data.items():
+        if TTC_TO_TYDEX.get(name) and not np.isfinite(values).any():
+            out.append(((name,), "no finite value in the whole run", "channel not used"))
+            empty.add(name)
+    sr = ch.data.get("SR")
+    if set(by_canon.get("LONGSLIP", ())) <= empty and sr is not None and np.isfinite(sr).any() \
+            and unused_slip_warning(sr, file=ch.file, run=ch.run, channel="SR") is None:
+        by_canon["LONGSLIP"] = ["SR"]  # its warning: channels_to_tidy, after sr_as_kappa
+    return out
+
+
+#: |Fx| / Fz below which a sample counts as free rolling for the offset of SR [-].
+SR_FREE_ROLLING = 0.02
+
+
+def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
+    """``frame`` with kappa = SR less its free-rolling value, and the warning's detail.
+
+    SR is based on the loaded radius: at free rolling it reads RL / Re - 1 (a few per cent
+    below zero, more at a higher load), which the MF stages would take for a slip: 1 + SR =
+    (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
+    value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
+    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted.
+    """
+    sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
+    free = np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)
+    what = "no slip ratio SL: kappa is SR, the slip ratio based on the loaded radius"
+    if free.sum() < 10:
+        return frame, (f"{what}, as read (fewer than 10 free-rolling samples to find its "
+                       "offset: the Fx fits take it for a slip)")
+    x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
+                         frame["alpha"].to_numpy(float) ** 2])
+    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
+    offset = x @ coef
+    mid = float(np.median(offset))
+    return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
+        f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
+        f"a + b Fz + c p + d alpha^2 fitted on {int(free.sum())} samples with |Fx| < "
+        f"{100 * SR_FREE_ROLLING:g} % of Fz)")
