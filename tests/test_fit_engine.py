@@ -505,3 +505,42 @@ def test_discovery_objective_uses_the_exact_jacobian():
     np.testing.assert_allclose(col_ex, col_fd, rtol=1e-6, atol=1e-9 * np.abs(col_ex).max())
     np.testing.assert_allclose(jac_ex, jac_fd, rtol=1e-6, atol=1e-9 * np.abs(jac_ex).max())
     np.testing.assert_allclose(ex.jac, jac_ex, rtol=1e-12)
+
+
+def test_a_recorded_start_replays_as_a_fresh_single_start_fit():
+    """identify.fit.optimize.replay: a start of a multi-start fit, recorded, gives the outcome
+    a single-start fit from it would have (the same end point bit for bit, the same
+    convergence under a budget it stayed within or ran past), and None where the record does
+    not tell."""
+    from identify.fit.optimize import replay
+
+    truth = {"nom": 1.43e5, "p1": 0.17, "p2": -0.25, "p3": 0.47}
+    rng = np.random.default_rng(3)
+    data = stiffness(truth) * (1 + 0.01 * rng.standard_normal(PRESSURES.size))
+    problem = FitProblem("CFy", "quadratic_load", _params(truth), stiffness, data, PRESSURES,
+                         objective="wls")
+    starts = np.array([[1e5, 0.5, 0.3, 0.1], [3e5, -0.5, -0.3, 0.9]])
+    for tol in (engine.MF_SOLVE, engine.STRICT):
+        solved = []
+        fit(problem, starts=starts, max_nfev=100, tol=tol, record=solved)
+        assert len(solved) == 2
+        for rec in solved:
+            used = rec.outcome.lsq.nfev
+            assert 2 < used < 100
+            alone = fit(problem, starts=rec.start[None, :], max_nfev=100, tol=tol)
+            out = replay(solved, problem, rec.start, 100, tol)
+            assert out.ok == alone.converged
+            np.testing.assert_array_equal([alone.parameters[n] for n in problem.free], out.x)
+            # a larger budget than both: the same steps
+            assert replay(solved, problem, rec.start, used + 1, tol) is out
+            short = replay(solved, problem, rec.start, used - 1, tol)
+            if tol.noise_ftol > 0:  # the noise stop could end the short solve: not told
+                assert short is None
+            else:
+                assert not short.ok
+                assert not fit(problem, starts=rec.start[None, :], max_nfev=used - 1,
+                               tol=tol).converged
+            # another problem, start or tolerances: not told
+            other = dataclasses.replace(problem)
+            assert replay(solved, other, rec.start, 100, tol) is None
+            assert replay(solved, problem, rec.start * 1.01, 100, tol) is None
