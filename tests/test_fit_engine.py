@@ -507,23 +507,27 @@ def test_discovery_objective_uses_the_exact_jacobian():
     np.testing.assert_allclose(ex.jac, jac_ex, rtol=1e-12)
 
 
-def test_a_recorded_start_replays_as_a_fresh_single_start_fit():
+@pytest.mark.parametrize("constrained", [False, True])
+def test_a_recorded_start_replays_as_a_fresh_single_start_fit(constrained):
     """identify.fit.optimize.replay: a start of a multi-start fit, recorded, gives the outcome
     a single-start fit from it would have (the same end point bit for bit, the same
     convergence under a budget it stayed within or ran past), and None where the record does
-    not tell."""
+    not tell. Constrained (the least-squares optimum has p2 > 0, the constraint p2 <= 0):
+    a start's own polish is recorded (one that shares an earlier start's is not)."""
     from identify.fit.optimize import replay
 
-    truth = {"nom": 1.43e5, "p1": 0.17, "p2": -0.25, "p3": 0.47}
+    truth = {"nom": 1.43e5, "p1": 0.17, "p2": 0.25 if constrained else -0.25, "p3": 0.47}
     rng = np.random.default_rng(3)
     data = stiffness(truth) * (1 + 0.01 * rng.standard_normal(PRESSURES.size))
+    cons = (Constraint("p2 <= 0", lambda v: np.array([-v["p2"]])),) if constrained else ()
     problem = FitProblem("CFy", "quadratic_load", _params(truth), stiffness, data, PRESSURES,
-                         objective="wls")
+                         objective="wls", constraints=cons)
     starts = np.array([[1e5, 0.5, 0.3, 0.1], [3e5, -0.5, -0.3, 0.9]])
     for tol in (engine.MF_SOLVE, engine.STRICT):
         solved = []
         fit(problem, starts=starts, max_nfev=100, tol=tol, record=solved)
-        assert len(solved) == 2
+        assert 1 <= len(solved) <= 2
+        assert all(rec.outcome.polished == constrained for rec in solved)
         for rec in solved:
             used = rec.outcome.lsq.nfev
             assert 2 < used < 100

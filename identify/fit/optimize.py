@@ -131,6 +131,21 @@ def _alone(problem: FitProblem, lsq: Estimate) -> bool:
         or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0)
 
 
+def _cached(cache: list, lsq: Estimate) -> Outcome | None:
+    """The polish of an earlier start whose least-squares solve landed where ``lsq`` did."""
+    for x_ls, outcome in cache:
+        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
+            return outcome
+    return None
+
+
+def _own(problem: FitProblem, lsq: Estimate, cache: list, bound: float) -> bool:
+    """:func:`_finish` gives ``lsq``'s start the outcome it would have as the only start: its
+    least-squares solve (:func:`_alone`), or its own polish (not skipped by ``bound``, not
+    shared with an earlier start through ``cache``)."""
+    return _alone(problem, lsq) or (lsq.cost < bound and _cached(cache, lsq) is None)
+
+
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
             tol: Tolerances) -> Outcome:
     """A start after its least-squares solve ``lsq``. Weighted least squares: a solution that
@@ -145,9 +160,9 @@ def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
         if lsq.cost >= bound:
             return Outcome(lsq.x, False, "not polished: infeasible least-squares optimum no "
                            "better than a feasible start", lsq.status, lsq)
-    for x_ls, outcome in cache:
-        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
-            return outcome
+    shared = _cached(cache, lsq)
+    if shared is not None:
+        return shared
     outcome = _polish(problem, lsq, tol)
     cache.append((lsq.x, outcome))
     return outcome
@@ -156,7 +171,7 @@ def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
 @dataclass(frozen=True)
 class Solved:
     """A start of :func:`fit` whose outcome did not depend on the other starts
-    (:func:`_alone`), recorded for :func:`replay`.
+    (:func:`_own`), recorded for :func:`replay`.
 
     Attributes
     ----------
@@ -212,12 +227,13 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     done: dict[int, Outcome] = {}
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
+        own = _own(problem, pre[i], cache, bound)
         out = _finish(problem, pre[i], cache, bound, tol)
         if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)
         done[i] = out
-        if record is not None and _alone(problem, pre[i]):
+        if record is not None and own:
             record.append(Solved(original, points[i], tol, tol.budget(len(problem.free),
                                                                       max_nfev), out))
         if out.ok and problem.objective == "wls":
