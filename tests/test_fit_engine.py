@@ -311,6 +311,36 @@ def test_jackknife_degrees_of_freedom_by_hand():
     assert engine.interval_dof(X).tolist() == [x.size - 2.0] * 2
 
 
+def test_jackknife_with_dof_is_the_covariance_and_dof_of_per_cluster_solves():
+    """engine.jackknife_with_dof (one stacked pseudo-inverse per cluster, shared): the
+    jackknife covariance and degrees of freedom as written out with one pinv per left-out
+    cluster, to rounding."""
+    rng = np.random.default_rng(5)
+    x = np.tile(np.linspace(-1, 1, 10), 12)
+    J = np.c_[np.ones(x.size), x, x ** 2 * 1e3]
+    r = rng.standard_normal(x.size)
+    clusters = np.array_split(rng.permutation(x.size), 12)
+    steps = []
+    lam = []
+    for i in clusters:
+        s = np.linalg.norm(J, axis=0)
+        Js = J / s
+        Gc = Js[i].T @ Js[i]
+        A = np.linalg.pinv(Js.T @ Js - Gc)
+        steps.append(A @ (Js[i].T @ r[i]) / s)
+        lam.append(np.diag(A @ Gc @ A))
+    steps, lam = np.array(steps), np.array(lam)
+    cov_hand = 11 / 12 * steps.T @ steps
+    dof_hand = np.clip(lam.sum(0) ** 2 / (lam ** 2).sum(0), 1, 11)
+    cov, dof = engine.jackknife_with_dof(J, r, clusters)
+    np.testing.assert_allclose(cov, cov_hand, rtol=1e-10)
+    np.testing.assert_allclose(dof, dof_hand, rtol=1e-12)
+    np.testing.assert_array_equal(cov, engine.covariance(J, r, clusters=clusters,
+                                                          kind="jackknife"))
+    np.testing.assert_array_equal(dof, engine.interval_dof(J, clusters=clusters,
+                                                           kind="jackknife"))
+
+
 def test_t_intervals_hold_95_percent_where_few_sweeps_carry_a_coefficient():
     """Calibration: 30 sweeps, a coefficient that only 3 of them carry (an offset of those
     sweeps, as the extreme-load sweeps carry a load term), each sweep with its own random

@@ -35,7 +35,8 @@ from scipy import optimize
 
 from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, interval_dof,
                                      jackknife_covariance, jackknife_defined, jackknife_dof,
-                                     jackknife_steps, pseudo_solve, standard_errors, t_quantile)
+                                     jackknife_steps, jackknife_with_dof, pseudo_solve,
+                                     standard_errors, t_quantile)
 from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
@@ -449,8 +450,9 @@ def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = N
     defined = clusters is None or jackknife_defined(J, clusters)
     how = {"sigma_known": problem.sigma is not None,
            "clusters": clusters if defined else None, "kind": "jackknife"}
-    cov = covariance(J, r, **how)
-    return (cov, *problem.covariance_used(jackknife_defined=defined), interval_dof(J, **how))
+    cov, dof = (jackknife_with_dof(J, r, how["clusters"]) if how["clusters"]  # one solve each
+                else (covariance(J, r, **how), interval_dof(J, **how)))
+    return (cov, *problem.covariance_used(jackknife_defined=defined), dof)
 
 
 def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
