@@ -60,7 +60,8 @@ def _candidates(sd: StageDef, free) -> list[str]:
 def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float], *,
                   free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
                   screen: bool = True,
-                  hold: Mapping[str, str] | None = None) -> StageProblem | None:
+                  hold: Mapping[str, str] | None = None,
+                  rows: np.ndarray | None = None) -> StageProblem | None:
     """Build the FitProblem of one stage at the current values ``params``.
 
     Parameters
@@ -79,6 +80,9 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         candidate.
     hold : mapping name -> reason, optional
         Hold exactly these candidates (no screening).
+    rows : ndarray, optional
+        The stage's row positions in ``trailer`` (StageProblem.rows of an earlier call on the
+        same table), instead of selecting them again (identify.fit.mf_data.select).
 
     Returns
     -------
@@ -86,7 +90,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         None when the table holds no point for the stage.
     """
     sd = STAGES[stage]
-    rows = mf_data.select(trailer, sd.selection, sd.quantity)
+    if rows is None:
+        rows = mf_data.select(trailer, sd.selection, sd.quantity)
     if rows.size == 0:
         return None
     pts = trailer.iloc[rows]
@@ -109,6 +114,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                 held[n] = why
 
     extra = {"quantity": sd.quantity, **point_columns(pts)}
+    groups = mf_data.pressure_groups(pts)
+    sweeps = mf_data.sweep_ids(pts, float(params["FNOMIN"]))
 
     def build(vary: Collection[str], constraints=()) -> FitProblem:
         P = lmfit.Parameters()
@@ -119,10 +126,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                 P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
             else:  # held: exactly the carried-forward value
                 P.add(n, value=v, vary=False)
-        return FitProblem("MF", stage, P, model, measured,
-                          mf_data.pressure_groups(pts), objective="wls", sigma=None,
-                          constraints=tuple(constraints),
-                          sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
+        return FitProblem("MF", stage, P, model, measured, groups, objective="wls",
+                          sigma=None, constraints=tuple(constraints), sweeps=sweeps, unit=sd.unit,
                           extra=extra, noise="sweep-residual", jacobian=jacobian,
                           covariance="sweeps")
 
