@@ -182,6 +182,30 @@ def test_three_loads_cannot_choose_the_slip_stiffness_branch(truth, data):
     assert "PKX3" in stage_problem("Fx0", four, truth).problem.free
 
 
+@pytest.mark.parametrize("stage", ["Fx0", "Fy", "geometry"])
+def test_a_stage_problem_built_like_an_earlier_one_is_the_same_problem(stage, truth, data):
+    """stage_problem(like=): the earlier problem's points reused, at other parameter values
+    and with holds, give the problem built from the table afresh; a different nominal load
+    numbers the sweeps again."""
+    first = stage_problem(stage, data, truth)
+    moved = {**truth, **{n: truth[n] * 1.1 for n in first.problem.free}}
+    for kwargs in ({}, {"hold": {n: "held" for n in first.problem.free[:1]}}):
+        fresh = stage_problem(stage, data, moved, **kwargs)
+        again = stage_problem(stage, data, moved, like=first, **kwargs)
+        assert again.points is first.points
+        np.testing.assert_array_equal(again.rows, fresh.rows)
+        assert again.held == fresh.held and again.problem.free == fresh.problem.free
+        for name in ("measured", "pressure_bar", "sweeps"):
+            np.testing.assert_array_equal(getattr(again.problem, name),
+                                          getattr(fresh.problem, name))
+        x = fresh.problem.x0()
+        np.testing.assert_array_equal(again.problem.residuals(x), fresh.problem.residuals(x))
+        np.testing.assert_array_equal(again.problem.constraint_values(x),
+                                      fresh.problem.constraint_values(x))
+    other = stage_problem(stage, data, {**moved, "FNOMIN": 2 * truth["FNOMIN"]}, like=first)
+    assert other.points is not first.points and other.points.fnomin == 2 * truth["FNOMIN"]
+
+
 def test_geometry_stage_model_is_evaluates_re(truth, data):
     """The geometry stage's model at any coefficients is bit-identical to evaluate()'s Re with
     the measured omega; the measured Re is Vx/omega on the free-rolling points only."""

@@ -183,13 +183,13 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     for _ in range(MAX_ROUNDS):
         moved = {n: float(result.parameters[n]) for n in result.free
                  if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
-        gates = stage_problem(stage, trailer, {**params, **moved}, free=free, rows=sp.rows)
+        gates = stage_problem(stage, trailer, {**params, **moved}, free=free, like=sp)
         added = [n for n in gates.problem.free if n not in result.free]
         if not added:
             break
         held = {n: why for n, why in gates.held.items() if n not in result.free}
         values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
-        trial = stage_problem(stage, trailer, values, free=free, hold=held, rows=sp.rows)
+        trial = stage_problem(stage, trailer, values, free=free, hold=held, like=sp)
         _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
         # from the optimum as the global search does: on the subsample first (the added
         # coefficients can move the optimum far), then on all points; and from the search's
@@ -309,7 +309,7 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
     the problem and the model evaluations this pass spent (counting J as one)."""
     result, old = before
     sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
-                       hold=dict(old.held), rows=old.rows)
+                       hold=dict(old.held), like=old)
     x0 = sp.problem.x0()
     gain = gauss_newton_gain(sp.problem, x0)
     if gain <= PASS_GAIN:
