@@ -339,6 +339,12 @@ def test_jackknife_with_dof_is_the_covariance_and_dof_of_per_cluster_solves():
                                                           kind="jackknife"))
     np.testing.assert_array_equal(dof, engine.interval_dof(J, clusters=clusters,
                                                            kind="jackknife"))
+    assert engine.jackknife_defined(J, clusters)
+    # a coefficient only the first cluster carries: not defined, None
+    alone = np.zeros(x.size)
+    alone[clusters[0]] = 1.0
+    assert not engine.jackknife_defined(np.c_[J, alone], clusters)
+    assert engine.jackknife_with_dof(np.c_[J, alone], r, clusters) is None
 
 
 def test_t_intervals_hold_95_percent_where_few_sweeps_carry_a_coefficient():

@@ -43,12 +43,18 @@ def _cluster_grams(Js: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
 
 
 def _left_out(jac: np.ndarray, clusters: list[np.ndarray]) -> tuple[np.ndarray, ...]:
-    """(column-scaled J, its column norms, G_c of every cluster, (G - G_c)^+ of every cluster):
-    what the jackknife's steps and their degrees of freedom share. Every cluster's
-    pseudo-inverse in one stacked call (numpy's pinv is per matrix)."""
+    """(column-scaled J, its column norms, G_c of every cluster, (G - G_c)^+ of every cluster,
+    the eigenvalues of every G - G_c, ascending): what the jackknife's steps, their degrees
+    of freedom and :func:`jackknife_defined` share. One stacked eigendecomposition of the
+    symmetric G - G_c gives both the eigenvalues and the pseudo-inverse, V diag(1/w) V^T over
+    |w| > 1e-15 max |w| (numpy's pinv(hermitian=True), its default cutoff), where pinv's SVD
+    and eigvalsh took one decomposition each per cluster."""
     Js, scale = _column_scaled(jac)
     Gc = _cluster_grams(Js, clusters)
-    return Js, scale, Gc, np.linalg.pinv(Js.T @ Js - Gc)
+    w, V = np.linalg.eigh(Js.T @ Js - Gc)
+    big = np.abs(w) > 1e-15 * np.abs(w).max(axis=-1, initial=0.0, keepdims=True)
+    inv = np.divide(1.0, w, out=np.zeros_like(w), where=big)
+    return Js, scale, Gc, (V * inv[:, None, :]) @ np.swapaxes(V, -1, -2), w
 
 
 def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
@@ -65,7 +71,7 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     array and still moves the estimate through u_c). Computed on the column-scaled J.
     ``parts``: :func:`_left_out` of ``jac`` and ``clusters`` when the caller has it.
     """
-    Js, scale, _, A = _left_out(jac, clusters) if parts is None else parts
+    Js, scale, _, A, _ = _left_out(jac, clusters) if parts is None else parts
     k = Js.shape[1]
     rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
     if upstream is not None:
@@ -98,7 +104,7 @@ def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
         return True
     if not clusters:
         return True
-    return bool(np.all(np.linalg.eigvalsh(G - _cluster_grams(Js, clusters))[:, 0] >= floor))
+    return bool(np.all(_left_out(Js, clusters)[4][:, 0] >= floor))
 
 
 def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
@@ -191,7 +197,7 @@ def jackknife_dof(jac: np.ndarray, clusters: list[np.ndarray], *,
     at 1. Computed on the column-scaled J (the ratio does not depend on the scale).
     ``parts``: :func:`_left_out` of ``jac`` and ``clusters`` when the caller has it.
     """
-    Js, _, Gc, A = _left_out(jac, clusters) if parts is None else parts
+    Js, _, Gc, A, _ = _left_out(jac, clusters) if parts is None else parts
     lam = np.einsum("cij,cjk,cki->ci", A, Gc, A).reshape(len(clusters), Js.shape[1])
     total, squares = lam.sum(axis=0), (lam ** 2).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
@@ -200,13 +206,18 @@ def jackknife_dof(jac: np.ndarray, clusters: list[np.ndarray], *,
 
 
 def jackknife_with_dof(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
-                       ) -> tuple[np.ndarray, np.ndarray]:
+                       ) -> tuple[np.ndarray, np.ndarray] | None:
     """(:func:`covariance` with ``clusters`` and ``kind="jackknife"``, :func:`interval_dof`
-    with the same): the two from one set of left-out pseudo-inverses, (k, k) and (k,)."""
+    with the same), (k, k) and (k,), or None where :func:`jackknife_defined` is False: the
+    three from one decomposition of every left-out normal matrix (:func:`_left_out`)."""
     J = np.atleast_2d(np.asarray(jac, dtype=float))
     if J.shape[1] == 0:
         return np.zeros((0, 0)), np.zeros(0)
     parts = _left_out(J, clusters)
+    Js = parts[0]
+    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(Js.T @ Js)[0]
+    if floor > 0 and clusters and not np.all(parts[4][:, 0] >= floor):
+        return None
     return (jackknife_covariance(jackknife_steps(J, fun, clusters, parts=parts)),
             jackknife_dof(J, clusters, parts=parts))
 

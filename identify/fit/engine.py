@@ -447,12 +447,13 @@ def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = N
     J = residual_jacobian(problem, x) if jac is None else jac
     r = problem.residuals(x) if fun is None else fun
     clusters = problem.clusters()
-    defined = clusters is None or jackknife_defined(J, clusters)
-    how = {"sigma_known": problem.sigma is not None,
-           "clusters": clusters if defined else None, "kind": "jackknife"}
-    cov, dof = (jackknife_with_dof(J, r, how["clusters"]) if how["clusters"]  # one solve each
-                else (covariance(J, r, **how), interval_dof(J, **how)))
-    return (cov, *problem.covariance_used(jackknife_defined=defined), dof)
+    # the jackknife, its degrees of freedom and whether it is defined from one decomposition
+    both = None if clusters is None else jackknife_with_dof(J, r, clusters)
+    defined = clusters is None or both is not None
+    if both is None:
+        how = {"sigma_known": problem.sigma is not None, "clusters": None}
+        both = covariance(J, r, **how), interval_dof(J, **how)
+    return (both[0], *problem.covariance_used(jackknife_defined=defined), both[1])
 
 
 def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,
