@@ -330,9 +330,11 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
 
 
 def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.DataFrame:
-    """The operating points of a stage (MFFit.points)."""
-    return trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
-                                 + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+    """The operating points of a stage (MFFit.points): its rows of ``trailer``, as its problem
+    already took them (StageProblem.points)."""
+    rows = sp.points.pts if sp.points is not None else trailer.iloc[sp.rows]
+    return rows[["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
+                + (["omega"] if STAGES[stage].quantity == "Re" else [])]
 
 
 def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
