@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from identify.fit.mf_constraints import validity_grid
+from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.optimize import fit
 from identify.io.tir import read_tir
@@ -204,6 +205,24 @@ def test_a_stage_problem_built_like_an_earlier_one_is_the_same_problem(stage, tr
                                       fresh.problem.constraint_values(x))
     other = stage_problem(stage, data, {**moved, "FNOMIN": 2 * truth["FNOMIN"]}, like=first)
     assert other.points is not first.points and other.points.fnomin == 2 * truth["FNOMIN"]
+
+
+@pytest.mark.parametrize("stage", ["Fx0", "Fy0"])
+def test_a_screened_stage_problem_is_the_one_built_with_its_holds(stage, truth, data):
+    """The screened problem (its screen's problem reused when the screen held nothing more)
+    has the parameters, bounds, constraints and residuals of the problem built with the
+    screen's holds."""
+    start = _perturb(truth, STAGES[stage].coefficients, seed=3)
+    sp = stage_problem(stage, data, start)
+    held = stage_problem(stage, data, start, hold=sp.held)
+    a, b = sp.problem, held.problem
+    assert a.free == b.free and a.parameters.valuesdict() == b.parameters.valuesdict()
+    for x, y in zip(a.bounds(), b.bounds()):
+        np.testing.assert_array_equal(x, y)
+    assert len(a.constraints) == len(b.constraints) > 0
+    x = a.x0()
+    np.testing.assert_array_equal(a.constraint_values(x), b.constraint_values(x))
+    np.testing.assert_array_equal(a.residuals(x), b.residuals(x))
 
 
 def test_geometry_stage_model_is_evaluates_re(truth, data):

@@ -178,16 +178,24 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                           extra=extra, noise="sweep-residual", jacobian=jacobian,
                           covariance="sweeps")
 
+    screened = None
     if screen and hold is None:
-        more, _ = sensitivity_screen(build([n for n in names if n not in held]))
+        screened = build([n for n in names if n not in held])
+        more, _ = sensitivity_screen(screened)
         held.update(more)
+        if more:
+            screened = None
     vary = [n for n in names if n not in held]
 
     def merge(values):
         return {**params, **values}
 
     cons = stage_constraints(stage, params, merge, at.levels)
-    return StageProblem(build(vary, cons), rows, held, s, omega, dict(params), at)
+    # the screen's problem when it held nothing more (the same parameters: lmfit's are slow to
+    # build, ~0.06 ms each), with the constraints
+    problem = (build(vary, cons) if screened is None
+               else dataclasses.replace(screened, constraints=tuple(cons)))
+    return StageProblem(problem, rows, held, s, omega, dict(params), at)
 
 
 def subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:
