@@ -139,22 +139,22 @@ def _cached(cache: list, lsq: Estimate) -> Outcome | None:
     return None
 
 
-def _own(problem: FitProblem, lsq: Estimate, cache: list, bound: float) -> bool:
+def _own(lsq: Estimate, alone: bool, cache: list, bound: float) -> bool:
     """:func:`_finish` gives ``lsq``'s start the outcome it would have as the only start: its
-    least-squares solve (:func:`_alone`), or its own polish (not skipped by ``bound``, not
-    shared with an earlier start through ``cache``)."""
-    return _alone(problem, lsq) or (lsq.cost < bound and _cached(cache, lsq) is None)
+    least-squares solve (``alone``: :func:`_alone`), or its own polish (not skipped by
+    ``bound``, not shared with an earlier start through ``cache``)."""
+    return alone or (lsq.cost < bound and _cached(cache, lsq) is None)
 
 
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
-            tol: Tolerances) -> Outcome:
+            tol: Tolerances, alone: bool | None = None) -> Outcome:
     """A start after its least-squares solve ``lsq``. Weighted least squares: a solution that
     violates no constraint is the constrained optimum; one that does is polished unless its
     cost already reaches ``bound`` (the best feasible objective found so far: polishing only
     raises it) or it exhausted its budget. The thesis metric: always polished (SLSQP on the
     metric itself). Starts whose least-squares solves land on the same point share one
-    polish (``cache``)."""
-    if _alone(problem, lsq):
+    polish (``cache``). ``alone``: :func:`_alone` when the caller has it."""
+    if _alone(problem, lsq) if alone is None else alone:
         return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq)
     if problem.objective == "wls":
         if lsq.cost >= bound:
@@ -227,8 +227,9 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     done: dict[int, Outcome] = {}
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
-        own = _own(problem, pre[i], cache, bound)
-        out = _finish(problem, pre[i], cache, bound, tol)
+        alone = _alone(problem, pre[i])
+        own = _own(pre[i], alone, cache, bound)
+        out = _finish(problem, pre[i], cache, bound, tol, alone)
         if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)
