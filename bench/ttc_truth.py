@@ -21,6 +21,7 @@ fit`` without MCMC and report, then
   ``--unloaded-radius``) unless ``--proposed`` keeps the values the import proposes.
 
     python bench/ttc_truth.py --seeds 0 1 2 [--no-bin] [--jobs 1] [--keep DIR] [--json FILE]
+                              [--tir FILE] [--set KEY=VALUE ...]   # another tyre as the truth
     python bench/ttc_truth.py --from-json FILE [--normal]  # the tables of saved records
 """
 from __future__ import annotations
@@ -56,10 +57,26 @@ BAR_PCT = 2.0
 Z95 = 1.959964
 
 
-def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) -> dict:
-    """One seed: simulate, import, fit, compare; a JSON-safe dict."""
+def canonical_signs(values: dict) -> dict:
+    """``values`` with the combined-slip side force in one sign convention: S_Vyk =
+    D_Vyk sin(RVY5 atan(RVY6 kappa)), D_Vyk proportional to RVY1 + RVY2 dfz + RVY3 gamma, is
+    unchanged when RVY5 (or RVY6) and RVY1..3 all change sign, so a truth with RVY6 < 0 and a
+    fit with RVY6 > 0 are the same tyre; both are compared with RVY5, RVY6 >= 0."""
+    out = dict(values)
+    for odd in ("RVY5", "RVY6"):
+        if odd in out and float(out[odd]) < 0:
+            for n in (odd, "RVY1", "RVY2", "RVY3"):
+                if n in out:
+                    out[n] = -float(out[n])
+    return out
+
+
+def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
+          tir: str | None = None, overrides: dict | None = None) -> dict:
+    """One seed: simulate, import, fit, compare; a JSON-safe dict. ``tir``: the truth .tir
+    (default the bundled tyre), ``overrides``: .tir values replaced in it."""
     where = Path(where)
-    truth_all = read_tir(default_tir_path()).params()
+    truth_all = {**read_tir(tir or default_tir_path()).params(), **(overrides or {})}
     simulate_ttc(truth_all, where / "ttc", seed=seed, overwrite=True)
     truth = json.loads((where / "ttc" / "truth.json").read_text())["tir"]
     nominal = {} if proposed else {"nominal_pressure_Pa": float(truth["NOMPRES"]),
@@ -77,9 +94,11 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) ->
     seconds = time.perf_counter() - t0
     cmp = compare_to_truth(read_tir(run.tir_path).params(), truth, pd.read_csv(run.csv_path))
     coefs = []
+    truth = canonical_signs(truth)
     for r in run.results:
         if r.relation != "MF":
             continue
+        values = canonical_signs(r.parameters)
         stages[r.form] = {"seconds": r.seconds, "points": r.n_points,
                           "converged": bool(r.converged), "covariance": r.covariance,
                           "clusters": r.clusters}
@@ -88,8 +107,8 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False) ->
                 continue
             se = float(r.stderr.get(name, math.nan))
             why = (r.unidentified.get(name) if r.converged else "stage did not converge")
-            z = (r.parameters[name] - float(truth[name])) / se if se > 0 else math.inf
-            coefs.append({"stage": r.form, "name": name, "value": r.parameters[name],
+            z = (values[name] - float(truth[name])) / se if se > 0 else math.inf
+            coefs.append({"stage": r.form, "name": name, "value": values[name],
                           "se": se, "q": r.quantile(name), "truth": float(truth[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
@@ -292,7 +311,11 @@ def main() -> None:
                     help="records of an earlier run (--json): interval widths before/after")
     ap.add_argument("--normal", action="store_true",
                     help="count intervals of 1.96 standard errors (ignore the recorded dof)")
+    ap.add_argument("--tir", help="the truth .tir (default: the bundled 225/50 R17 tyre)")
+    ap.add_argument("--set", nargs="+", default=[], metavar="KEY=VALUE",
+                    help="replace .tir values of the truth, e.g. FNOMIN=1100 NOMPRES=83000")
     args = ap.parse_args()
+    overrides = {k: float(v) for k, v in (item.split("=", 1) for item in args.set)}
     global NORMAL
     NORMAL = args.normal
     if args.from_json:
@@ -309,7 +332,7 @@ def main() -> None:
         n = len(args.seeds)
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
             records = list(pool.map(trial, args.seeds, dirs, [not args.no_bin] * n,
-                                    [args.proposed] * n))
+                                    [args.proposed] * n, [args.tir] * n, [overrides] * n))
     for r in records:
         f = r["forces_pct"]
         how = "binned" if r["binned"] else "every sample"

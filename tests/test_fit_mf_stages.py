@@ -425,3 +425,8 @@ def test_a_second_pass_solves_the_stages_whose_inputs_a_later_stage_moved(truth,
     assert mz0.wls - again.wls <= 1e-6 * wls[1]  # noise-free data: both near round-off
     # geometry reads nothing a later stage fits: pass 2 kept it (same evaluations)
     assert two.result("geometry").nfev == one.result("geometry").nfev
+    # a stage solved again keeps the holds of pass 1 and their reasons (the .tir says why
+    # a coefficient is at its start value); Fx0, solved again, holds PKX3 (three loads)
+    assert "PKX3" in one.held["Fx0"]
+    for stage, held in one.held.items():
+        assert held.items() <= two.held[stage].items(), stage

@@ -13,6 +13,9 @@ converged fit is **poorly identified** when any of these holds (thresholds below
 - another minimum of the objective as good as the reported one, within :data:`RIVAL_CHI2` on
   the intervals' scale (FitResult.rivals), lies outside a coefficient's interval (the data
   hold two values of it; the linearised interval describes one);
+- its value rests on coefficients held at values the data did not choose (FitResult.conditional:
+  held ones that took effect only after the fit, with which its standard error would grow
+  beyond identify.fit.mf_conditional.VIF_LIMIT; its interval assumes them exact);
 - fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient.
 
 Otherwise its status is "ok". :func:`suspects` ranks the coefficients the problems name, so
@@ -98,6 +101,13 @@ def _rivaled(r: FitResult) -> list[tuple[str, str, str]]:
     return out
 
 
+def _conditional(r: FitResult) -> list[tuple[str, str, str]]:
+    """(name, short reason, the line of :func:`problems`) of free coefficients whose value
+    rests on held ones (FitResult.conditional)."""
+    return [(n, why, f"{n} = {r.parameters[n]:.4g}: {why}; its interval assumes them exact")
+            for n, why in r.conditional.items() if n in r.free]
+
+
 def _bound_side(r: FitResult, name: str) -> tuple[str, float]:
     """("lower" or "upper", that bound) of the bound the estimate of ``name`` is at."""
     lo, hi = r.bounds.get(name, (-math.inf, math.inf))
@@ -117,6 +127,7 @@ def problems(r: FitResult) -> list[str]:
         out.append(f"{n} = {r.parameters[n]:.4g} is at its {side} bound {bound:g}")
     out += [why for _, _, why in _wide(r)]
     out += [why for _, _, why in _rivaled(r)]
+    out += [why for _, _, why in _conditional(r)]
     for a, b, c in _pairs(r):
         out.append(f"{a} and {b} are correlated {c:+.4f}: only their combination is "
                    "determined")
@@ -127,13 +138,14 @@ def unidentified(r: FitResult) -> dict[str, str]:
     """Free coefficients of ``r`` that are not identifiable on their own -> why (the first
     reason; the rules of :func:`problems` that name one coefficient): on a bound (its interval
     is one-sided and the estimate is the bound's), no finite standard error or a 95 % interval
-    wider than its bounds (a near-null direction of J^T J), or correlated beyond
+    wider than its bounds (a near-null direction of J^T J), another minimum puts it outside
+    its interval, its value rests on held coefficients, or correlated beyond
     :data:`MAX_CORRELATION` with another (only their combination is determined). Their
     intervals are not a statement about the coefficient; the others' are (docs/intervals.md)."""
     out: dict[str, str] = {}
     for n in r.at_bound:
         out.setdefault(n, f"at its {_bound_side(r, n)[0]} bound")
-    for n, reason, _ in (*_wide(r), *_rivaled(r)):
+    for n, reason, _ in (*_wide(r), *_rivaled(r), *_conditional(r)):
         out.setdefault(n, reason)
     for a, b, c in _pairs(r):
         out.setdefault(a, f"correlated {c:+.4f} with {b}")

@@ -49,6 +49,7 @@ from typing import Collection, Mapping, Sequence
 
 import numpy as np
 import pandas as pd
+from scipy.stats import chi2
 from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
@@ -71,6 +72,8 @@ from identify.fit.mf_search import (
     start_points,
     subsample,
 )
+from identify.fit.mf_branches import with_other_branch
+from identify.fit.mf_conditional import AFTER_FIT, with_conditional
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_stage_defs import (
     DEFAULT_STAGES,
@@ -198,13 +201,14 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         starts = np.vstack([trial.problem.x0()] + [
             [c.get(n, float(values[n])) for n in trial.problem.free] for c in rivals])
         refit, candidates, trial_solved = _global_fit(trial, starts, None, give_up=True)
+        refit = _continue_refit(refit, result, trial, len(added), progress)
         spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
         if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
             result = dataclasses.replace(result, nfev=result.nfev + spent)
             # e.g. a product of two weakly determined coefficients: keep the global optimum
             sp = dataclasses.replace(sp, held={**sp.held, **{
-                n: "sensitivity: effective only after the fit, and the re-fit with it did not "
-                   "converge" for n in added}})
+                n: f"sensitivity: {AFTER_FIT}, and the re-fit with it did not converge or "
+                   "ended higher" for n in added}})
             break
         added_all += added
         rivals_used += len(rivals)
@@ -219,6 +223,30 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                             + f" with {', '.join(added_all)}, which had no effect at the "
                               "start)")
     return result, sp, others, solved
+
+
+def _continue_refit(refit: FitResult | int, result: FitResult, trial: StageProblem,
+                    n_added: int, progress: Progress | None) -> FitResult | int:
+    """A re-fit of :func:`_refine` that stopped at its budget (REFIT_NFEV) already far below
+    the optimum without the added coefficients, by more than the 95 % point of chi^2 with
+    ``n_added`` degrees of freedom on the optimum's residual variance (the data say the added
+    coefficients matter), solved on to convergence from where it stopped (MAX_NFEV more);
+    anything else is returned as it is. On a TTC session generated from another tyre (the
+    golden test tyre, tests/data/tir/testA_61.tir, seed 0) the Fy stage's re-fit with RVY4..6
+    stopped at its budget 160 times below the optimum in chi^2 and was dropped: RVY4..6 stayed
+    at their defaults, RBY2 went to its bound, and Fy missed the truth by 10 %; solved on, it
+    converged within 0.8 % of the data."""
+    if isinstance(refit, int) or refit.converged or not refit.wls < result.wls:
+        return refit
+    s2 = result.wls / max(result.n_points - len(result.free), 1)
+    if not (result.wls - refit.wls) / s2 > chi2.ppf(0.95, n_added):
+        return refit
+    _say(progress, f"MF {result.form}: the re-fit stopped at its budget, its objective "
+                   f"{result.wls / refit.wls:.3g} times below the optimum's; solved on")
+    x = np.array([[refit.parameters[n] for n in trial.problem.free]])
+    more = fit(trial.problem, starts=x, max_nfev=MAX_NFEV, tol=MF_SOLVE)
+    return dataclasses.replace(more, nfev=refit.nfev + more.nfev,
+                               seconds=refit.seconds + more.seconds)
 
 
 def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
@@ -310,6 +338,8 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
     result, old = before
     sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
                        hold=dict(old.held), like=old)
+    # the holds of candidates outside the free set (its candidates) are kept with their reasons
+    sp = dataclasses.replace(sp, held={**old.held, **sp.held})
     x0 = sp.problem.x0()
     gain = gauss_newton_gain(sp.problem, x0)
     if gain <= PASS_GAIN:
@@ -383,10 +413,14 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 if screen:
                     result, sp, others, solved = _refine(result, sp, stage, trailer, params,
                                                          free, others, progress, solved)
-                result = with_rivals(result, sp, others, label, progress, solved)
+                result, branch = with_other_branch(result, sp, label, progress)
+                result = with_rivals(result, sp, branch + list(others), label, progress,
+                                     solved)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
+            if screen:  # what rests on coefficients held since the re-fit with them failed
+                result = with_conditional(result, sp, stage, trailer, params)
             # the stage's whole wall time: screen (and the Jacobian's compile), search, solves,
             # every pass
             before_s, before_n = spent.get(stage, (0.0, 0))

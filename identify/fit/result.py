@@ -52,7 +52,8 @@ class MCMCSummary:
     stopped : str                   why an unconverged chain stopped: "max_steps" (the step
                                     cap) or "budget" (the time budget); "" when converged
     reparametrised : tuple of str   coordinates sampled in place of some coefficients (e.g.
-                                    Kya@3000N for PKY1, PKY2, PKY4; identify.fit.mcmc_reparam)
+                                    Kya@3000N for PKY1, PKY2, PKY4, Kya@3000N,1.90bar for
+                                    PPY1, PPY2; identify.fit.mcmc_reparam)
     """
 
     median: Mapping[str, float]
@@ -191,6 +192,10 @@ class FitResult:
     rivals : tuple of Rival                 other minima within reach of the optimum (the MF
                                             stages' search candidates solved again:
                                             identify.fit.mf_stages; docs/intervals.md)
+    conditional : Mapping[str, str]         free coefficients whose value rests on held ones
+                                            -> which and how much (the MF stages' holds that
+                                            took effect only after the fit:
+                                            identify.fit.mf_conditional)
     dof : Mapping[str, float]               degrees of freedom of each standard error
                                             (identify.fit.covariance.interval_dof): the 95 %
                                             interval is value +/- t(0.975, dof) standard
@@ -231,6 +236,7 @@ class FitResult:
     unidentified: Mapping[str, str] = field(default_factory=dict)
     dof: Mapping[str, float] = field(default_factory=dict)
     rivals: tuple[Rival, ...] = ()
+    conditional: Mapping[str, str] = field(default_factory=dict)
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -282,6 +288,7 @@ class FitResult:
             "unidentified": dict(self.unidentified),
             "dof": _nums(self.dof),
             "rivals": [v.to_dict() for v in self.rivals],
+            "conditional": dict(self.conditional),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -298,6 +305,7 @@ class FitResult:
         was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
         TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
         errors, as intervals were before it was recorded); a null one is infinite.
+        ``rivals`` and ``conditional`` default to empty.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -329,7 +337,9 @@ class FitResult:
                    unidentified={str(k): str(v)
                                  for k, v in (d.get("unidentified") or {}).items()},
                    dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()},
-                   rivals=tuple(Rival.from_dict(v) for v in d.get("rivals") or ()))
+                   rivals=tuple(Rival.from_dict(v) for v in d.get("rivals") or ()),
+                   conditional={str(k): str(v)
+                                for k, v in (d.get("conditional") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:

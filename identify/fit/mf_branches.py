@@ -1,0 +1,79 @@
+"""The other branch of a two-branch load curve, tried after an MF stage's global fit.
+
+The longitudinal slip stiffness is (docs/model.md, section 4)
+
+    Kxk / Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz)      [-]
+
+Over the loads of a trailer session (dfz within about +-0.5) two sets with the same value and
+slope at dfz = 0 -- PKX2 of either sign, PKX3 = PKX3' + (PKX2' - PKX2) / PKX1 -- draw nearly
+the same curve, and the search, which starts near the defaults (PKX2 > 0), does not reach the
+other. On a TTC session generated from the golden test tyre (tests/data/tir/testA_61.tir:
+PKX2 = -10, PKX3 = 0.5; seed 0) Fx0 ended at PKX2 = 12.4, PKX3 = -0.27, while the branch
+through the truth, PKX2 = -12.5, PKX3 = 0.57, fits the same points 18 lower in chi^2. After
+the global fit the stage is solved once more from the mirrored point; the lower end is the
+optimum, and the other, passed to identify.fit.mf_rivals, is a rival when within the 95 %
+region.
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Mapping
+
+import numpy as np
+
+from identify.core.progress import Progress
+from identify.fit.engine import MF_SOLVE
+from identify.fit.mf_problem import StageProblem
+from identify.fit.mf_search import MAX_NFEV
+from identify.fit.optimize import fit
+from identify.fit.result import FitResult
+
+__all__ = ["BRANCHES", "other_branch", "with_other_branch"]
+
+BRANCHES = {"Fx0": ("PKX1", "PKX2", "PKX3")}
+"""Stage -> (value, slope, curvature) coefficients of a load curve (c0 + c1 dfz) exp(c2 dfz)."""
+
+
+def other_branch(stage: str, values: Mapping[str, float]) -> dict[str, float] | None:
+    """The start on the other branch of ``stage``'s load curve (c1 -> -c1, c2 keeping the
+    slope c1 + c0 c2 at dfz = 0), or None when the stage has none or c0 or c1 is 0."""
+    names = BRANCHES.get(stage)
+    if names is None or not all(n in values for n in names):
+        return None
+    c0, c1, c2 = (float(values[n]) for n in names)
+    if c0 == 0 or c1 == 0:
+        return None
+    return {names[1]: -c1, names[2]: c2 + 2 * c1 / c0}
+
+
+def with_other_branch(result: FitResult, sp: StageProblem, label: str,
+                      progress: Progress | None) -> tuple[FitResult, list[dict[str, float]]]:
+    """``result`` or, when the solve from the other branch (:func:`other_branch`, its
+    coefficients all free) converges lower, that end (with the search's counts, the two
+    solves' evaluations and seconds, and a note in its message); and the end not taken as a
+    candidate for identify.fit.mf_rivals (empty when the solve did not converge)."""
+    free = result.free
+    start = other_branch(result.form, result.parameters)
+    if start is None or not result.converged or not set(start) <= set(free):
+        return result, []
+    x0 = np.array([[start.get(n, float(result.parameters[n])) for n in free]])
+    lo, hi = sp.problem.bounds()
+    if np.any(x0[0] < lo) or np.any(x0[0] > hi):
+        return result, []
+    end = fit(sp.problem, starts=x0, max_nfev=MAX_NFEV, tol=MF_SOLVE)
+    nfev, seconds = result.nfev + end.nfev, result.seconds + end.seconds
+    if not end.converged:
+        return dataclasses.replace(result, nfev=nfev, seconds=seconds), []
+    if end.wls < result.wls:
+        if progress is not None:
+            progress(f"{label}: the other branch of {', '.join(BRANCHES[result.form])} fits "
+                     f"better (objective {end.wls / result.wls:.4g} of the search's)")
+        loser = {n: float(result.parameters[n]) for n in free}
+        taken = dataclasses.replace(
+            end, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
+            nfev=nfev, seconds=seconds,
+            message=f"{end.message} (from the other branch of "
+                    f"{', '.join(BRANCHES[result.form])}, lower than the search's optimum)")
+        return taken, [loser]
+    return (dataclasses.replace(result, nfev=nfev, seconds=seconds),
+            [{n: float(end.parameters[n]) for n in free}])

@@ -1,0 +1,114 @@
+"""Free MF coefficients whose values rest on held ones (FitResult.conditional).
+
+The identifiability screen holds a candidate that has no effect at the start values (QSX4 while
+QSX7 = QSX8 = 0); after the fit, a coefficient that then has an effect is freed and the stage
+re-fitted (identify.fit.mf_stages._refine). When that re-fit does not converge or ends higher,
+the coefficient stays held at its start value, which the data did not choose, and the free
+coefficients it trades with carry whatever the held value makes them: on a TTC session
+generated from another tyre (MFeval's reference tyre at Formula Student size: QSX4 = 4.9,
+QSX6 = 22.8, QSX7 = 0.71; QSX4..QSX6 held at their defaults 5, 1, 10) the Mx stage reported
+QSX7 = 0.17 +- 0.047 and QSX3 14 % above the truth, 11 and 12 standard errors off, as
+"identifiable".
+
+Their intervals are right only if the held values are exact. This module measures how much
+they rest on them: the variance of each free coefficient with the held ones free as well,
+over its variance with them held (a variance inflation factor from J^T J at the optimum, noise
+scale cancelling). Above :data:`VIF_LIMIT`, or where freeing them leaves the coefficient
+undetermined, the coefficient is recorded as conditional (identify.fit.identifiability then
+counts it not identifiable on its own, with the held names in the reason).
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+
+from identify.fit.identifiability import assess
+from identify.fit.mf_problem import StageProblem, stage_problem
+from identify.fit.mf_screen import jacobian as fd_jacobian
+from identify.fit.result import FitResult
+
+__all__ = ["AFTER_FIT", "VIF_LIMIT", "conditional_on_held", "inflation", "with_conditional"]
+
+AFTER_FIT = "effective only after the fit"
+"""Marker in a held coefficient's reason (identify.fit.mf_stages._refine) that it took effect
+at the fitted values but its re-fit was not taken."""
+VIF_LIMIT = 4.0
+"""Variance ratio (a standard error twice as large) above which a free coefficient counts as
+resting on the held ones."""
+NULL_TOL = 1e-10
+"""Eigenvalue of the unit-diagonal J^T J, relative to its largest, below which a direction is
+undetermined."""
+
+
+def inflation(J: np.ndarray, k: int) -> np.ndarray:
+    """Variance inflation of the first ``k`` columns' coefficients when the other columns of
+    ``J`` (points, k + h) are freed too: var(full) / var(first k alone), from J^T J (inf where
+    freeing the others leaves a coefficient undetermined, nan where it was undetermined
+    already)."""
+    A = J.T @ J
+    d = np.sqrt(np.diag(A))
+    out = np.full(k, np.nan)
+    if not (np.all(np.isfinite(d)) and np.all(d > 0)):
+        return out
+    A = A / np.outer(d, d)
+
+    def diag_inverse(M):
+        w, V = np.linalg.eigh(M)
+        null = w < NULL_TOL * w.max()
+        var = (V[:, ~null] ** 2 / w[~null]).sum(axis=1)
+        var[(V[:, null] ** 2).sum(axis=1) > 1e-2] = np.inf
+        return var
+
+    alone = diag_inverse(A[:k, :k])
+    full = diag_inverse(A)[:k]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        out = np.where(np.isfinite(alone), full / alone, np.nan)
+    return out
+
+
+def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
+                        trailer: pd.DataFrame, params: Mapping[str, float]) -> dict[str, str]:
+    """Free coefficients of ``result`` whose values rest on the stage's coefficients held with
+    the AFTER_FIT reason -> why (empty when none is so held, or the fit did not converge).
+
+    Parameters
+    ----------
+    result : FitResult       the stage's fit
+    sp : StageProblem        its problem (``held``: name -> reason)
+    stage : str              the stage's name
+    trailer : DataFrame      the trailer table the stage was fitted on
+    params : mapping         every .tir value (the held ones at their held values)
+    """
+    held = [n for n, why in sp.held.items() if AFTER_FIT in why]
+    if not held or not result.converged or not result.free:
+        return {}
+    free: Sequence[str] = list(result.free)
+    values = {**params, **{n: float(result.parameters[n]) for n in free}}
+    full = stage_problem(stage, trailer, values, free={stage: list(free) + held}, screen=False)
+    if full is None or tuple(full.problem.free[:len(free)]) != tuple(free):
+        return {}
+    x = full.problem.x0()
+    J = full.problem.residual_jacobian(x)
+    if J is None:
+        J = fd_jacobian(full.problem, x)
+    vif = inflation(np.asarray(J, dtype=float), len(free))
+    names = ", ".join(f"{n} = {values[n]:.4g}" for n in held)
+    out = {}
+    for n, v in zip(free, vif):
+        if v > VIF_LIMIT:  # nan (undetermined already) is another rule's
+            grow = "undetermined" if np.isinf(v) else f"{np.sqrt(v):.1f}x its standard error"
+            out[n] = f"rests on {names}, held ({AFTER_FIT}; freeing them: {grow})"
+    return out
+
+
+def with_conditional(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+                     params: Mapping[str, float]) -> FitResult:
+    """``result`` with :attr:`FitResult.conditional` set and its identification assessed
+    again (unchanged when nothing rests on a held coefficient)."""
+    found = conditional_on_held(result, sp, stage, trailer, params)
+    if found == dict(result.conditional):
+        return result
+    return assess(dataclasses.replace(result, conditional=found))
