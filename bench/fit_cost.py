@@ -99,7 +99,10 @@ rounds, each main at 86aeafc (``git archive main`` into /tmp/fc3-main,
 branch (6888ca5), back to back, caches warm; the ``cpu`` lines (the wall ratios moved by 1.5x
 between runs at that load): the bundled sample (``--passes 2``) 123 and 123 -> 104 and 95;
 ``--ttc 0 --passes 2`` 225 and 230 -> 177 and 177 (at 807f2f2, 10:18-10:21 UTC, load 3.9-4.5:
-126 and 130 -> 101 and 101, 231 and 229 -> 188 and 183). What went (each from one-off profiles
+126 and 130 -> 101 and 101, 231 and 229 -> 188 and 183). After merging main (48d4eb7: the other
+branch of Fx0, the conditional holds; 10:35-10:37 UTC, load 3.4-4.8, the same way against
+48d4eb7 in /tmp/fc3-main2): the sample 122 and 125 -> 97 and 95, the TTC session 224 and 242 ->
+172 and 185; fit.json against 48d4eb7's as below on both. What went (each from one-off profiles
 of a warm ``fit_mf``, passes 2): the rivals' solves (identify.fit.mf_rivals), which solved
 every far candidate on all points again from the start the global fit had just solved, and
 polished a polished one again, now replayed from the global fit's record where the budgets make
