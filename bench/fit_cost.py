@@ -93,6 +93,44 @@ it, so the polish's bound does not skip it). Every fitted
 value the same: ``mfid fit --no-report`` fit.json of main and this branch identical but for
 times and the command, on the sample (the cache warm, cold, and off) and on the TTC session.
 
+Measured 2026-11-24 10:29-10:31 UTC, load average 3.0-4.0 (other helpers on the 2 cores), two
+rounds, each main at 86aeafc (``git archive main`` into /tmp/fc3-main,
+``PYTHONPATH=/tmp/fc3-main python bench/fit_cost.py --label fc3-main``) and then the fit-cost-3
+branch (6888ca5), back to back, caches warm; the ``cpu`` lines (the wall ratios moved by 1.5x
+between runs at that load): the bundled sample (``--passes 2``) 123 and 123 -> 104 and 95;
+``--ttc 0 --passes 2`` 225 and 230 -> 177 and 177 (at 807f2f2, 10:18-10:21 UTC, load 3.9-4.5:
+126 and 130 -> 101 and 101, 231 and 229 -> 188 and 183). After merging main (48d4eb7: the other
+branch of Fx0, the conditional holds; 10:35-10:37 UTC, load 3.4-4.8, the same way against
+48d4eb7 in /tmp/fc3-main2): the sample 122 and 125 -> 97 and 95, the TTC session 224 and 242 ->
+172 and 185; fit.json against 48d4eb7's as below on both. What went (each from one-off profiles
+of a warm ``fit_mf``, passes 2): the rivals' solves (identify.fit.mf_rivals), which solved
+every far candidate on all points again from the start the global fit had just solved, and
+polished a polished one again, now replayed from the global fit's record where the budgets make
+it the same solve (identify.fit.optimize.replay; with_rivals 0.39 -> 0.003 s on the sample;
+nfev Fy 151 -> 103 and Fx 585 -> 482 on the sample, Fy 309 -> 175 and Fx 202 -> 156 on the TTC
+session); a np.where copy of every Jacobian for its non-finite entries
+(FitProblem.model_jacobian: ~1 ms of a 4096 x 27 Jacobian's ~2.5 ms) and indexing each chunk's
+free columns instead of slicing them (identify.fit.mf_jacobian._runs); the jackknife
+covariance's per-sweep decompositions (an eigvalsh, then an SVD in each of two pinv calls, a
+Python loop over the sweeps each; now one stacked eigh: 42 -> 15 ms for 60 sweeps of a 6418 x
+26 Jacobian, 157 -> 23 ms for 200 of 4495 x 29, synthetic, best of 5); and the stage's rows,
+sweeps and pressure groups taken again for every re-fit and later pass (mf_problem.StagePoints:
+stage_problem 0.96 -> 0.58 s on the TTC session, 0.52 -> 0.43 s on the sample), and the stage's
+lmfit parameters built again after a screen that held nothing more. Every fitted value the
+same: ``mfid fit --no-report`` fit.json of main and the branch, on the sample and on the TTC
+session (seed 0, simulated and imported as ``--ttc`` does): coefficients, thesis errors,
+objectives, statuses, messages and rivals identical; standard errors within 1.5e-11 relative,
+degrees of freedom within 5.3e-11 and a rival's chi^2 within 2.3e-13 (the eigendecomposition).
+Against ddb9f71's 351 and 612 (earlier rounds, other loads): 3.5x and 3.5x, short of the
+issue's 5x (72 and 122). Left, from a profile of the TTC session's stages (4.5 s): the exact
+Jacobians 1.45 s (1772 chunk calls, 0.6-0.8 ms of CPU each, compute, not dispatch: reading
+every chunk's result after dispatching them all changed nothing), trf's SVDs 0.7 s (620;
+scipy's gesdd of the whole n x k Jacobian, near LAPACK's cost: a QR first was slower, gesvd ~30
+% faster but is scipy's choice inside trf, and a change to the steps could move the
+noise-stopped optima by more than the 1e-3 of a standard error allowed: not tried), the model
+evaluations ~0.5 s, the SLSQP polishes 0.47 s (each gradient a whole exact Jacobian), the stage
+builds 0.58 s and the JAX import 0.3 s.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """

@@ -311,6 +311,42 @@ def test_jackknife_degrees_of_freedom_by_hand():
     assert engine.interval_dof(X).tolist() == [x.size - 2.0] * 2
 
 
+def test_jackknife_with_dof_is_the_covariance_and_dof_of_per_cluster_solves():
+    """engine.jackknife_with_dof (one stacked pseudo-inverse per cluster, shared): the
+    jackknife covariance and degrees of freedom as written out with one pinv per left-out
+    cluster, to rounding."""
+    rng = np.random.default_rng(5)
+    x = np.tile(np.linspace(-1, 1, 10), 12)
+    J = np.c_[np.ones(x.size), x, x ** 2 * 1e3]
+    r = rng.standard_normal(x.size)
+    clusters = np.array_split(rng.permutation(x.size), 12)
+    steps = []
+    lam = []
+    for i in clusters:
+        s = np.linalg.norm(J, axis=0)
+        Js = J / s
+        Gc = Js[i].T @ Js[i]
+        A = np.linalg.pinv(Js.T @ Js - Gc)
+        steps.append(A @ (Js[i].T @ r[i]) / s)
+        lam.append(np.diag(A @ Gc @ A))
+    steps, lam = np.array(steps), np.array(lam)
+    cov_hand = 11 / 12 * steps.T @ steps
+    dof_hand = np.clip(lam.sum(0) ** 2 / (lam ** 2).sum(0), 1, 11)
+    cov, dof = engine.jackknife_with_dof(J, r, clusters)
+    np.testing.assert_allclose(cov, cov_hand, rtol=1e-10)
+    np.testing.assert_allclose(dof, dof_hand, rtol=1e-12)
+    np.testing.assert_array_equal(cov, engine.covariance(J, r, clusters=clusters,
+                                                          kind="jackknife"))
+    np.testing.assert_array_equal(dof, engine.interval_dof(J, clusters=clusters,
+                                                           kind="jackknife"))
+    assert engine.jackknife_defined(J, clusters)
+    # a coefficient only the first cluster carries: not defined, None
+    alone = np.zeros(x.size)
+    alone[clusters[0]] = 1.0
+    assert not engine.jackknife_defined(np.c_[J, alone], clusters)
+    assert engine.jackknife_with_dof(np.c_[J, alone], r, clusters) is None
+
+
 def test_t_intervals_hold_95_percent_where_few_sweeps_carry_a_coefficient():
     """Calibration: 30 sweeps, a coefficient that only 3 of them carry (an offset of those
     sweeps, as the extreme-load sweeps carry a load term), each sweep with its own random
@@ -505,3 +541,46 @@ def test_discovery_objective_uses_the_exact_jacobian():
     np.testing.assert_allclose(col_ex, col_fd, rtol=1e-6, atol=1e-9 * np.abs(col_ex).max())
     np.testing.assert_allclose(jac_ex, jac_fd, rtol=1e-6, atol=1e-9 * np.abs(jac_ex).max())
     np.testing.assert_allclose(ex.jac, jac_ex, rtol=1e-12)
+
+
+@pytest.mark.parametrize("constrained", [False, True])
+def test_a_recorded_start_replays_as_a_fresh_single_start_fit(constrained):
+    """identify.fit.optimize.replay: a start of a multi-start fit, recorded, gives the outcome
+    a single-start fit from it would have (the same end point bit for bit, the same
+    convergence under a budget it stayed within or ran past), and None where the record does
+    not tell. Constrained (the least-squares optimum has p2 > 0, the constraint p2 <= 0):
+    a start's own polish is recorded (one that shares an earlier start's is not)."""
+    from identify.fit.optimize import replay
+
+    truth = {"nom": 1.43e5, "p1": 0.17, "p2": 0.25 if constrained else -0.25, "p3": 0.47}
+    rng = np.random.default_rng(3)
+    data = stiffness(truth) * (1 + 0.01 * rng.standard_normal(PRESSURES.size))
+    cons = (Constraint("p2 <= 0", lambda v: np.array([-v["p2"]])),) if constrained else ()
+    problem = FitProblem("CFy", "quadratic_load", _params(truth), stiffness, data, PRESSURES,
+                         objective="wls", constraints=cons)
+    starts = np.array([[1e5, 0.5, 0.3, 0.1], [3e5, -0.5, -0.3, 0.9]])
+    for tol in (engine.MF_SOLVE, engine.STRICT):
+        solved = []
+        fit(problem, starts=starts, max_nfev=100, tol=tol, record=solved)
+        assert 1 <= len(solved) <= 2
+        assert all(rec.outcome.polished == constrained for rec in solved)
+        for rec in solved:
+            used = rec.outcome.lsq.nfev
+            assert 2 < used < 100
+            alone = fit(problem, starts=rec.start[None, :], max_nfev=100, tol=tol)
+            out = replay(solved, problem, rec.start, 100, tol)
+            assert out.ok == alone.converged
+            np.testing.assert_array_equal([alone.parameters[n] for n in problem.free], out.x)
+            # a larger budget than both: the same steps
+            assert replay(solved, problem, rec.start, used + 1, tol) is out
+            short = replay(solved, problem, rec.start, used - 1, tol)
+            if tol.noise_ftol > 0:  # the noise stop could end the short solve: not told
+                assert short is None
+            else:
+                assert not short.ok
+                assert not fit(problem, starts=rec.start[None, :], max_nfev=used - 1,
+                               tol=tol).converged
+            # another problem, start or tolerances: not told
+            other = dataclasses.replace(problem)
+            assert replay(solved, other, rec.start, 100, tol) is None
+            assert replay(solved, problem, rec.start * 1.01, 100, tol) is None

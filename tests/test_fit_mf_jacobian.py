@@ -64,6 +64,22 @@ def test_exact_jacobian_equals_central_differences(stage, truth, data, exact):
 
 
 @needs_jax
+def test_jacobian_of_some_coefficients_in_any_order_is_those_columns(truth, data, exact):
+    """stage_jacobian(values, names): the columns of ``names`` of the whole stage's Jacobian,
+    in their order (copied as runs of consecutive columns, mf_jacobian._runs), whatever
+    names are left out or reordered."""
+    sp = stage_problem("Fy", data, truth, screen=False)
+    fn = sp.problem.jacobian
+    every = STAGES["Fy"].coefficients
+    whole = fn(truth, every)
+    for names in (every[:3] + every[4:], every[::-1], every[2:3], every[5:] + every[:2]):
+        part = fn(truth, names)
+        np.testing.assert_array_equal(part, whole[:, [every.index(n) for n in names]])
+    assert mf_jacobian._runs([0, 1, 2, 4, 5, 7]) == [(0, 3, 0), (4, 6, 3), (7, 8, 5)]
+    assert mf_jacobian._runs([3, 1, 2]) == [(3, 4, 0), (1, 3, 1)]
+
+
+@needs_jax
 def test_jax_equations_equal_numpy(truth, data):
     """stage_predict with jax.numpy gives the numpy values (the one copy of the equations)."""
     _, jnp = mf_jacobian._jax()

@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from identify.fit.mf_constraints import validity_grid
+from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.optimize import fit
 from identify.io.tir import read_tir
@@ -180,6 +181,48 @@ def test_three_loads_cannot_choose_the_slip_stiffness_branch(truth, data):
     assert held["PKX3"] == "data: 3 load level(s), 4 needed"
     four = _simulate(truth, _sweeps(loads=(3000.0, 4500.0, 6000.0, 7500.0)))
     assert "PKX3" in stage_problem("Fx0", four, truth).problem.free
+
+
+@pytest.mark.parametrize("stage", ["Fx0", "Fy", "geometry"])
+def test_a_stage_problem_built_like_an_earlier_one_is_the_same_problem(stage, truth, data):
+    """stage_problem(like=): the earlier problem's points reused, at other parameter values
+    and with holds, give the problem built from the table afresh; a different nominal load
+    numbers the sweeps again."""
+    first = stage_problem(stage, data, truth)
+    moved = {**truth, **{n: truth[n] * 1.1 for n in first.problem.free}}
+    for kwargs in ({}, {"hold": {n: "held" for n in first.problem.free[:1]}}):
+        fresh = stage_problem(stage, data, moved, **kwargs)
+        again = stage_problem(stage, data, moved, like=first, **kwargs)
+        assert again.points is first.points
+        np.testing.assert_array_equal(again.rows, fresh.rows)
+        assert again.held == fresh.held and again.problem.free == fresh.problem.free
+        for name in ("measured", "pressure_bar", "sweeps"):
+            np.testing.assert_array_equal(getattr(again.problem, name),
+                                          getattr(fresh.problem, name))
+        x = fresh.problem.x0()
+        np.testing.assert_array_equal(again.problem.residuals(x), fresh.problem.residuals(x))
+        np.testing.assert_array_equal(again.problem.constraint_values(x),
+                                      fresh.problem.constraint_values(x))
+    other = stage_problem(stage, data, {**moved, "FNOMIN": 2 * truth["FNOMIN"]}, like=first)
+    assert other.points is not first.points and other.points.fnomin == 2 * truth["FNOMIN"]
+
+
+@pytest.mark.parametrize("stage", ["Fx0", "Fy0"])
+def test_a_screened_stage_problem_is_the_one_built_with_its_holds(stage, truth, data):
+    """The screened problem (its screen's problem reused when the screen held nothing more)
+    has the parameters, bounds, constraints and residuals of the problem built with the
+    screen's holds."""
+    start = _perturb(truth, STAGES[stage].coefficients, seed=3)
+    sp = stage_problem(stage, data, start)
+    held = stage_problem(stage, data, start, hold=sp.held)
+    a, b = sp.problem, held.problem
+    assert a.free == b.free and a.parameters.valuesdict() == b.parameters.valuesdict()
+    for x, y in zip(a.bounds(), b.bounds()):
+        np.testing.assert_array_equal(x, y)
+    assert len(a.constraints) == len(b.constraints) > 0
+    x = a.x0()
+    np.testing.assert_array_equal(a.constraint_values(x), b.constraint_values(x))
+    np.testing.assert_array_equal(a.residuals(x), b.residuals(x))
 
 
 def test_geometry_stage_model_is_evaluates_re(truth, data):

@@ -14,7 +14,7 @@ from scipy.special import stdtrit
 
 __all__ = ["CLUSTER_KINDS", "ESSENTIAL_RTOL", "covariance", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
-           "pseudo_solve", "standard_errors", "t_quantile"]
+           "jackknife_with_dof", "pseudo_solve", "standard_errors", "t_quantile"]
 
 
 def pseudo_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -36,8 +36,30 @@ def _column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return J / scale, scale
 
 
+def _cluster_grams(Js: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
+    """G_c = J_c^T J_c of every cluster, (C, k, k)."""
+    k = Js.shape[1]
+    return np.array([Js[i].T @ Js[i] for i in clusters]).reshape(len(clusters), k, k)
+
+
+def _left_out(jac: np.ndarray, clusters: list[np.ndarray]) -> tuple[np.ndarray, ...]:
+    """(column-scaled J, its column norms, G_c of every cluster, (G - G_c)^+ of every cluster,
+    the eigenvalues of every G - G_c, ascending): what the jackknife's steps, their degrees
+    of freedom and :func:`jackknife_defined` share. One stacked eigendecomposition of the
+    symmetric G - G_c gives both the eigenvalues and the pseudo-inverse, V diag(1/w) V^T over
+    |w| > 1e-15 max |w| (numpy's pinv(hermitian=True), its default cutoff), where pinv's SVD
+    and eigvalsh took one decomposition each per cluster."""
+    Js, scale = _column_scaled(jac)
+    Gc = _cluster_grams(Js, clusters)
+    w, V = np.linalg.eigh(Js.T @ Js - Gc)
+    big = np.abs(w) > 1e-15 * np.abs(w).max(axis=-1, initial=0.0, keepdims=True)
+    inv = np.divide(1.0, w, out=np.zeros_like(w), where=big)
+    return Js, scale, Gc, (V * inv[:, None, :]) @ np.swapaxes(V, -1, -2), w
+
+
 def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray],
-                    upstream: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+                    upstream: tuple[np.ndarray, np.ndarray] | None = None, *,
+                    parts: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """The linearised change of each estimate when one cluster is left out, (C, k).
 
     Row c is d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c), with G = J^T J, G_c = J_c^T J_c,
@@ -47,17 +69,17 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
     earlier call, clusters in the same order; a cluster with no point here is an empty index
     array and still moves the estimate through u_c). Computed on the column-scaled J.
+    ``parts``: :func:`_left_out` of ``jac`` and ``clusters`` when the caller has it.
     """
-    Js, scale = _column_scaled(jac)
+    Js, scale, _, A, _ = _left_out(jac, clusters) if parts is None else parts
     k = Js.shape[1]
-    G = Js.T @ Js
     rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
     if upstream is not None:
         K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
         JK = Js.T @ K
         rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
                              ).reshape(rhs.shape)
-    steps = np.array([pseudo_solve(G - Js[i].T @ Js[i], b) for i, b in zip(clusters, rhs)])
+    steps = np.einsum("cij,cj->ci", A, rhs)
     return steps.reshape(len(clusters), k) / scale
 
 
@@ -80,7 +102,9 @@ def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
     floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
     if not floor > 0:
         return True
-    return all(np.linalg.eigvalsh(G - Js[i].T @ Js[i])[0] >= floor for i in clusters)
+    if not clusters:
+        return True
+    return bool(np.all(_left_out(Js, clusters)[4][:, 0] >= floor))
 
 
 def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
@@ -156,7 +180,8 @@ def covariance(jac: np.ndarray, fun: np.ndarray | None = None, *, sigma_known: b
     return s2 * bread
 
 
-def jackknife_dof(jac: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
+def jackknife_dof(jac: np.ndarray, clusters: list[np.ndarray], *,
+                  parts: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """Degrees of freedom of each coefficient's delete-one-cluster jackknife variance, (k,).
 
     The jackknife variance of coefficient j is (C - 1)/C sum_c d_cj^2 (:func:`jackknife_steps`):
@@ -170,19 +195,31 @@ def jackknife_dof(jac: np.ndarray, clusters: list[np.ndarray]) -> np.ndarray:
     (G - G_c)^+, G_c = J_c^T J_c (the Bell-McCaffrey construction for the jackknife's steps).
     Equal weights give C; one cluster carrying everything gives 1. Capped at C - 1, floored
     at 1. Computed on the column-scaled J (the ratio does not depend on the scale).
+    ``parts``: :func:`_left_out` of ``jac`` and ``clusters`` when the caller has it.
     """
-    Js, _ = _column_scaled(jac)
-    G = Js.T @ Js
-    lam = []
-    for i in clusters:
-        Gc = Js[i].T @ Js[i]
-        A = np.linalg.pinv(G - Gc)
-        lam.append(np.einsum("ij,jk,ki->i", A, Gc, A))
-    lam = np.reshape(lam, (len(clusters), Js.shape[1]))
+    Js, _, Gc, A, _ = _left_out(jac, clusters) if parts is None else parts
+    lam = np.einsum("cij,cjk,cki->ci", A, Gc, A).reshape(len(clusters), Js.shape[1])
     total, squares = lam.sum(axis=0), (lam ** 2).sum(axis=0)
     with np.errstate(invalid="ignore", divide="ignore"):
         dof = np.where(squares > 0, total ** 2 / squares, len(clusters) - 1.0)
     return np.clip(dof, 1.0, max(len(clusters) - 1.0, 1.0))
+
+
+def jackknife_with_dof(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
+                       ) -> tuple[np.ndarray, np.ndarray] | None:
+    """(:func:`covariance` with ``clusters`` and ``kind="jackknife"``, :func:`interval_dof`
+    with the same), (k, k) and (k,), or None where :func:`jackknife_defined` is False: the
+    three from one decomposition of every left-out normal matrix (:func:`_left_out`)."""
+    J = np.atleast_2d(np.asarray(jac, dtype=float))
+    if J.shape[1] == 0:
+        return np.zeros((0, 0)), np.zeros(0)
+    parts = _left_out(J, clusters)
+    Js = parts[0]
+    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(Js.T @ Js)[0]
+    if floor > 0 and clusters and not np.all(parts[4][:, 0] >= floor):
+        return None
+    return (jackknife_covariance(jackknife_steps(J, fun, clusters, parts=parts)),
+            jackknife_dof(J, clusters, parts=parts))
 
 
 def interval_dof(jac: np.ndarray, *, sigma_known: bool = False,

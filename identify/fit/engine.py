@@ -35,7 +35,8 @@ from scipy import optimize
 
 from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, interval_dof,
                                      jackknife_covariance, jackknife_defined, jackknife_dof,
-                                     jackknife_steps, pseudo_solve, standard_errors, t_quantile)
+                                     jackknife_steps, jackknife_with_dof, pseudo_solve,
+                                     standard_errors, t_quantile)
 from identify.fit.problem import FitProblem
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
@@ -446,11 +447,13 @@ def covariance_of(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = N
     J = residual_jacobian(problem, x) if jac is None else jac
     r = problem.residuals(x) if fun is None else fun
     clusters = problem.clusters()
-    defined = clusters is None or jackknife_defined(J, clusters)
-    how = {"sigma_known": problem.sigma is not None,
-           "clusters": clusters if defined else None, "kind": "jackknife"}
-    cov = covariance(J, r, **how)
-    return (cov, *problem.covariance_used(jackknife_defined=defined), interval_dof(J, **how))
+    # the jackknife, its degrees of freedom and whether it is defined from one decomposition
+    both = None if clusters is None else jackknife_with_dof(J, r, clusters)
+    defined = clusters is None or both is not None
+    if both is None:
+        how = {"sigma_known": problem.sigma is not None, "clusters": None}
+        both = covariance(J, r, **how), interval_dof(J, **how)
+    return (both[0], *problem.covariance_used(jackknife_defined=defined), both[1])
 
 
 def problem_covariance(problem: FitProblem, x: np.ndarray, jac: np.ndarray | None = None,

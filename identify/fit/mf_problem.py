@@ -24,7 +24,7 @@ from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, spec
 from identify.model.state import OperatingState, prepare
 
-__all__ = ["StageProblem", "stage_problem", "subproblem"]
+__all__ = ["StagePoints", "StageProblem", "stage_problem", "subproblem"]
 
 
 @dataclass(frozen=True)
@@ -46,6 +46,54 @@ class StageProblem:
     state: OperatingState
     omega: np.ndarray | None = None
     params: Mapping[str, float] | None = None
+    points: StagePoints | None = dataclasses.field(default=None, repr=False, compare=False)
+
+
+@dataclass(frozen=True)
+class StagePoints:
+    """What a stage's problem takes from its rows of the trailer table, whatever the
+    parameter values but the nominal load: a later build of the same stage on the same table
+    reuses it (stage_problem(like=); the row selection, the table's rows, their sweeps and
+    pressure groups cost 10-30 ms a build on a TTC session).
+
+    Attributes
+    ----------
+    rows : ndarray           row positions in the trailer table
+    pts : DataFrame          those rows
+    col : dict               Fz, kappa, alpha, gamma, Vx, p of the rows (ndarray each)
+    omega : ndarray or None  wheel speed [rad/s] (stage geometry only)
+    measured : ndarray       the fitted quantity
+    extra : dict             FitProblem.extra
+    groups : ndarray         pressure group of every row [bar]
+    sweeps : ndarray         sweep number of every row
+    levels : ndarray         the data's pressure levels (the validity grid's)
+    fnomin : float           the nominal load [N] the sweeps were numbered with
+    """
+
+    rows: np.ndarray
+    pts: pd.DataFrame
+    col: Mapping[str, np.ndarray]
+    omega: np.ndarray | None
+    measured: np.ndarray
+    extra: Mapping[str, object]
+    groups: np.ndarray
+    sweeps: np.ndarray
+    levels: np.ndarray
+    fnomin: float
+
+
+def _stage_points(sd: StageDef, trailer: pd.DataFrame, rows: np.ndarray,
+                  fnomin: float) -> StagePoints:
+    pts = trailer.iloc[rows]
+    col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    # the validity grid at the data's pressure levels (a continuously measured pressure
+    # channel has as many distinct values as samples)
+    return StagePoints(
+        rows, pts, col, pts["omega"].to_numpy(float) if sd.quantity == "Re" else None,
+        mf_data.quantity_values(pts, sd.quantity),
+        {"quantity": sd.quantity, **point_columns(pts)}, mf_data.pressure_groups(pts),
+        mf_data.sweep_ids(pts, fnomin),
+        mf_data.level_values(col["p"], mf_data.PRESSURE_RESOLUTION), fnomin)
 
 
 def _candidates(sd: StageDef, free) -> list[str]:
@@ -60,7 +108,8 @@ def _candidates(sd: StageDef, free) -> list[str]:
 def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float], *,
                   free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
                   screen: bool = True,
-                  hold: Mapping[str, str] | None = None) -> StageProblem | None:
+                  hold: Mapping[str, str] | None = None,
+                  like: StageProblem | None = None) -> StageProblem | None:
     """Build the FitProblem of one stage at the current values ``params``.
 
     Parameters
@@ -79,6 +128,9 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         candidate.
     hold : mapping name -> reason, optional
         Hold exactly these candidates (no screening).
+    like : StageProblem, optional
+        An earlier problem of the same stage on the same ``trailer``: its points
+        (:class:`StagePoints`) are reused instead of selected and read again.
 
     Returns
     -------
@@ -86,29 +138,31 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         None when the table holds no point for the stage.
     """
     sd = STAGES[stage]
-    rows = mf_data.select(trailer, sd.selection, sd.quantity)
-    if rows.size == 0:
-        return None
-    pts = trailer.iloc[rows]
-    col = {c: pts[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    fnomin = float(params["FNOMIN"])
+    at = like.points if like is not None else None
+    if at is None or at.fnomin != fnomin:
+        rows = (mf_data.select(trailer, sd.selection, sd.quantity) if like is None
+                else like.rows)
+        if rows.size == 0:
+            return None
+        at = _stage_points(sd, trailer, rows, fnomin)
+    rows, pts, col, omega, measured = at.rows, at.pts, at.col, at.omega, at.measured
     s = prepare(params, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
                 p=col["p"], mode=FIT_MODE)
-    omega = pts["omega"].to_numpy(float) if sd.quantity == "Re" else None
     model = stage_model(stage, params, s, omega)
     jacobian = stage_jacobian(stage, params, s, omega)
-    measured = mf_data.quantity_values(pts, sd.quantity)
     held: dict[str, str] = {}
     names = _candidates(sd, free)
     if hold is not None:
         held = {n: why for n, why in hold.items() if n in names}
     elif screen:
-        cov = mf_data.Coverage.of(pts, float(params["FNOMIN"]))
+        cov = mf_data.Coverage.of(pts, fnomin)
         for n in names:
             why = cov.missing(NEEDS.get(n, ()))
             if why:
                 held[n] = why
 
-    extra = {"quantity": sd.quantity, **point_columns(pts)}
+    extra, groups, sweeps = at.extra, at.groups, at.sweeps
 
     def build(vary: Collection[str], constraints=()) -> FitProblem:
         P = lmfit.Parameters()
@@ -119,26 +173,29 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                 P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
             else:  # held: exactly the carried-forward value
                 P.add(n, value=v, vary=False)
-        return FitProblem("MF", stage, P, model, measured,
-                          mf_data.pressure_groups(pts), objective="wls", sigma=None,
-                          constraints=tuple(constraints),
-                          sweeps=mf_data.sweep_ids(pts, float(params["FNOMIN"])), unit=sd.unit,
+        return FitProblem("MF", stage, P, model, measured, groups, objective="wls",
+                          sigma=None, constraints=tuple(constraints), sweeps=sweeps, unit=sd.unit,
                           extra=extra, noise="sweep-residual", jacobian=jacobian,
                           covariance="sweeps")
 
+    screened = None
     if screen and hold is None:
-        more, _ = sensitivity_screen(build([n for n in names if n not in held]))
+        screened = build([n for n in names if n not in held])
+        more, _ = sensitivity_screen(screened)
         held.update(more)
+        if more:
+            screened = None
     vary = [n for n in names if n not in held]
 
     def merge(values):
         return {**params, **values}
 
-    # the validity grid at the data's pressure levels (a continuously measured pressure
-    # channel has as many distinct values as samples)
-    cons = stage_constraints(stage, params, merge, mf_data.level_values(
-        pts["p"].to_numpy(float), mf_data.PRESSURE_RESOLUTION))
-    return StageProblem(build(vary, cons), rows, held, s, omega, dict(params))
+    cons = stage_constraints(stage, params, merge, at.levels)
+    # the screen's problem when it held nothing more (the same parameters: lmfit's are slow to
+    # build, ~0.06 ms each), with the constraints
+    problem = (build(vary, cons) if screened is None
+               else dataclasses.replace(screened, constraints=tuple(cons)))
+    return StageProblem(problem, rows, held, s, omega, dict(params), at)
 
 
 def subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:

@@ -14,7 +14,7 @@ from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian, residua
 from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
 from identify.fit.mf_search import REFIT_NFEV
-from identify.fit.optimize import fit
+from identify.fit.optimize import Solved, fit, replay, snapped
 from identify.fit.result import FitResult, Rival
 
 __all__ = ["MIRROR", "with_rivals"]
@@ -25,7 +25,8 @@ MIRROR = ("QBZ9", "QBZ10")
 
 
 def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],
-                 label: str, progress: Progress | None) -> FitResult:
+                label: str, progress: Progress | None, solved: Sequence[Solved] = ()
+                ) -> FitResult:
     """``result`` with the other minima the data cannot rule out (FitResult.rivals).
 
     Every candidate of the global search that ended more than one standard error from the
@@ -37,7 +38,9 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     data hold a second one as good, the coefficients that differ are not determined on their
     own (identify.fit.identifiability: "another minimum within the 95 % region"). On a
     generated TTC session's Fx0 stage two such basins lie on either side of the truth
-    (docs/intervals.md)."""
+    (docs/intervals.md). ``solved``: the candidates' solves in the global fit on the same
+    problem (identify.fit.optimize.fit's ``record``), replayed where they tell the outcome of
+    the solve within REFIT_NFEV (identify.fit.optimize.replay) instead of solved again."""
     free = result.free
     if not free or not result.converged or not candidates:
         return result
@@ -55,17 +58,17 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         x0 = _mirrored(free, x0, xb)
         if np.all(np.abs(x0 - xb) <= se):
             continue
-        end = fit(problem, starts=x0[None, :], max_nfev=REFIT_NFEV, tol=MF_SOLVE)
-        spent += end.nfev
-        if not end.converged:
+        converged, xe, wls = _solve(problem, x0, list(solved))
+        spent += wls[1]
+        if not converged:
             continue
-        xr = _mirrored(free, np.array([end.parameters[n] for n in free]), xb)
+        xr = _mirrored(free, xe, xb)
         far = np.abs(xr - xb) > 1.959964 * se
         if not far.any():
             continue
         if scale is None:
             scale = _chi2_scale(problem, xb, se)
-        dchi2 = (end.wls - result.wls) / scale if scale > 0 else np.inf
+        dchi2 = (wls[0] - result.wls) / scale if scale > 0 else np.inf
         if dchi2 > RIVAL_CHI2:
             continue
         if any(np.all(np.abs(xr - seen) <= se) for seen in ends):
@@ -77,6 +80,22 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
                  + "; ".join(", ".join(f"{n} = {v:.4g}" for n, v in f.values.items())
                              + f" (chi^2 {f.dchi2:+.2f})" for f in found))
     return dataclasses.replace(result, rivals=tuple(found), nfev=result.nfev + spent)
+
+
+def _solve(problem, x0: np.ndarray, solved: list[Solved]
+           ) -> tuple[bool, np.ndarray, tuple[float, int]]:
+    """The local solve of a candidate on all points from ``x0`` (identify.fit.optimize.fit
+    within REFIT_NFEV): (converged, end point, (r^T r there, model evaluations spent)), from
+    its recorded solve where that tells (identify.fit.optimize.replay: the same numbers)."""
+    out = replay(solved, problem, x0, REFIT_NFEV, MF_SOLVE)
+    if out is None:
+        end = fit(problem, starts=x0[None, :], max_nfev=REFIT_NFEV, tol=MF_SOLVE)
+        return (end.converged, np.array([end.parameters[n] for n in end.free]),
+                (end.wls, end.nfev))
+    if not out.ok:
+        return False, out.x, (np.nan, 0)
+    r = problem.residuals(snapped(problem, out.x))
+    return True, snapped(problem, out.x), (float(r @ r), 1)
 
 
 def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:

@@ -82,7 +82,7 @@ from identify.fit.mf_stage_defs import (
 )
 from identify.fit.mf_problem import StageProblem, stage_problem, subproblem
 from identify.fit.mf_rivals import with_rivals
-from identify.fit.optimize import fit
+from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.modes import FIT_MODE
@@ -101,14 +101,16 @@ def _say(progress: Progress | None, text: str) -> None:
 
 
 def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
-                give_up: bool = False) -> tuple[FitResult | int, list[dict[str, float]]]:
+                give_up: bool = False
+                ) -> tuple[FitResult | int, list[dict[str, float]], list[Solved]]:
     """Search on the subsample, then solve the candidates on all points (see module):
     (result, the candidates solved on all points, name -> value of the free coefficients,
-    best first on the last rung). ``give_up`` (a re-fit): when the search on the subsample did
-    not converge, return its number of model evaluations instead of a result (a re-fit whose
-    added coefficients run off along a flat valley, e.g. PEY3 -> -5000 with PEY1 -> 0 on a TTC
-    session: the re-fit would not be taken, and solving it on all points cost minutes), and
-    solve on all points within REFIT_NFEV instead of MAX_NFEV."""
+    best first on the last rung; their solves on all points, identify.fit.optimize.fit's
+    ``record``, for identify.fit.mf_rivals). ``give_up`` (a re-fit): when the search on the
+    subsample did not converge, return its number of model evaluations instead of a result
+    (a re-fit whose added coefficients run off along a flat valley, e.g. PEY3 -> -5000 with
+    PEY1 -> 0 on a TTC session: the re-fit would not be taken, and solving it on all points
+    cost minutes), and solve on all points within REFIT_NFEV instead of MAX_NFEV."""
     t0 = time.perf_counter()
     stage, n = sp.problem.form, sp.problem.measured.size
     index = subsample(n)
@@ -117,7 +119,7 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
                    f"{sub.measured.size if index is not None else 'all'} of {n} points")
     found = search(sub, starts)
     if give_up and not found.converged:
-        return found.nfev, []
+        return found.nfev, [], []
     candidates, nfev = list(found.candidates), found.nfev
     for size in ladder_sizes(n):
         _say(progress, f"MF {stage}: {len(candidates)} candidate(s) on {size} of {n} points")
@@ -126,12 +128,14 @@ def _global_fit(sp: StageProblem, starts: np.ndarray, progress: Progress | None,
         nfev += sum(k for _, k in moved) + len(moved)
         candidates = prune(rung, [x for x, _ in moved])
     _say(progress, f"MF {stage}: solve on all {n} points from {len(candidates)} candidate(s)")
+    solved: list[Solved] = []
     result = fit(sp.problem, starts=np.vstack(candidates),
-                 max_nfev=REFIT_NFEV if give_up else MAX_NFEV, tol=MF_SOLVE)
+                 max_nfev=REFIT_NFEV if give_up else MAX_NFEV, tol=MF_SOLVE, record=solved)
     named = [dict(zip(sp.problem.free, map(float, x))) for x in candidates]
     return dataclasses.replace(result, n_starts=found.n_starts,
                                starts_at_best=found.starts_at_best,
-                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev), named
+                               seconds=time.perf_counter() - t0, nfev=result.nfev + nfev), \
+        named, solved
 
 
 def _rivals(problem: FitProblem, result: FitResult,
@@ -159,8 +163,9 @@ def _rivals(problem: FitProblem, result: FitResult,
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
             params: Mapping[str, float], free, others: Sequence[Mapping[str, float]] = (),
-            progress: Progress | None = None
-            ) -> tuple[FitResult, StageProblem, Sequence[Mapping[str, float]]]:
+            progress: Progress | None = None, solved: Sequence[Solved] = ()
+            ) -> tuple[FitResult, StageProblem, Sequence[Mapping[str, float]],
+                       Sequence[Solved]]:
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
     significant moves have given an effect, and re-fit from the optimum and from the global
     search's other candidates ``others`` (:func:`_global_fit`) within CHI2_GAP of it on all
@@ -171,7 +176,9 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     generated TTC session's Fx0 (seed 2) the higher one, PCX1 = 1.83, PEX1 = 0.69, was the
     lower with PEX4 held at 0, and its re-fit with PEX4 ended 8.7 in chi^2 above the re-fit
     of the other (PCX1 = 1.49, PEX1 = 0.13, truth 1.6, 0.3). At most
-    MAX_ROUNDS times. The FitResult keeps the global search's n_starts and starts_at_best, adds
+    MAX_ROUNDS times. Returns the result, its problem, the candidates of its global fit
+    and their solves there (``solved``: :func:`_global_fit`'s). The FitResult keeps the
+    global search's n_starts and starts_at_best, adds
     the re-fits' seconds and model evaluations to the search's, and its message says what was
     added."""
     added_all: list[str] = []
@@ -179,13 +186,13 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     for _ in range(MAX_ROUNDS):
         moved = {n: float(result.parameters[n]) for n in result.free
                  if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
-        gates = stage_problem(stage, trailer, {**params, **moved}, free=free)
+        gates = stage_problem(stage, trailer, {**params, **moved}, free=free, like=sp)
         added = [n for n in gates.problem.free if n not in result.free]
         if not added:
             break
         held = {n: why for n, why in gates.held.items() if n not in result.free}
         values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
-        trial = stage_problem(stage, trailer, values, free=free, hold=held)
+        trial = stage_problem(stage, trailer, values, free=free, hold=held, like=sp)
         _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
         # from the optimum as the global search does: on the subsample first (the added
         # coefficients can move the optimum far), then on all points; and from the search's
@@ -193,7 +200,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         rivals = _rivals(sp.problem, result, others)
         starts = np.vstack([trial.problem.x0()] + [
             [c.get(n, float(values[n])) for n in trial.problem.free] for c in rivals])
-        refit, candidates = _global_fit(trial, starts, None, give_up=True)
+        refit, candidates, trial_solved = _global_fit(trial, starts, None, give_up=True)
         refit = _continue_refit(refit, result, trial, len(added), progress)
         spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
         if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
@@ -205,7 +212,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
             break
         added_all += added
         rivals_used += len(rivals)
-        sp, others = trial, candidates
+        sp, others, solved = trial, candidates, trial_solved
         result = dataclasses.replace(
             refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
             seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
@@ -215,7 +222,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                             + (f" and {rivals_used} other candidate(s)" if rivals_used else "")
                             + f" with {', '.join(added_all)}, which had no effect at the "
                               "start)")
-    return result, sp, others
+    return result, sp, others, solved
 
 
 def _continue_refit(refit: FitResult | int, result: FitResult, trial: StageProblem,
@@ -330,7 +337,7 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
     the problem and the model evaluations this pass spent (counting J as one)."""
     result, old = before
     sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
-                       hold=dict(old.held))
+                       hold=dict(old.held), like=old)
     # the holds of candidates outside the free set (its candidates) are kept with their reasons
     sp = dataclasses.replace(sp, held={**old.held, **sp.held})
     x0 = sp.problem.x0()
@@ -353,9 +360,11 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
 
 
 def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.DataFrame:
-    """The operating points of a stage (MFFit.points)."""
-    return trailer.iloc[sp.rows][["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
-                                 + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+    """The operating points of a stage (MFFit.points): its rows of ``trailer``, as its problem
+    already took them (StageProblem.points)."""
+    rows = sp.points.pts if sp.points is not None else trailer.iloc[sp.rows]
+    return rows[["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
+                + (["omega"] if STAGES[stage].quantity == "Re" else [])]
 
 
 def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
@@ -399,13 +408,14 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                     skipped[stage] = _skip_reason(stage, trailer)
                     _say(progress, f"{label}: skipped, {skipped[stage]}")
                     continue
-                result, others = _global_fit(sp, start_points(sp.problem, n_lhs, seed + i),
-                                             progress)
+                result, others, solved = _global_fit(
+                    sp, start_points(sp.problem, n_lhs, seed + i), progress)
                 if screen:
-                    result, sp, others = _refine(result, sp, stage, trailer, params, free,
-                                                 others, progress)
+                    result, sp, others, solved = _refine(result, sp, stage, trailer, params,
+                                                         free, others, progress, solved)
                 result, branch = with_other_branch(result, sp, label, progress)
-                result = with_rivals(result, sp, branch + list(others), label, progress)
+                result = with_rivals(result, sp, branch + list(others), label, progress,
+                                     solved)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)

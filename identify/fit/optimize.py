@@ -122,34 +122,104 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
                    polished=not np.array_equal(pol.x, lsq.x))
 
 
+def _alone(problem: FitProblem, lsq: Estimate) -> bool:
+    """A start whose outcome is its least-squares solve ``lsq`` whatever the other starts
+    (:func:`_finish`'s first case): weighted least squares, and a solve that exhausted its
+    budget or violates no constraint."""
+    return problem.objective == "wls" and (
+        lsq.status == 0 or not problem.constraints
+        or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0)
+
+
+def _cached(cache: list, lsq: Estimate) -> Outcome | None:
+    """The polish of an earlier start whose least-squares solve landed where ``lsq`` did."""
+    for x_ls, outcome in cache:
+        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
+            return outcome
+    return None
+
+
+def _own(lsq: Estimate, alone: bool, cache: list, bound: float) -> bool:
+    """:func:`_finish` gives ``lsq``'s start the outcome it would have as the only start: its
+    least-squares solve (``alone``: :func:`_alone`), or its own polish (not skipped by
+    ``bound``, not shared with an earlier start through ``cache``)."""
+    return alone or (lsq.cost < bound and _cached(cache, lsq) is None)
+
+
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
-            tol: Tolerances) -> Outcome:
+            tol: Tolerances, alone: bool | None = None) -> Outcome:
     """A start after its least-squares solve ``lsq``. Weighted least squares: a solution that
     violates no constraint is the constrained optimum; one that does is polished unless its
     cost already reaches ``bound`` (the best feasible objective found so far: polishing only
     raises it) or it exhausted its budget. The thesis metric: always polished (SLSQP on the
     metric itself). Starts whose least-squares solves land on the same point share one
-    polish (``cache``)."""
+    polish (``cache``). ``alone``: :func:`_alone` when the caller has it."""
+    if _alone(problem, lsq) if alone is None else alone:
+        return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq)
     if problem.objective == "wls":
-        if lsq.status == 0 or not problem.constraints \
-                or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0:
-            return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq)
         if lsq.cost >= bound:
             return Outcome(lsq.x, False, "not polished: infeasible least-squares optimum no "
                            "better than a feasible start", lsq.status, lsq)
-    for x_ls, outcome in cache:
-        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
-            return outcome
+    shared = _cached(cache, lsq)
+    if shared is not None:
+        return shared
     outcome = _polish(problem, lsq, tol)
     cache.append((lsq.x, outcome))
     return outcome
 
 
+@dataclass(frozen=True)
+class Solved:
+    """A start of :func:`fit` whose outcome did not depend on the other starts
+    (:func:`_own`), recorded for :func:`replay`.
+
+    Attributes
+    ----------
+    problem : FitProblem   the problem given to fit
+    start : ndarray        the start, clipped to the bounds
+    tol : Tolerances
+    budget : int           the least-squares solve's budget (Tolerances.budget)
+    outcome : Outcome      its outcome in fit (``ok`` after fit's constraint check)
+    """
+
+    problem: FitProblem
+    start: np.ndarray
+    tol: Tolerances
+    budget: int
+    outcome: Outcome
+
+
+def replay(solved: list[Solved], problem: FitProblem, start: np.ndarray,
+           max_nfev: int | None = None, tol: Tolerances = STRICT) -> Outcome | None:
+    """The outcome ``fit(problem, starts=start[None, :], max_nfev=max_nfev, tol=tol)`` would
+    have, from a recorded start of an earlier fit of the same problem (a solve is
+    deterministic: the same problem, start and tolerances take the same steps; the budget only
+    ends them): its outcome when it used fewer evaluations than both budgets (or the budgets
+    are equal); not converged (``ok`` False) when it used more than ``max_nfev`` and the
+    tolerances have no noise stop (the solve would stop at that budget, status 0; with a
+    noise stop, the callback after a rejected step at the budget could end it as converged);
+    None when nothing recorded tells (solve it)."""
+    x0 = np.clip(np.asarray(start, dtype=float), *problem.bounds())
+    budget = tol.budget(x0.size, max_nfev)
+    for rec in solved:
+        if rec.problem is not problem or rec.tol != tol or not np.array_equal(rec.start, x0):
+            continue
+        used = rec.outcome.lsq.nfev
+        if used < min(budget, rec.budget) or budget == rec.budget:
+            return rec.outcome
+        if used > budget and tol.noise_ftol <= 0:
+            return dataclasses.replace(rec.outcome, ok=False, status=0,
+                                       message="the evaluation budget would end it")
+    return None
+
+
 def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
-            tol: Tolerances) -> list[Outcome]:
+            tol: Tolerances, record: list[Solved] | None = None,
+            original: FitProblem | None = None) -> list[Outcome]:
     """Every start's local solve: all least-squares solves first, then the polishes from the
     lowest cost up, so that (weighted least squares) a start that cannot beat a feasible
-    optimum is not polished."""
+    optimum is not polished. ``record``: the starts whose outcome is their own
+    (:class:`Solved`, of ``original``, the problem before counting) are appended to it."""
     pre = [_solve(problem, x0, max_nfev, tol) for x0 in points]
     if not problem.free:
         return [Outcome(pre[0].x, True, pre[0].message, pre[0].status, pre[0])]
@@ -157,11 +227,16 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     done: dict[int, Outcome] = {}
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
-        out = _finish(problem, pre[i], cache, bound, tol)
+        alone = _alone(problem, pre[i])
+        own = _own(pre[i], alone, cache, bound)
+        out = _finish(problem, pre[i], cache, bound, tol, alone)
         if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)
         done[i] = out
+        if record is not None and own:
+            record.append(Solved(original, points[i], tol, tol.budget(len(problem.free),
+                                                                      max_nfev), out))
         if out.ok and problem.objective == "wls":
             bound = min(bound, problem.objective_value(out.x))
     return [done[i] for i in range(len(pre))]
@@ -210,6 +285,15 @@ class Diagnosis:
     dof: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0))
 
 
+def snapped(problem: FitProblem, x: np.ndarray) -> np.ndarray:
+    """``x`` with the parameters within 1e-7 of their range from a bound put on it exactly
+    (the reported optimum, Diagnosis.x)."""
+    lo, hi = problem.bounds()
+    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(x), 1.0))
+    xb = np.where(np.abs(x - lo) <= 1e-7 * span, lo, x)
+    return np.where(np.abs(xb - hi) <= 1e-7 * span, hi, xb)
+
+
 def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
     """Bounds hit, active constraints and the covariance at the chosen start's optimum.
 
@@ -219,10 +303,7 @@ def _diagnose(problem: FitProblem, out: Outcome) -> Diagnosis:
     """
     free = problem.free
     lo, hi = problem.bounds()
-    xb = out.x
-    span = np.where(np.isfinite(hi - lo), hi - lo, np.maximum(np.abs(xb), 1.0))
-    xb = np.where(np.abs(xb - lo) <= 1e-7 * span, lo, xb)
-    xb = np.where(np.abs(xb - hi) <= 1e-7 * span, hi, xb)
+    xb = snapped(problem, out.x)
     at_bound = tuple(n for n, x, a, b in zip(free, xb, lo, hi) if x == a or x == b)
     active = []
     if problem.constraints:
@@ -275,7 +356,7 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         starts: np.ndarray | None = None, max_nfev: int | None = None,
-        tol: Tolerances = STRICT) -> FitResult:
+        tol: Tolerances = STRICT, record: list[Solved] | None = None) -> FitResult:
     """Solve ``problem`` globally: multi-start Latin hypercube, local solves, best of all.
 
     Search (every start's least-squares solve and polish), select (the best start, ties to the
@@ -297,6 +378,10 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         ``tol.budget(free parameters)``. A start that exhausts it counts as not converged.
     tol : Tolerances
         Solver tolerances (default :data:`identify.fit.engine.STRICT`).
+    record : list, optional
+        The starts whose outcome is their own are appended to it (:class:`Solved`), so that a
+        later single-start fit of the same problem from one of them can be replayed
+        (:func:`replay`) instead of solved again.
 
     Returns
     -------
@@ -306,6 +391,7 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         solver status.
     """
     t0 = time.perf_counter()
+    original = problem
     problem, counter = engine.counted(problem)
     k = len(problem.free)
     if k == 0:
@@ -314,7 +400,7 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         points = np.clip(np.atleast_2d(np.asarray(starts, dtype=float)), *problem.bounds())
     else:
         points = _starts(problem, n_starts or max(16, 8 * k), seed)
-    outcomes = _search(problem, points, max_nfev, tol)
+    outcomes = _search(problem, points, max_nfev, tol, record, original)
     best, at_best = _select(problem, outcomes)
     diag = _diagnose(problem, outcomes[best])
     return _assemble(problem, outcomes, best, at_best, diag, counter, t0)

@@ -260,7 +260,7 @@ class FitProblem:
     def residuals(self, x: np.ndarray | None = None) -> np.ndarray:
         """Weighted residuals w*(model - measured); non-finite model values are penalised."""
         r = (self.predict(x) - self.measured) * self.weights()
-        return np.where(np.isfinite(r), r, 1e6)
+        return r if np.isfinite(r).all() else np.where(np.isfinite(r), r, 1e6)
 
     def model_jacobian(self, x: np.ndarray | None = None,
                        names: tuple[str, ...] | None = None) -> np.ndarray | None:
@@ -272,7 +272,8 @@ class FitProblem:
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):
             J = np.asarray(self.jacobian(self.values(x), names), dtype=float)
         J = J.reshape(self.measured.size, len(names))
-        return np.where(np.isfinite(J), J, 0.0)
+        # a copy only where a derivative is not finite (the solvers take one per iteration)
+        return J if np.isfinite(J).all() else np.where(np.isfinite(J), J, 0.0)
 
     def residual_jacobian(self, x: np.ndarray | None = None,
                           names: tuple[str, ...] | None = None) -> np.ndarray | None:
