@@ -22,7 +22,7 @@ from typing import Mapping
 import numpy as np
 
 from identify.core.progress import Progress
-from identify.fit.engine import MF_SOLVE
+from identify.fit.engine import MF_SOLVE, residual_variance
 from identify.fit.mf_problem import StageProblem
 from identify.fit.mf_search import MAX_NFEV
 from identify.fit.optimize import fit
@@ -77,7 +77,7 @@ def with_other_branch(result: FitResult, sp: StageProblem, label: str,
     nfev, seconds = result.nfev + end.nfev, result.seconds + end.seconds
     if not end.converged:
         return dataclasses.replace(result, nfev=nfev, seconds=seconds), []
-    s2 = result.wls / max(result.n_points - len(free), 1)
+    s2 = residual_variance(0.5 * result.wls, result.n_points, len(free))
     if (result.wls - end.wls) / s2 > TAKE_CHI2:
         if progress is not None:
             progress(f"{label}: the other branch of {', '.join(BRANCHES[result.form])} fits "

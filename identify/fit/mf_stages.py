@@ -238,7 +238,7 @@ def _continue_refit(refit: FitResult | int, result: FitResult, trial: StageProbl
     converged within 0.8 % of the data."""
     if isinstance(refit, int) or refit.converged or not refit.wls < result.wls:
         return refit
-    s2 = result.wls / max(result.n_points - len(result.free), 1)
+    s2 = residual_variance(0.5 * result.wls, result.n_points, len(result.free))
     if not (result.wls - refit.wls) / s2 > chi2.ppf(0.95, n_added):
         return refit
     _say(progress, f"MF {result.form}: the re-fit stopped at its budget, its objective "
