@@ -25,9 +25,9 @@ from typing import Mapping, Sequence
 import numpy as np
 import pandas as pd
 
+from identify.fit.engine import residual_jacobian
 from identify.fit.identifiability import assess
 from identify.fit.mf_problem import StageProblem, stage_problem
-from identify.fit.mf_screen import jacobian as fd_jacobian
 from identify.fit.result import FitResult
 
 __all__ = ["AFTER_FIT", "VIF_LIMIT", "conditional_on_held", "inflation", "with_conditional"]
@@ -90,10 +90,7 @@ def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
     full = stage_problem(stage, trailer, values, free={stage: list(free) + held}, screen=False)
     if full is None or tuple(full.problem.free[:len(free)]) != tuple(free):
         return {}
-    x = full.problem.x0()
-    J = full.problem.residual_jacobian(x)
-    if J is None:
-        J = fd_jacobian(full.problem, x)
+    J = residual_jacobian(full.problem, full.problem.x0())
     vif = inflation(np.asarray(J, dtype=float), len(free))
     names = ", ".join(f"{n} = {values[n]:.4g}" for n in held)
     out = {}
