@@ -87,7 +87,8 @@ def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
         return {}
     free: Sequence[str] = list(result.free)
     values = {**params, **{n: float(result.parameters[n]) for n in free}}
-    full = stage_problem(stage, trailer, values, free={stage: list(free) + held}, screen=False)
+    full = stage_problem(stage, trailer, values, free={stage: list(free) + held}, screen=False,
+                         like=sp)
     if full is None or tuple(full.problem.free[:len(free)]) != tuple(free):
         return {}
     J = residual_jacobian(full.problem, full.problem.x0())
