@@ -92,13 +92,23 @@ class KyaRidge:
         """The three loads of the PKY1, PKY2, PKY4 anchors [N]."""
         return tuple(a[0] for a in self.anchors[:3])
 
+    @property
+    def _positions(self) -> np.ndarray:
+        """Places of the replaced coefficients in the ALL_NAMES vector."""
+        return np.array([ALL_NAMES.index(name) for name in self.names], dtype=np.int64)
+
+    def _full(self, p: np.ndarray) -> np.ndarray:
+        """ALL_NAMES vectors (W, 7): ``fixed`` with the rows p (W, n) of the replaced
+        coefficients in their places."""
+        full = np.tile(np.asarray(self.fixed, dtype=float), (p.shape[0], 1))
+        full[:, self._positions] = p
+        return full
+
     def _kya(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Kya at the anchors (W, n) [N/rad] and its Jacobian d Kya / d p (W, n, n) for
         rows p (W, n) of the replaced coefficients."""
         w, n = p.shape
-        full = np.broadcast_to(np.asarray(self.fixed, dtype=float), (w, len(ALL_NAMES))).copy()
-        pos = [ALL_NAMES.index(name) for name in self.names]
-        full[:, pos] = p
+        full = self._full(p)
         k1, k2, k4, p1, p2, k3, k5 = (full[:, i:i + 1] for i in range(len(ALL_NAMES)))
         fz, dpi, g = (np.asarray(c, dtype=float)[None, :] for c in zip(*self.anchors))
         ag = np.abs(g)
@@ -156,25 +166,22 @@ class KyaRidge:
         x[:, idx] = np.where(ok[:, None], p, np.nan)
         return x, np.where(ok, logdet, -np.inf)
 
-    def _signs(self, p: np.ndarray) -> np.ndarray:
-        """(W, m) signs of PKY2, PKY4 and of the peak-load factor at every anchor."""
-        w = p.shape[0]
-        full = np.broadcast_to(np.asarray(self.fixed, dtype=float), (w, len(ALL_NAMES))).copy()
-        full[:, [ALL_NAMES.index(name) for name in self.names]] = p
-        _, dpi, g = (np.asarray(c, dtype=float)[None, :] for c in zip(*self.anchors))
-        b = (full[:, 1:2] + full[:, 6:7] * g ** 2) * (1 + full[:, 4:5] * dpi)
-        return np.sign(np.column_stack([full[:, 1], full[:, 2], b]))
+    def _start_signs(self) -> np.ndarray:
+        """Signs of PKY2, PKY4 and of the peak-load factor (PKY2 + PKY5 g^2)(1 + PPY2 dpi)
+        at every anchor, at the optimum (the branch the inverse keeps)."""
+        _, k2, k4, _, p2, _, k5 = self._full(np.asarray(self.start, dtype=float)[None, :])[0]
+        _, dpi, g = (np.asarray(c, dtype=float) for c in zip(*self.anchors))
+        return np.sign(np.concatenate([[k2, k4], (k2 + k5 * g ** 2) * (1 + p2 * dpi)]))
 
     def _newton(self, p: np.ndarray, target: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Coefficient rows with Kya = target from the starts ``p``, and the relative residuals
         (inf where the signs of PKY2, PKY4 or a peak load differ from the optimum's), row by
         row in compiled code (identify.fit.mcmc_kya_newton)."""
         fz, dpi, g = (np.ascontiguousarray(c, dtype=float) for c in zip(*self.anchors))
-        sign = self._signs(np.asarray(self.start, dtype=float)[None, :])[0]
-        pos = np.array([ALL_NAMES.index(name) for name in self.names], dtype=np.int64)
         return newton_rows(np.array(p, dtype=float), np.ascontiguousarray(target, dtype=float),
-                           np.asarray(self.fixed, dtype=float), pos, fz, dpi, g, self.fz0p,
-                           self.lky, sign, NEWTON_TOL, NEWTON_ITER, MAX_HALVINGS)
+                           np.asarray(self.fixed, dtype=float), self._positions, fz, dpi, g,
+                           self.fz0p, self.lky, self._start_signs(), NEWTON_TOL, NEWTON_ITER,
+                           MAX_HALVINGS)
 
 
 def _solve(m: np.ndarray, b: np.ndarray) -> np.ndarray:
