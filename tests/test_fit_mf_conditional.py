@@ -31,6 +31,22 @@ def test_inflation_is_the_variance_ratio_of_the_two_least_squares_problems():
     assert np.isnan(inflation(np.column_stack([a, a, f]), 2)).all()  # undetermined already
 
 
+def test_a_column_without_effect_leaves_the_others_assessed():
+    """A free coefficient with no effect at the optimum (its column 0) is undetermined (nan)
+    but does not hide the others: a's inflation by h = a + 0.1 e is still 101; a held column
+    of zeros changes nothing; a Jacobian of zeros leaves all undetermined (no division by 0)."""
+    rng = np.random.default_rng(0)
+    q, _ = np.linalg.qr(rng.standard_normal((200, 4)))
+    a, b, e, f = q.T
+    vif = inflation(np.column_stack([a, 0 * b, a + 0.1 * e]), 2)
+    np.testing.assert_allclose(vif[0], 101.0, rtol=1e-9)
+    assert np.isnan(vif[1])
+    np.testing.assert_allclose(inflation(np.column_stack([a, b, 0 * f]), 2), [1.0, 1.0],
+                               rtol=1e-12)
+    with np.errstate(all="raise"):
+        assert np.isnan(inflation(np.zeros((200, 3)), 2)).all()
+
+
 @pytest.fixture(scope="module")
 def mx_fit():
     """Mx data from a tyre with the QSX4 term (another tyre's values: QSX4 = 4.912, QSX5 =

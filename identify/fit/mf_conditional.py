@@ -47,17 +47,17 @@ def inflation(J: np.ndarray, k: int) -> np.ndarray:
     """Variance inflation of the first ``k`` columns' coefficients when the other columns of
     ``J`` (points, k + h) are freed too: var(full) / var(first k alone), from J^T J (inf where
     freeing the others leaves a coefficient undetermined, nan where it was undetermined
-    already)."""
+    already, e.g. its column is 0; all nan when J is not finite)."""
     A = J.T @ J
     d = np.sqrt(np.diag(A))
-    out = np.full(k, np.nan)
-    if not (np.all(np.isfinite(d)) and np.all(d > 0)):
-        return out
+    if not np.all(np.isfinite(d)):
+        return np.full(k, np.nan)
+    d = np.where(d > 0, d, 1.0)  # a column without effect stays 0: a null direction of its own
     A = A / np.outer(d, d)
 
     def diag_inverse(M):
         w, V = np.linalg.eigh(M)
-        null = w < NULL_TOL * w.max()
+        null = w <= NULL_TOL * w.max()  # all null when J is 0
         var = (V[:, ~null] ** 2 / w[~null]).sum(axis=1)
         var[(V[:, null] ** 2).sum(axis=1) > 1e-2] = np.inf
         return var
