@@ -16,6 +16,7 @@ import pandas as pd
 import pytest
 
 from identify.fit.identifiability import POOR, assess
+from identify.fit.mf_branches import other_branch
 from identify.fit.mf_search import search, start_points
 from identify.fit.mf_stages import fit_mf, stage_problem
 from identify.fit.optimize import fit
@@ -118,3 +119,25 @@ def test_the_other_minimum_within_the_95_percent_region_is_reported(case):
     for name in ("PCX1", "PEX1"):
         assert assessed.unidentified[name].startswith("another minimum within the 95 % region")
     assert any("another minimum" in why for why in assessed.reasons)
+
+
+def test_the_other_branch_draws_the_same_value_and_slope_at_nominal_load():
+    """(c0 + c1 dfz) exp(c2 dfz) and its mirror (c1 -> -c1, c2 -> c2 + 2 c1 / c0) agree in
+    value and slope at dfz = 0 (central differences, 1e-9 relative) and differ only in
+    curvature (the golden tyre's PKX1..3 = 30, -10, 0.5); no mirror for a stage
+    without a load curve or with c0 or c1 at 0."""
+    c0, c1, c2 = 30.0, -10.0, 0.5
+    mirror = other_branch("Fx0", {"PKX1": c0, "PKX2": c1, "PKX3": c2})
+    assert set(mirror) == {"PKX2", "PKX3"} and mirror["PKX2"] == -c1
+
+    def curve(b, c, dfz):
+        return (c0 + b * dfz) * np.exp(c * dfz)
+
+    h = 1e-5
+    for b, c in ((c1, c2), (mirror["PKX2"], mirror["PKX3"])):
+        assert curve(b, c, 0.0) == c0
+        slope = (curve(b, c, h) - curve(b, c, -h)) / (2 * h)
+        np.testing.assert_allclose(slope, c1 + c0 * c2, rtol=1e-9)
+    assert other_branch("Fy0", {"PKX1": c0, "PKX2": c1, "PKX3": c2}) is None
+    assert other_branch("Fx0", {"PKX1": 0.0, "PKX2": c1, "PKX3": c2}) is None
+    assert other_branch("Fx0", {"PKX1": c0, "PKX2": 0.0, "PKX3": c2}) is None
