@@ -10,18 +10,20 @@ The cornering stiffness is (docs/model.md, section 5)
 PKY1, PKY2, PKY4 lie on a thin curved ridge, and so do the pressure pair PPY1, PPY2 (below the
 peak Kya depends on nearly only (1 + PPY1 dpi) / (1 + PPY2 dpi)) and the camber pair PKY3,
 PKY5. emcee's affine-invariant moves follow a straight ridge at no cost but a curved one
-slowly (tau ~ 1700 steps on the sample with PKY1, PKY2, PKY4 sampled directly; 200-270 for
-the camber and pressure pairs of a 26-coefficient stage on 21-point sweeps). The data measure
+slowly (tau ~ 1700 steps on the sample with PKY1, PKY2, PKY4 sampled directly; with only
+those replaced, 183-273 for PPY1, PKY4, PKY5 of the whole stage on the calibration design's
+21-point sweeps: README, trial 0, 6000 steps). The data measure
 Kya where they were taken, so the chain samples Kya at as many measured conditions
 ("anchors") as there are such coefficients free, instead of the coefficients:
 
-- Kya at the 5 %, 50 % and 95 % load quantiles, at the reference pressure (the measured
-  pressure level nearest nominal) and zero camber, for PKY1, PKY2, PKY4;
-- for PPY1 and PPY2 (when free and the pressures span 5 % of nominal): Kya at the lowest and
-  highest load at the measured pressure farthest from the reference (one anchor, the middle
-  load, when only one of the two is free);
-- for PKY3 and PKY5 (when free and |gamma*| reaches 0.02): the same at the largest measured
-  camber.
+- Kya at the 5 %, 50 % and 95 % load quantiles, at the reference pressure (of the pressures'
+  5 %, 50 % and 95 % quantiles the one nearest nominal: the level nearest nominal when the
+  levels hold similar shares of the points) and zero camber, for PKY1, PKY2, PKY4;
+- for PPY1 and PPY2 (when free and those pressure quantiles span 5 % of nominal): Kya at the
+  lowest and highest load at the 5 % or 95 % pressure quantile farthest from the reference
+  (one anchor, the middle load, when only one of the two is free);
+- for PKY3 and PKY5 (when free and the 95 % quantile of |gamma*| reaches 0.02): the same at
+  that camber.
 
 Each anchor is fixed by the sweeps at one condition, so the posterior in these coordinates is
 close to an uncorrelated Gaussian. The prior stays flat in the coefficients within their
