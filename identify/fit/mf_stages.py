@@ -336,10 +336,11 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
     optimum the inputs barely moved) keeps the values of the pass before. Returns the result,
     the problem and the model evaluations this pass spent (counting J as one)."""
     result, old = before
-    sp = stage_problem(stage, trailer, params, free={stage: list(result.free)},
-                       hold=dict(old.held), like=old)
-    # the holds of candidates outside the free set (its candidates) are kept with their reasons
-    sp = dataclasses.replace(sp, held={**old.held, **sp.held})
+    sp = stage_problem(stage, trailer, params, free={stage: list(result.free)}, hold={},
+                       like=old)
+    # its candidates are the free set, which no hold names: the pass before's holds and
+    # reasons stand
+    sp = dataclasses.replace(sp, held=dict(old.held))
     x0 = sp.problem.x0()
     gain = gauss_newton_gain(sp.problem, x0)
     if gain <= PASS_GAIN:
