@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from identify.fit.identifiability import unidentified
-from identify.fit.mf_conditional import AFTER_FIT, conditional_on_held, inflation
+from identify.fit.mf_conditional import AFTER_FIT, conditional_on_held, inflation, with_conditional
 from identify.fit.mf_problem import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
@@ -88,8 +88,6 @@ def test_conditional_coefficients_are_unidentified_and_round_trip_through_json(m
     """identifiability counts them not identifiable on their own (the reason names the held
     ones), the stage is "poorly identified", and FitResult.conditional survives to_dict /
     from_dict."""
-    from identify.fit.mf_conditional import with_conditional
-
     result, sp, data, start, _ = mx_fit
     flagged = with_conditional(result, sp, "Mx", data, start)
     assert flagged.identification == "poorly identified"
