@@ -4,6 +4,8 @@ default while the data come from a tyre with that term (the coefficients it trad
 reported as not identifiable on their own, with the held names)."""
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -80,7 +82,7 @@ def test_the_coefficients_a_held_one_trades_with_are_conditional(mx_fit):
     assert all(abs(z[n]) > 5 for n in found), z  # measured 7.9-68: the intervals would lie
     assert abs(z["QSX1"]) < 3, z  # measured 0.4
     assert all("QSX4 = 5" in why and "QSX6 = 10" in why for why in found.values())
-    other = sp.__class__(**{**sp.__dict__, "held": {"QSX4": "data: one load", "QSX6": "x"}})
+    other = dataclasses.replace(sp, held={"QSX4": "data: one load", "QSX6": "x"})
     assert conditional_on_held(result, other, "Mx", data, start) == {}
 
 
