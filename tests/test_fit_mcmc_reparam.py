@@ -105,6 +105,18 @@ def test_a_point_without_a_preimage_gets_zero_density():
     assert np.isnan(x).all() and logdet[0] == -np.inf
 
 
+def test_a_newton_start_where_the_peak_load_factor_is_0_is_given_up_not_raised():
+    """A start with PKY2 = 0 (Fz / (Fz0' PKY2) divides by 0): the compiled solve gives the row
+    up (residual inf; the inverse then starts it again from the optimum) instead of raising
+    ZeroDivisionError in the middle of a chain (numba's default error model)."""
+    ridge, _ = _ridge(free=("PKY1", "PKY2", "PKY4"))
+    target = ridge.forward(np.array(ridge.start)[None, :])[:, list(ridge.index)]
+    p = np.array(ridge.start)[None, :]
+    p[0, 1] = 0.0
+    _, err = ridge._newton(p, target)
+    assert err[0] == np.inf
+
+
 @pytest.mark.parametrize("pressures, cambers, names", [
     ((1.9, 2.5, 3.0), (-5.0, 0.0, 5.0), ALL_NAMES),
     ((2.5,), (-5.0, 0.0, 5.0), ("PKY1", "PKY2", "PKY4", "PKY3", "PKY5")),

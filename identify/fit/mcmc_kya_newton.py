@@ -16,7 +16,9 @@ import math
 import numba
 import numpy as np
 
-_JIT = dict(cache=True, nogil=True, fastmath=False)
+# error_model="numpy" as the model's kernels (identify.model.kernel_math): a division by 0
+# gives inf and the row is given up, not a ZeroDivisionError in the middle of a chain
+_JIT = dict(cache=True, nogil=True, fastmath=False, error_model="numpy")
 
 
 @numba.njit(**_JIT)
