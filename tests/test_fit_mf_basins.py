@@ -141,3 +141,13 @@ def test_the_other_branch_draws_the_same_value_and_slope_at_nominal_load():
     assert other_branch("Fy0", {"PKX1": c0, "PKX2": c1, "PKX3": c2}) is None
     assert other_branch("Fx0", {"PKX1": 0.0, "PKX2": c1, "PKX3": c2}) is None
     assert other_branch("Fx0", {"PKX1": c0, "PKX2": 0.0, "PKX3": c2}) is None
+
+
+def test_noise_free_data_fitted_from_the_truth_end_there():
+    """Fx data without noise, fitted from the truth's values: the optimum is exact (objective
+    0, so a residual variance of 0), and the other branch's solve is compared with it without
+    dividing by that 0 (it raised ZeroDivisionError)."""
+    truth, _ = _truth_and_start()
+    fx0 = fit_mf(_fx0_table(truth, 0, noise=0.0), truth, stages=("Fx0",), seed=1).result("Fx0")
+    assert fx0.converged and fx0.wls == 0.0
+    assert fx0.parameters["PKX2"] == truth["PKX2"]

@@ -78,7 +78,7 @@ def with_other_branch(result: FitResult, sp: StageProblem, label: str,
     if not end.converged:
         return dataclasses.replace(result, nfev=nfev, seconds=seconds), []
     s2 = residual_variance(0.5 * result.wls, result.n_points, len(free))
-    if (result.wls - end.wls) / s2 > TAKE_CHI2:
+    if result.wls - end.wls > TAKE_CHI2 * s2:  # not a ratio: s2 is 0 on an exact fit
         if progress is not None:
             progress(f"{label}: the other branch of {', '.join(BRANCHES[result.form])} fits "
                      f"better (objective {end.wls / result.wls:.4g} of the search's)")
