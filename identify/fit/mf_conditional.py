@@ -6,9 +6,10 @@ re-fitted (identify.fit.mf_stages._refine). When that re-fit does not converge o
 the coefficient stays held at its start value, which the data did not choose, and the free
 coefficients it trades with carry whatever the held value makes them: on a TTC session
 generated from another tyre (MFeval's reference tyre at Formula Student size: QSX4 = 4.9,
-QSX6 = 22.8, QSX7 = 0.71; QSX4..QSX6 held at their defaults 5, 1, 10) the Mx stage reported
-QSX7 = 0.17 +- 0.047 and QSX3 14 % above the truth, 11 and 12 standard errors off, as
-"identifiable".
+QSX6 = 22.8, QSX7 = 0.71; the defaults 5, 10, 0) the Mx stage reported QSX7 = 0.17 +- 0.047,
+11 standard errors off, as "identifiable"; this module lists it, with QSX2, QSX8 and QSX10
+(docs/intervals.md; one-off, seed 0). QSX3, 12 standard errors off there, it does not: QSX3
+trades with QSX9, which the screen held as having no effect at all, not AFTER_FIT.
 
 Their intervals are right only if the held values are exact. This module measures how much
 they rest on them: the variance of each free coefficient with the held ones free as well,
