@@ -9,7 +9,7 @@ import pytest
 
 from identify.fit import engine
 from identify.fit.metric import group_weights, thesis_error, thesis_total
-from identify.fit.optimize import fit
+from identify.fit.optimize import fit, replay
 from identify.fit.problem import Constraint, FitProblem
 
 PRESSURES = np.repeat([1.9, 2.2, 2.5, 2.7, 3.0], 3)
@@ -550,8 +550,6 @@ def test_a_recorded_start_replays_as_a_fresh_single_start_fit(constrained):
     convergence under a budget it stayed within or ran past), and None where the record does
     not tell. Constrained (the least-squares optimum has p2 > 0, the constraint p2 <= 0):
     a start's own polish is recorded (one that shares an earlier start's is not)."""
-    from identify.fit.optimize import replay
-
     truth = {"nom": 1.43e5, "p1": 0.17, "p2": 0.25 if constrained else -0.25, "p3": 0.47}
     rng = np.random.default_rng(3)
     data = stiffness(truth) * (1 + 0.01 * rng.standard_normal(PRESSURES.size))
