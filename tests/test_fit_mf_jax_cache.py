@@ -171,6 +171,22 @@ def test_entries_unused_for_a_month_are_deleted_when_one_is_written(cache, truth
     assert not old.exists() and recent.exists() and len(_entries(where)) == 2
 
 
+def test_prune_deletes_old_entries_and_old_partial_writes_only(tmp_path):
+    """A write cut short (the process killed between mkstemp and os.replace) leaves a .tmp
+    file that no run would ever load or replace: prune deletes it once as old as an unused
+    entry, and nothing else (a recent one may be a write under way; other files are not
+    ours)."""
+    now = time.time()
+    files = {"old.bin": 31, "new.bin": 1, "old.bin1x2y.tmp": 31, "new.bin3z4w.tmp": 1,
+             "notes.txt": 31}
+    for name, days in files.items():
+        (tmp_path / name).write_bytes(b"x")
+        os.utime(tmp_path / name, (now - days * 86400,) * 2)
+    mf_jax_cache.prune(tmp_path, days=30)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new.bin", "new.bin3z4w.tmp",
+                                                          "notes.txt"]
+
+
 _JACOBIAN_SCRIPT = """
 import sys
 import numpy as np

@@ -197,9 +197,10 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
 
 def prune(where: Path, days: float = UNUSED_DAYS) -> None:
     """Delete the entries of ``where`` not written or loaded for ``days`` (those of older mfid,
-    JAX or model code, whose keys no run asks for again)."""
+    JAX or model code, whose keys no run asks for again), and the partial writes as old (the
+    ``.tmp`` files of :func:`store` in a process killed while writing)."""
     limit = time.time() - days * 86400.0
-    for entry in where.glob("*.bin"):
+    for entry in [*where.glob("*.bin"), *where.glob("*.bin*.tmp")]:
         try:
             if entry.stat().st_mtime < limit:
                 entry.unlink()
