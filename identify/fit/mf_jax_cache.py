@@ -27,6 +27,7 @@ JAX's compilation cache, used there before, does): it must be the user's own.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.metadata
@@ -188,8 +189,9 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
             f.write(_head(key, payload) + payload)
         os.replace(tmp, path)
     except OSError:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
+        if tmp is not None:  # what was written; a cache that cannot take it is no error
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         return False
     prune(path.parent)
     return True
