@@ -9,7 +9,7 @@ import pytest
 
 from identify.fit import engine
 from identify.fit.metric import group_weights, thesis_error, thesis_total
-from identify.fit.optimize import fit
+from identify.fit.optimize import fit, replay
 from identify.fit.problem import Constraint, FitProblem
 
 PRESSURES = np.repeat([1.9, 2.2, 2.5, 2.7, 3.0], 3)
@@ -550,8 +550,6 @@ def test_a_recorded_start_replays_as_a_fresh_single_start_fit(constrained):
     convergence under a budget it stayed within or ran past), and None where the record does
     not tell. Constrained (the least-squares optimum has p2 > 0, the constraint p2 <= 0):
     a start's own polish is recorded (one that shares an earlier start's is not)."""
-    from identify.fit.optimize import replay
-
     truth = {"nom": 1.43e5, "p1": 0.17, "p2": 0.25 if constrained else -0.25, "p3": 0.47}
     rng = np.random.default_rng(3)
     data = stiffness(truth) * (1 + 0.01 * rng.standard_normal(PRESSURES.size))
@@ -584,3 +582,26 @@ def test_a_recorded_start_replays_as_a_fresh_single_start_fit(constrained):
             other = dataclasses.replace(problem)
             assert replay(solved, other, rec.start, 100, tol) is None
             assert replay(solved, problem, rec.start * 1.01, 100, tol) is None
+
+
+def test_sweep_residual_noise_levels_ignore_non_finite_residuals():
+    """noise="sweep-residual" on rig data with NaN samples: a non-finite residual counts in
+    neither its sweep's level nor the pooled one, so the levels are those of the finite points
+    alone (counted as 0 they pulled the pooled level down, here by 1 - sqrt(300/400) = 13 %,
+    and every sweep's level with it)."""
+    rng = np.random.default_rng(5)
+    x = np.linspace(-1.0, 1.0, 400)
+    sweeps = np.repeat([0, 1], 200)
+    p = lmfit.Parameters()
+    p.add("a", value=1.0)
+    data = x + 0.05 * rng.standard_normal(x.size)
+    gappy = data.copy()
+    gappy[250:350] = np.nan  # half of sweep 1 lost
+    kept = np.isfinite(gappy)
+    full = FitProblem("t", "line", p, lambda v: v["a"] * x[kept], data[kept],
+                      np.ones(kept.sum()), sweeps=sweeps[kept], noise="sweep-residual")
+    nan = FitProblem("t", "line", p, lambda v: v["a"] * x, gappy, np.ones(x.size),
+                     sweeps=sweeps, noise="sweep-residual")
+    xb = np.array([1.0])
+    assert nan.noise_weights(xb)[kept] == pytest.approx(full.noise_weights(xb), rel=1e-12)
+    assert nan.noise_weights(xb)[~kept] == pytest.approx(nan.noise_weights(xb)[-1], rel=1e-12)

@@ -171,6 +171,45 @@ def test_entries_unused_for_a_month_are_deleted_when_one_is_written(cache, truth
     assert not old.exists() and recent.exists() and len(_entries(where)) == 2
 
 
+def test_a_cache_that_fails_mid_write_and_on_cleanup_is_no_error(cache, truth, data,
+                                                                 monkeypatch):
+    """A cache directory that takes the temporary file but neither the rename nor its removal
+    (a network share gone away): the Jacobian is the traced one and nothing is stored; the
+    failed cleanup's OSError does not end the fit."""
+    where, traced = cache
+    real = {"replace": os.replace, "unlink": os.unlink}
+
+    def failing(name):
+        def call(path, *args, **kwargs):
+            if str(args[0] if name == "replace" else path).startswith(str(where)):
+                raise OSError(f"{name}: the share went away")
+            return real[name](path, *args, **kwargs)
+        return call
+    with monkeypatch.context() as m:
+        for name in real:
+            m.setattr(os, name, failing(name))
+        fresh = _jacobian(truth, data)
+    assert traced == [STAGE] and not _entries(where)
+    assert np.array_equal(fresh, _jacobian(truth, data), equal_nan=True)  # traced again
+    assert traced == [STAGE, STAGE] and len(_entries(where)) == 1  # and now stored
+
+
+def test_prune_deletes_old_entries_and_old_partial_writes_only(tmp_path):
+    """A write cut short (the process killed between mkstemp and os.replace) leaves a .tmp
+    file that no run would ever load or replace: prune deletes it once as old as an unused
+    entry, and nothing else (a recent one may be a write under way; other files are not
+    ours)."""
+    now = time.time()
+    files = {"old.bin": 31, "new.bin": 1, "old.bin1x2y.tmp": 31, "new.bin3z4w.tmp": 1,
+             "notes.txt": 31}
+    for name, days in files.items():
+        (tmp_path / name).write_bytes(b"x")
+        os.utime(tmp_path / name, (now - days * 86400,) * 2)
+    mf_jax_cache.prune(tmp_path, days=30)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["new.bin", "new.bin3z4w.tmp",
+                                                          "notes.txt"]
+
+
 _JACOBIAN_SCRIPT = """
 import sys
 import numpy as np

@@ -18,6 +18,7 @@ from identify.fit.mf_constraints import validity_grid
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.optimize import fit
+from identify.fit.run import FitSettings
 from identify.io.tir import read_tir
 from identify.io.trailer import read_trailer
 from identify.model.evaluate import evaluate
@@ -411,8 +412,6 @@ def test_a_second_pass_solves_the_stages_whose_inputs_a_later_stage_moved(truth,
     it, Mz0 is at its optimum for the final values (a solve from there gains nothing next to
     the one-pass fit's objective), and its objective at the final values is far below the
     one-pass fit's."""
-    from identify.fit.run import FitSettings
-
     assert FitSettings().mf_passes == 2
     start = _perturb(truth, [n for st in DEFAULT_STAGES for n in free_sets[st]], seed=2)
     one, two = (fit_mf(data, start, passes=p, seed=3) for p in (1, 2))

@@ -97,14 +97,15 @@ def jackknife_defined(jac: np.ndarray, clusters: list[np.ndarray]) -> bool:
     (a slope set by one of 12 clusters: 0.066 against a true sd of 0.257, the test of such a
     sweep in tests/test_fit_engine.py); the covariance
     is then the iid one. True for a singular G (nothing to lose)."""
-    Js, _ = _column_scaled(jac)
-    G = Js.T @ Js
-    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(G)[0]
-    if not floor > 0:
-        return True
-    if not clusters:
-        return True
-    return bool(np.all(_left_out(Js, clusters)[4][:, 0] >= floor))
+    return not clusters or not _essential(_left_out(jac, clusters))
+
+
+def _essential(parts: tuple[np.ndarray, ...]) -> bool:
+    """Some cluster is essential: the smallest eigenvalue of its column-scaled G - G_c below
+    ESSENTIAL_RTOL x G's, G regular (``parts``: :func:`_left_out`, at least one cluster)."""
+    Js, w = parts[0], parts[4]
+    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(Js.T @ Js)[0]
+    return bool(floor > 0 and not np.all(w[:, 0] >= floor))
 
 
 def jackknife_covariance(steps: np.ndarray) -> np.ndarray:
@@ -214,9 +215,7 @@ def jackknife_with_dof(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarr
     if J.shape[1] == 0:
         return np.zeros((0, 0)), np.zeros(0)
     parts = _left_out(J, clusters)
-    Js = parts[0]
-    floor = ESSENTIAL_RTOL * np.linalg.eigvalsh(Js.T @ Js)[0]
-    if floor > 0 and clusters and not np.all(parts[4][:, 0] >= floor):
+    if clusters and _essential(parts):
         return None
     return (jackknife_covariance(jackknife_steps(J, fun, clusters, parts=parts)),
             jackknife_dof(J, clusters, parts=parts))

@@ -44,6 +44,7 @@ __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE"
            "Tolerances",
            "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
+           "jackknife_with_dof",
            "least_squares", "polish", "problem_covariance", "pseudo_solve", "residual_jacobian",
            "residual_variance", "standard_errors", "t_quantile"]
 

@@ -27,6 +27,7 @@ JAX's compilation cache, used there before, does): it must be the user's own.
 """
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib.metadata
@@ -188,8 +189,9 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
             f.write(_head(key, payload) + payload)
         os.replace(tmp, path)
     except OSError:
-        if tmp is not None and os.path.exists(tmp):
-            os.unlink(tmp)
+        if tmp is not None:  # what was written; a cache that cannot take it is no error
+            with contextlib.suppress(OSError):
+                os.unlink(tmp)
         return False
     prune(path.parent)
     return True
@@ -197,9 +199,10 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
 
 def prune(where: Path, days: float = UNUSED_DAYS) -> None:
     """Delete the entries of ``where`` not written or loaded for ``days`` (those of older mfid,
-    JAX or model code, whose keys no run asks for again)."""
+    JAX or model code, whose keys no run asks for again), and the partial writes as old (the
+    ``.tmp`` files of :func:`store` in a process killed while writing)."""
     limit = time.time() - days * 86400.0
-    for entry in where.glob("*.bin"):
+    for entry in [*where.glob("*.bin"), *where.glob("*.bin*.tmp")]:
         try:
             if entry.stat().st_mtime < limit:
                 entry.unlink()

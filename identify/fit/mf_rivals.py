@@ -94,8 +94,9 @@ def _solve(problem, x0: np.ndarray, solved: list[Solved]
                 (end.wls, end.nfev))
     if not out.ok:
         return False, out.x, (np.nan, 0)
-    r = problem.residuals(snapped(problem, out.x))
-    return True, snapped(problem, out.x), (float(r @ r), 1)
+    x = snapped(problem, out.x)  # the reported optimum, as fit's Diagnosis.x
+    r = problem.residuals(x)
+    return True, x, (float(r @ r), 1)
 
 
 def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:

@@ -150,7 +150,7 @@ def _rivals(problem: FitProblem, result: FitResult,
     scale = np.maximum(np.abs(best), 1e-3)
     xs = [np.array([c[n] for n in free]) for c in candidates]
     nearest = int(np.argmin([np.sum(((x - best) / scale) ** 2) for x in xs]))
-    s2 = result.wls / max(result.n_points - len(free), 1)
+    s2 = residual_variance(0.5 * result.wls, result.n_points, len(free))
     out = []
     for i, (c, x) in enumerate(zip(candidates, xs)):
         if i == nearest:

@@ -122,56 +122,35 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
                    polished=not np.array_equal(pol.x, lsq.x))
 
 
-def _alone(problem: FitProblem, lsq: Estimate) -> bool:
-    """A start whose outcome is its least-squares solve ``lsq`` whatever the other starts
-    (:func:`_finish`'s first case): weighted least squares, and a solve that exhausted its
-    budget or violates no constraint."""
-    return problem.objective == "wls" and (
-        lsq.status == 0 or not problem.constraints
-        or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0)
-
-
-def _cached(cache: list, lsq: Estimate) -> Outcome | None:
-    """The polish of an earlier start whose least-squares solve landed where ``lsq`` did."""
-    for x_ls, outcome in cache:
-        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
-            return outcome
-    return None
-
-
-def _own(lsq: Estimate, alone: bool, cache: list, bound: float) -> bool:
-    """:func:`_finish` gives ``lsq``'s start the outcome it would have as the only start: its
-    least-squares solve (``alone``: :func:`_alone`), or its own polish (not skipped by
-    ``bound``, not shared with an earlier start through ``cache``)."""
-    return alone or (lsq.cost < bound and _cached(cache, lsq) is None)
-
-
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
-            tol: Tolerances, alone: bool | None = None) -> Outcome:
+            tol: Tolerances) -> tuple[Outcome, bool]:
     """A start after its least-squares solve ``lsq``. Weighted least squares: a solution that
     violates no constraint is the constrained optimum; one that does is polished unless its
     cost already reaches ``bound`` (the best feasible objective found so far: polishing only
     raises it) or it exhausted its budget. The thesis metric: always polished (SLSQP on the
     metric itself). Starts whose least-squares solves land on the same point share one
-    polish (``cache``). ``alone``: :func:`_alone` when the caller has it."""
-    if _alone(problem, lsq) if alone is None else alone:
-        return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq)
+    polish (``cache``). With the outcome: whether it is the one the start would have as the
+    only start (its least-squares solve, or its own polish: not skipped by ``bound``, not
+    shared with an earlier start), which :class:`Solved` records."""
     if problem.objective == "wls":
+        if lsq.status == 0 or not problem.constraints \
+                or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0:
+            return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq), True
         if lsq.cost >= bound:
             return Outcome(lsq.x, False, "not polished: infeasible least-squares optimum no "
-                           "better than a feasible start", lsq.status, lsq)
-    shared = _cached(cache, lsq)
-    if shared is not None:
-        return shared
+                           "better than a feasible start", lsq.status, lsq), False
+    for x_ls, outcome in cache:
+        if np.allclose(x_ls, lsq.x, rtol=1e-8, atol=1e-12):
+            return outcome, False
     outcome = _polish(problem, lsq, tol)
     cache.append((lsq.x, outcome))
-    return outcome
+    return outcome, True
 
 
 @dataclass(frozen=True)
 class Solved:
     """A start of :func:`fit` whose outcome did not depend on the other starts
-    (:func:`_own`), recorded for :func:`replay`.
+    (:func:`_finish`), recorded for :func:`replay`.
 
     Attributes
     ----------
@@ -227,9 +206,7 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     done: dict[int, Outcome] = {}
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
-        alone = _alone(problem, pre[i])
-        own = _own(pre[i], alone, cache, bound)
-        out = _finish(problem, pre[i], cache, bound, tol, alone)
+        out, own = _finish(problem, pre[i], cache, bound, tol)
         if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)

@@ -248,10 +248,13 @@ class FitProblem:
             if x is None:
                 raise ValueError('noise="sweep-residual" needs the optimum x')
             r = self.predict(x) - self.measured
-            r = np.where(np.isfinite(r), r, 0.0)
-            pooled = float(np.mean(r ** 2))
+            # a non-finite residual (a NaN sample, a model off its domain) tells nothing of
+            # the noise: it counts in no level, neither its sweep's nor the pooled one
+            ok = np.isfinite(r)
+            r = np.where(ok, r, 0.0)
+            pooled = float(np.sum(r ** 2)) / max(int(ok.sum()), 1)
             level = np.sqrt((np.bincount(index, r ** 2) + PRIOR_POINTS * pooled)
-                            / (count + PRIOR_POINTS))
+                            / (np.bincount(index, ok, minlength=count.size) + PRIOR_POINTS))
             # the floor follows the noise, not the data's size (noise may be well below 1 %
             # of the values); only an exact fit falls back to the data's
             floor = RESIDUAL_FLOOR * np.sqrt(pooled) if pooled > 0 else floor
