@@ -305,3 +305,17 @@ def test_two_tyres_are_not_imported_into_one_folder_without_id(tmp_path):
     assert result.stderr.splitlines() == [
         f"error: {a}: tireid 'small', but {b} has 'other tyre': one tyre per folder (give --id "
         "to import them as one tyre)"]
+
+
+def test_sr_offset_free_rolling_at_one_load_takes_no_made_up_load_slope(tmp_path):
+    """Free rolling at 1 kN only, the sweep at 2 kN, RL / Re = 0.95 at both. Before: the
+    load column, constant on the free-rolling samples, shared the intercept (lstsq's
+    minimum-norm answer), and the offset at 2 kN came out -0.069: kappa up to 0.022 off."""
+    ch = _small_channels(drop=("SL",))
+    kappa = np.concatenate([np.zeros(100), np.linspace(-0.1, 0.1, 100)])
+    fz = np.repeat([1000.0, 2000.0], 100)
+    ch["FZ"], ch["FX"] = -fz, 20.0 * kappa * fz
+    ch["SR"] = (1 + kappa) * 0.95 - 1
+    _, frame, _, problems = _tidy_mat(tmp_path, ch)
+    assert problems == []
+    np.testing.assert_allclose(frame["kappa"], kappa, atol=1e-12)

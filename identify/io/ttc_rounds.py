@@ -51,7 +51,8 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     below zero, more at a higher load), which the MF stages would take for a slip: 1 + SR =
     (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
     value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
-    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted.
+    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted; a term
+    that does not vary on those samples is held at zero.
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
     free = np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)
@@ -61,8 +62,12 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
                        "offset: the Fx fits take it for a slip)")
     x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
                          frame["alpha"].to_numpy(float) ** 2])
-    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
-    offset = x @ coef
+    # a term constant on the free-rolling samples (one load, one pressure) is left out: lstsq's
+    # minimum-norm answer would share the intercept with it and make up a slope elsewhere
+    varies = np.ptp(x[free], axis=0) > 1e-9
+    varies[0] = True
+    coef, *_ = np.linalg.lstsq(x[free][:, varies], sr[free], rcond=None)
+    offset = x[:, varies] @ coef
     mid = float(np.median(offset))
     return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
         f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
