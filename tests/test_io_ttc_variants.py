@@ -319,3 +319,15 @@ def test_sr_offset_free_rolling_at_one_load_takes_no_made_up_load_slope(tmp_path
     _, frame, _, problems = _tidy_mat(tmp_path, ch)
     assert problems == []
     np.testing.assert_allclose(frame["kappa"], kappa, atol=1e-12)
+
+
+def test_dat_with_a_channel_named_twice_is_one_line(tmp_path):
+    """Before: a second line, 'data below the header are not tab-separated numbers (Duplicate
+    names are not allowed.)', about data that were never the problem ("fx" next to "FX" is
+    one channel named twice since names are read in any case)."""
+    lines = _dat_lines()
+    lines[1] = lines[1].replace("FY", "fx")
+    path = _write(tmp_path / "B1run1.dat", lines)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()] == [f"{path}:2: FX: channel named twice"]
