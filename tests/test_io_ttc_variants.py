@@ -331,3 +331,16 @@ def test_dat_with_a_channel_named_twice_is_one_line(tmp_path):
     problems = Problems()
     assert read_ttc(path, problems) is None
     assert [str(p) for p in problems.finish()] == [f"{path}:2: FX: channel named twice"]
+
+
+def test_sr_offset_leaves_out_the_unloaded_samples_between_sweeps(tmp_path):
+    """20 samples with the tyre lifted off between sweeps (Fz 30 N, Fx 0: 'free rolling' by
+    |Fx| < 2 % of Fz) where SR reads +0.3 (the radius channel reads the wheel's height). Before:
+    they took part in the offset's fit and put kappa up to 0.22 off on the loaded samples."""
+    ch, kappa = _sr_channels()
+    lifted = np.arange(100, 120)
+    ch["FZ"][lifted], ch["FX"][lifted], ch["SR"][lifted] = -30.0, 0.0, 0.3
+    _, frame, _, problems = _tidy_mat(tmp_path, ch)
+    assert problems == []
+    loaded = np.setdiff1d(np.arange(200), lifted)
+    np.testing.assert_allclose(frame["kappa"].to_numpy()[loaded], kappa[loaded], atol=1e-12)
