@@ -344,3 +344,18 @@ def test_sr_offset_leaves_out_the_unloaded_samples_between_sweeps(tmp_path):
     assert problems == []
     loaded = np.setdiff1d(np.arange(200), lifted)
     np.testing.assert_allclose(frame["kappa"].to_numpy()[loaded], kappa[loaded], atol=1e-12)
+
+
+def test_sr_offset_is_not_extrapolated_from_a_narrow_load_spread(tmp_path):
+    """Free rolling at 1000 +- 10 N only, the sweep at 2000 N, RL / Re = 0.95 at both and SR
+    noise 1e-4: the load slope fitted on the narrow spread is the noise's. Before: it was
+    extrapolated 1 kN, kappa 2.3e-3 off (seed 4); held at the free-rolling range, 2.9e-4."""
+    rng = np.random.default_rng(4)
+    ch = _small_channels(drop=("SL",))
+    kappa = np.concatenate([np.zeros(100), np.linspace(-0.1, 0.1, 100)])
+    fz = np.concatenate([1000 + 10 * rng.standard_normal(100), np.full(100, 2000.0)])
+    ch["FZ"], ch["FX"] = -fz, 20.0 * kappa * fz
+    ch["SR"] = (1 + kappa) * 0.95 - 1 + 1e-4 * rng.standard_normal(200)
+    _, frame, _, problems = _tidy_mat(tmp_path, ch)
+    assert problems == []
+    np.testing.assert_allclose(frame["kappa"], kappa, atol=5e-4)

@@ -55,7 +55,8 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
     :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and whose Fz is above
     :data:`SR_MIN_LOAD` of the median (not lifted off), and subtracted; a term
-    that does not vary on those samples is held at zero.
+    that does not vary on those samples is held at zero, and each term is held within its
+    range on those samples (no extrapolation to loads free rolling never reached).
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
     # loaded: with the tyre lifted off between sweeps Fx and Fz are both near 0 and SR reads
@@ -73,7 +74,10 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     varies = np.ptp(x[free], axis=0) > 1e-9
     varies[0] = True
     coef, *_ = np.linalg.lstsq(x[free][:, varies], sr[free], rcond=None)
-    offset = x[:, varies] @ coef
+    # evaluated within the conditions it was fitted on: a load, pressure or slip angle beyond
+    # them takes the nearest one's offset (a slope from the noise of a narrow spread is not
+    # extrapolated)
+    offset = np.clip(x, x[free].min(axis=0), x[free].max(axis=0))[:, varies] @ coef
     mid = float(np.median(offset))
     return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
         f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
