@@ -54,9 +54,8 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
     value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
     :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and whose Fz is above
-    :data:`SR_MIN_LOAD` of the median (not lifted off), and subtracted; a term
-    that does not vary on those samples is held at zero, and each term is held within its
-    range on those samples (no extrapolation to loads free rolling never reached).
+    :data:`SR_MIN_LOAD` of the median (not lifted off), and subtracted; each term is held
+    within its range on those samples (no extrapolation to loads free rolling never reached).
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
     # loaded: with the tyre lifted off between sweeps Fx and Fz are both near 0 and SR reads
@@ -69,15 +68,13 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
                        "offset: the Fx fits take it for a slip)")
     x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
                          frame["alpha"].to_numpy(float) ** 2])
-    # a term constant on the free-rolling samples (one load, one pressure) is left out: lstsq's
-    # minimum-norm answer would share the intercept with it and make up a slope elsewhere
-    varies = np.ptp(x[free], axis=0) > 1e-9
-    varies[0] = True
-    coef, *_ = np.linalg.lstsq(x[free][:, varies], sr[free], rcond=None)
+    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
     # evaluated within the conditions it was fitted on: a load, pressure or slip angle beyond
-    # them takes the nearest one's offset (a slope from the noise of a narrow spread is not
-    # extrapolated)
-    offset = np.clip(x, x[free].min(axis=0), x[free].max(axis=0))[:, varies] @ coef
+    # them takes the nearest one's offset. A slope from the noise of a narrow spread is not
+    # extrapolated, and a term constant on the free-rolling samples (one load, one pressure),
+    # whose coefficient lstsq's minimum-norm answer shares with the intercept, adds the same
+    # constant everywhere.
+    offset = np.clip(x, x[free].min(axis=0), x[free].max(axis=0)) @ coef
     mid = float(np.median(offset))
     return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
         f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
