@@ -9,9 +9,9 @@ page), never skipped.
 """
 from __future__ import annotations
 
-import math
 import dataclasses
 import json
+import math
 import shutil
 import subprocess
 from pathlib import Path

@@ -146,9 +146,8 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
                         first_line=ch.first_line)
     if warnings is not None:
         warnings.extend(cleaned.warnings)
-        n_read = len(ch.data[names["t"]])
-        warnings.extend(DataWarning(ch.file, ch.run, "channel", which, n_read, n_read, detail,
-                                    action) for which, detail, action in notes)
+        warnings.extend(DataWarning(ch.file, ch.run, "channel", which, n, n, detail, action)
+                        for which, detail, action in notes)
         sr = unused_slip_warning(ch.data["SR"], file=ch.file, run=ch.run, channel="SR") \
             if ttc and "SR" in ch.data else None
         warnings.extend([sr] if sr else [])

@@ -105,7 +105,7 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
     if found is None:
         return None
     data, units, attrs = found
-    units = {k: _unit(k, u) for k, u in units.items() if _unit(k, u)}
+    units = {k: text for k, u in units.items() if (text := _unit(k, u))}
     if "ET" not in data:
         problems.add(path, "missing required channel (elapsed time)", key="ET")
         return None

@@ -69,8 +69,11 @@ def read_dat(path: Path, problems: Problems):
     if len(unit_cells) != len(names):
         problems.add(path, f"{len(unit_cells)} units for {len(names)} channel names", line=3)
         return None
-    for dup in sorted({n for n in names if names.count(n) > 1}):
+    twice = sorted({n for n in names if names.count(n) > 1})
+    for dup in twice:
         problems.add(path, "channel named twice", line=2, key=dup)
+    if twice:  # which column is the channel is unknown; pandas refuses the names anyway
+        return None
     try:
         frame = _table(path, sep, names, ".")
     except (ValueError, pd.errors.ParserError) as exc:

@@ -15,7 +15,7 @@ from identify.io.quirks import unused_slip_warning
 from identify.io.trailer_channels import Channels
 from identify.io.ttc_names import TTC_TO_TYDEX
 
-__all__ = ["SR_FREE_ROLLING", "TTC_OPTIONAL", "sr_as_kappa", "ttc_substitutes"]
+__all__ = ["SR_FREE_ROLLING", "SR_MIN_LOAD", "TTC_OPTIONAL", "sr_as_kappa", "ttc_substitutes"]
 
 
 #: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
@@ -42,6 +42,8 @@ def ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
 
 #: |Fx| / Fz below which a sample counts as free rolling for the offset of SR [-].
 SR_FREE_ROLLING = 0.02
+#: Share of the run's median |Fz| below which a sample is not free rolling but unloaded [-].
+SR_MIN_LOAD = 0.2
 
 
 def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
@@ -51,10 +53,15 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     below zero, more at a higher load), which the MF stages would take for a slip: 1 + SR =
     (1 + kappa) RL / Re, so kappa = (1 + SR) / (1 + SR0) - 1 with SR0 its free-rolling
     value, fitted as a + b Fz + c p + d alpha^2 on the samples whose |Fx| is below
-    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and subtracted.
+    :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and whose Fz is above
+    :data:`SR_MIN_LOAD` of the median (not lifted off), and subtracted; each term is held
+    within its range on those samples (no extrapolation to loads free rolling never reached).
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
-    free = np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)
+    # loaded: with the tyre lifted off between sweeps Fx and Fz are both near 0 and SR reads
+    # whatever the radius channel does there
+    free = (np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)) \
+        & (np.abs(fz) > SR_MIN_LOAD * np.median(np.abs(fz)))
     what = "no slip ratio SL: kappa is SR, the slip ratio based on the loaded radius"
     if free.sum() < 10:
         return frame, (f"{what}, as read (fewer than 10 free-rolling samples to find its "
@@ -62,7 +69,12 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
                          frame["alpha"].to_numpy(float) ** 2])
     coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
-    offset = x @ coef
+    # evaluated within the conditions it was fitted on: a load, pressure or slip angle beyond
+    # them takes the nearest one's offset. A slope from the noise of a narrow spread is not
+    # extrapolated, and a term constant on the free-rolling samples (one load, one pressure),
+    # whose coefficient lstsq's minimum-norm answer shares with the intercept, adds the same
+    # constant everywhere.
+    offset = np.clip(x, x[free].min(axis=0), x[free].max(axis=0)) @ coef
     mid = float(np.median(offset))
     return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
         f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
