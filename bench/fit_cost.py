@@ -132,8 +132,8 @@ evaluations ~0.5 s, the SLSQP polishes 0.47 s (each gradient a whole exact Jacob
 builds 0.58 s and the JAX import 0.3 s.
 
 Measured 2026-11-24 10:44-10:45 UTC on main after the merge (d985d29), load average 1.6-2.9, one
-round: the sample 103 (cpu 104), ``--ttc 0`` 177 (cpu 184); against ddb9f71's 351-379 and 612:
-3.4-3.6x and 3.3-3.5x.
+round, ``--passes 2`` (``mfid fit``'s default): the sample 103 (cpu 104), ``--ttc 0`` 177 (cpu
+184); against ddb9f71's 351-379 and 612: 3.4-3.6x and 3.3-3.5x.
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.

@@ -13,9 +13,9 @@ seconds, then the share of 90 % credible intervals that hold the true coefficien
                                      [--ridge-only] [--json out.json]
 
 ``--ridge-only`` frees only PKY1, PKY2, PKY4 (the other coefficients at the truth): the ridge
-the reparametrisation is for, at a fraction of the cost of the whole 26-coefficient stage
-(lateral runs only, as the Fy0 stage selects them). It is a reduced check, not the stage's
-calibration.
+the reparametrisation is for, at a fraction of the cost of the whole stage (27 free
+coefficients on this design; lateral runs only, as the Fy0 stage selects them). It is a
+reduced check, not the stage's calibration.
 
 ``--no-reparam`` samples PKY1, PKY2, PKY4 directly (tau ~ 1700 steps on these loads: hours).
 """

@@ -38,8 +38,10 @@ TAKE_CHI2 = 0.01
 to the rivals."""
 DISTINCT_SE = 2.0
 """The other branch is tried only when |c1| exceeds this many of its standard errors: nearer 0
-the two branches are one minimum (a generated Fx0 stage of the bundled tyre, PKX2 = 0.0004,
-gave two 'rivals' at chi^2 0 that differed in PKX2 alone)."""
+the mirrored point lies within the optimum's own interval. (It does not keep a solve at small
+c1 from ending as low as the optimum: on tests/test_fit_mf_basins.py's Fx0 stage, PKX2 =
+-0.0021 +- 0.00038, it is tried and ends at PKX2 ~ 0, chi^2 -1e-8; TAKE_CHI2 keeps the optimum,
+and the end is a rival in PKX2 alone.)"""
 
 
 def other_branch(stage: str, values: Mapping[str, float]) -> dict[str, float] | None:
