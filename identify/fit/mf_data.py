@@ -26,6 +26,8 @@ from identify.fit.mf_stage_defs import PURE_ALPHA, PURE_KAPPA
 REQUIRED = ("run", "Vx", "alpha", "kappa", "gamma", "p", "Fz")
 SWEEP_KAPPA = 0.02
 """[-] a run whose kappa spans more than this holds a longitudinal-slip sweep."""
+SPAN_QUANTILES = (0.01, 0.99)
+"""Quantiles of a run's alpha, kappa and gamma whose difference is the run's span."""
 SWEEP_ANGLE = np.deg2rad(1.0)
 """[rad] a run whose alpha or gamma spans more than this holds a lateral sweep."""
 SEGMENT_COLUMN = "segment_id"
@@ -91,7 +93,10 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     groups = pd.DataFrame({"run": codes, **{c: frame[c].to_numpy(float)
                                             for c in ("alpha", "kappa", "gamma")}}
                           ).groupby("run", sort=True)
-    span = (groups.max() - groups.min()).reindex(np.arange(runs.size))
+    # robust spans (1st to 99th percentile): a few stray samples of a noisy kappa channel
+    # do not make a cornering run a slip-ratio sweep
+    span = (groups.quantile(SPAN_QUANTILES[1]) - groups.quantile(SPAN_QUANTILES[0])
+            ).reindex(np.arange(runs.size))
     kappa_sweep = (span["kappa"] > SWEEP_KAPPA).to_numpy(bool)[codes]
     lateral_sweep = ((span["alpha"] > SWEEP_ANGLE) | (span["gamma"] > SWEEP_ANGLE)
                      ).to_numpy(bool)[codes]
@@ -101,11 +106,14 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     elif selection == "longitudinal":
         ok &= (a <= PURE_ALPHA) & kappa_sweep
     elif selection == "lateral":
-        ok &= (k <= PURE_KAPPA) & lateral_sweep
+        # a run without a kappa sweep rolls freely: its kappa is the channel's noise (SL of
+        # a real cornering run scatters by a few 0.001), not a slip to select on
+        ok &= ((k <= PURE_KAPPA) | ~kappa_sweep) & lateral_sweep
     elif selection == "combined":
-        ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
+        ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA) & kappa_sweep
     elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
-        ok &= (k > PURE_KAPPA) & bool(np.any(ok & (a > PURE_ALPHA) & (k > PURE_KAPPA)))
+        slip = (k > PURE_KAPPA) & kappa_sweep
+        ok &= slip & bool(np.any(ok & slip & (a > PURE_ALPHA)))
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

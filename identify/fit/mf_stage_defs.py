@@ -42,9 +42,12 @@ class StageDef:
                            a wheel speed omega > 0 and Vx >= FREE_MIN_SPEED; see
                            identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
                            in runs with a kappa sweep),
-                           ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
-                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA),
-                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle, when
+                           ``"lateral"`` (runs with an alpha or gamma sweep: every point of
+                           a run without a kappa sweep, whose kappa is the channel's noise,
+                           |kappa| <= PURE_KAPPA in the others), ``"combined"`` (|alpha| >
+                           PURE_ALPHA and |kappa| > PURE_KAPPA in runs with a kappa sweep),
+                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle in runs
+                           with a kappa sweep, when
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
                            a slip-ratio sweep at zero slip angle pins it) or ``"all"``
