@@ -23,11 +23,14 @@ from identify.workflows.sweep_bins import mf_table
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
 
 
-@pytest.fixture(scope="module")
-def other_tyre(tmp_path_factory):
+@pytest.fixture(scope="module", params=[0, 1], ids=["seed0", "seed1"])
+def other_tyre(request, tmp_path_factory):
+    """The session of one seed: each test below takes the seed on which its mechanism is
+    needed (at seed 0 the Fy re-fit converges within its budget, at seed 1 the Fx0 search's
+    PKX2 lies within 2 standard errors of 0, where the other branch is not tried)."""
     root = tmp_path_factory.mktemp("testA")
     truth = read_tir(TIR).params()
-    s = simulate_ttc(truth, root / "ttc", seed=0)
+    s = simulate_ttc(truth, root / "ttc", seed=request.param)
     out = import_session([f for f in s.files if f.suffix == ".mat"], root / "folder",
                          nominal_pressure_Pa=float(truth["NOMPRES"]),
                          unloaded_radius_m=float(truth["UNLOADED_RADIUS"]))
@@ -43,10 +46,11 @@ def other_tyre(tmp_path_factory):
     return table, base, truth
 
 
+@pytest.mark.parametrize("other_tyre", [1], indirect=True)
 def test_a_refit_that_stops_at_its_budget_far_below_the_optimum_is_solved_on(other_tyre):
     """Fy0 then Fy from the defaults: RVY4..6 are freed after the fit and the stage ends
-    within 1.5 % (thesis error; measured 0.80 %, the noise is 1 %) with RVY4 near the
-    truth's 40 (measured 40.07); dropped, as before, the re-fit left RVY4 at 20, RBY2 at its
+    within 1.5 % (thesis error; measured 0.88 % at seed 1, the noise is 1 %) with RVY4 near
+    the truth's 40 (measured 39.98); dropped, as before, the re-fit left RVY4 at 20, RBY2 at its
     bound 100 and a 10.1 % error."""
     table, base, truth = other_tyre
     messages: list[str] = []
@@ -60,12 +64,13 @@ def test_a_refit_that_stops_at_its_budget_far_below_the_optimum_is_solved_on(oth
     assert abs(fy.parameters["RVY4"] - truth["RVY4"]) < 2.0, fy.parameters["RVY4"]
 
 
+@pytest.mark.parametrize("other_tyre", [0], indirect=True)
 def test_fx0_takes_the_better_branch_of_its_load_curve_and_names_the_other(other_tyre):
     """Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz): the search, near the defaults (PKX2 > 0),
-    ends on the branch PKX2 = 12.4, PKX3 = -0.27; the truth's branch (PKX2 = -10, PKX3 = 0.5)
-    fits 18 lower in iid chi^2. The stage is solved from the mirrored point
-    (identify.fit.mf_branches): it ends there (measured PKX2 = -12.49, PKX3 = 0.572), and the
-    search's end, 2.3 above on the intervals' scale, is a rival that leaves PKX2 and PKX3 not
+    ends on the branch PKX2 = 13.3, PKX3 = -0.30 (seed 0); the truth's branch (PKX2 = -10,
+    PKX3 = 0.5) fits lower. The stage is solved from the mirrored point
+    (identify.fit.mf_branches): it ends there (measured PKX2 = -13.43, PKX3 = 0.601), and the
+    search's end, 2.9 above on the intervals' scale, is a rival that leaves PKX2 and PKX3 not
     identifiable on their own."""
     table, base, truth = other_tyre
     with warnings.catch_warnings():
