@@ -80,5 +80,10 @@ def test_fx0_takes_the_better_branch_of_its_load_curve_and_names_the_other(other
     assert fx0.parameters["PKX2"] < 0 < fx0.parameters["PKX3"], fx0.parameters
     assert "other branch" in fx0.message
     assert any(r.values.get("PKX2", 0) > 0 for r in fx0.rivals), fx0.rivals
+    # a rival names the coefficients it puts outside their reported 95 % interval (t, dof)
+    for rival in fx0.rivals:
+        for name, value in rival.values.items():
+            lo, hi = fx0.interval(name)
+            assert not lo <= value <= hi, (name, value, lo, hi)
     # as mfid fit assesses the stage (identify.workflows.fit)
     assert {"PKX2", "PKX3"} <= set(unidentified(fx0)), unidentified(fx0)
