@@ -155,7 +155,11 @@ def run_chain(sampler, state, max_steps: int, budget: float | None, progress, t0
                     report()
             if pending:
                 break
-            tau = tau_fn() if steps >= 2 else tau
+            if steps >= 2:
+                # a coordinate no walker has moved in yet (a chain stopped after a few steps)
+                # has no autocorrelation: NaN, tau unknown, not a RuntimeWarning to the user
+                with np.errstate(invalid="ignore", divide="ignore"):
+                    tau = tau_fn()
             if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
                 stop = "converged"
             elif steps >= max_steps and not stop:
