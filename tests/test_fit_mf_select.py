@@ -4,7 +4,7 @@ older rounds' stand-in, more so)."""
 import numpy as np
 import pandas as pd
 
-from identify.fit.mf_data import select
+from identify.fit.mf_data import rolling_kappa, select
 
 
 def _table(kappa_noise: float, seed: int = 0) -> pd.DataFrame:
@@ -50,3 +50,20 @@ def test_clean_kappa_selects_as_before():
     drive = ~corner
     longitudinal = select(t, "longitudinal", "Fx")
     assert drive[longitudinal].all() and len(longitudinal) == 1000
+
+
+def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
+    """The cornering run's noisy kappa becomes 0 (the MF stages would take it for a slip: Kx
+    times 0.003 is 6 % of Fz of Fx); the drive/brake run's sweep and an alpha sweep at a held
+    slip ratio of 0.05 keep theirs, and the latter is combined slip, not pure lateral."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    t = pd.concat([t, held], ignore_index=True)
+    out = rolling_kappa(t)
+    corner, drive, at_slip = (t["run"] == r for r in ("corner", "drive", "held"))
+    assert (out.loc[corner, "kappa"] == 0).all()
+    pd.testing.assert_series_equal(out.loc[~corner, "kappa"], t.loc[~corner, "kappa"])
+    assert (t.loc[corner, "kappa"] != 0).any()  # not modified
+    lateral = set(t.iloc[select(t, "lateral", "Fy")]["run"])
+    assert "held" not in lateral and "corner" in lateral
+    assert "held" in set(t.iloc[select(t, "combined", "Fx")]["run"])
