@@ -11,7 +11,16 @@ reported with the reason) instead of being "recovered" by luck or wandering to a
    e.g. QSX5..QSX9 while QSX4 = 0) is held; so is one whose unit-normalised column lies within
    ``DEPENDENCE_TOL`` of the span of the coefficients accepted before it (priority order of the
    stage), e.g. RBY3 when the combined data hold only two slip angles, and one whose unique
-   effect is negligible (``EFFECT_TOL``), e.g. PEY5 when the data's cambers are small.
+   effect is negligible (``EFFECT_TOL``) for a plausible change of the coefficient,
+   max(|value|, |default|, DELTA_FLOOR / m). m is the largest magnitude of the monomial the
+   coefficient multiplies (identify.fit.mf_stage_defs.TERMS: gamma^2 for PEY5, |gamma| for
+   PKY3, dfz for PDY2, dpi gamma for PPY5, 1 for a zero-order one) over the stage's points, or
+   its value at the REFERENCE extent (|gamma| 0.1 rad, |dfz| 0.5, |dpi| 0.25) when that is
+   larger: the floor moves the coefficient's factor by DELTA_FLOOR at the larger extreme. So
+   PEY5 at 0 on data with 0..4 deg camber has the plausible change 1 (a fixed 0.01 moved
+   Ey by 5e-5 at 4 deg and held it, though the golden test tyre's PEY5 = 300 adds 1.46 there),
+   while on data within +-0.3 deg, where the same change moves Ey by 3e-5 at most, it stays
+   negligible (tests/test_fit_mf_screen.py).
 
 After the stage's global fit (identify.fit.mf_stages):
 
