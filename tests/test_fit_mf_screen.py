@@ -19,11 +19,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from identify.fit.mf_screen import term_magnitudes
+from identify.fit.mf_stage_defs import STAGES, TERMS, stage_model
 from identify.fit.mf_stages import fit_mf, stage_problem
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE
 from identify.model.parameters import defaults
+from identify.model.state import prepare
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
 NOISE = 0.01
@@ -63,6 +66,61 @@ def start(truth) -> dict[str, float]:
     s.update({k: truth[k] for k in ("FNOMIN", "NOMPRES", "INFLPRES", "UNLOADED_RADIUS",
                                      "LONGVL")})
     return s
+
+
+SMALL = 1e-4
+"""gamma [rad], dfz, dpi at which a monomial's power is read from the model's derivative."""
+AWAY = {"gamma": np.deg2rad(3.0), "dfz": 0.3, "dpi": 0.15}
+"""The other variables, away from 0 (so that a product such as PKY7's dfz gamma is seen)."""
+
+
+def _derivative(P, stage: str, name: str, var: str, value: float) -> np.ndarray:
+    """d prediction / d ``name`` of ``stage`` [N or N m per unit] at two slip points with
+    ``var`` = ``value`` (central difference)."""
+    x = {**AWAY, var: value}
+    kappa, alpha = np.array([0.03, -0.05]), np.array([0.04, -0.06])
+    if STAGES[stage].selection == "longitudinal":
+        alpha = 0 * alpha
+    if STAGES[stage].selection == "lateral":
+        kappa = 0 * kappa
+    s = prepare(P, np.full(2, P["FNOMIN"] * (1 + x["dfz"])), kappa, alpha,
+                np.full(2, x["gamma"]), np.full(2, 16.7),
+                p=np.full(2, P["NOMPRES"] * (1 + x["dpi"])), mode=FIT_MODE)
+    model = stage_model(stage, P, s)
+    h = 1e-4 * max(abs(P[name]), 1.0)
+    return (model({name: P[name] + h}) - model({name: P[name] - h})) / (2 * h)
+
+
+@pytest.mark.parametrize("stage", ["Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My"])
+def test_terms_are_the_monomials_of_the_model_equations(truth, stage):
+    """TERMS (the powers written into NEEDS) against the equations: a coefficient that
+    multiplies var^k has a derivative that halves k times when var halves near 0 (read at
+    var = 1e-4 and 5e-5: the exponent within 0.1; the golden tyre's coefficients are non-zero,
+    so every path through the equations is open). QSX11, inside QSX10 atan(QSX11 Fz/Fz0) gamma,
+    was the one missing."""
+    wrong = {}
+    for name in STAGES[stage].coefficients:
+        for var in ("gamma", "dfz", "dpi"):
+            d1 = np.linalg.norm(_derivative(truth, stage, name, var, SMALL))
+            d2 = np.linalg.norm(_derivative(truth, stage, name, var, SMALL / 2))
+            k = np.log2(d1 / d2)
+            want = TERMS.get(name, {}).get(var, 0)
+            if not abs(k - want) < 0.1:
+                wrong[f"{name} {var}"] = (round(float(k), 3), want)
+    assert not wrong, wrong
+
+
+def test_term_magnitudes_take_the_data_or_the_reference_extent(truth):
+    """m = max over the points of |monomial|, at least the monomial at the reference extent
+    (|gamma| 0.1 rad, |dfz| 0.5, |dpi| 0.25); 1 for a zero-order coefficient."""
+    g = np.deg2rad(np.array([0.0, 2.0, -8.0]))
+    s = prepare(truth, truth["FNOMIN"] * np.array([0.4, 1.0, 1.2]), np.zeros(3), np.zeros(3),
+                g, np.full(3, 16.7), p=truth["NOMPRES"] * np.array([1.0, 1.1, 0.9]),
+                mode=FIT_MODE)
+    m = term_magnitudes(["PEY5", "PKY7", "PPY5", "PDY2", "PPY4", "PDY1"], s)
+    # the data beyond the reference for PEY5 (8 deg) and PDY2 (dfz = -0.6), within it else
+    want = [g[2] ** 2, 0.1 * 0.5, 0.1 * 0.25, 0.6, 0.25 ** 2, 1.0]
+    np.testing.assert_allclose(m, want, rtol=1e-12)
 
 
 def test_pey5_is_screened_free_on_data_up_to_4_deg(truth):

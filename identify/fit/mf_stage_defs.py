@@ -100,7 +100,8 @@ QEZ3 load2:2; QEZ5 camber; QHZ2 load; QHZ3 camber; QHZ4 camber load; PPZ1 pressu
 PPZ2 pressure camber;
 RBX3 camber:2; REX2 load; RBY4 camber:2; REY2 load; RHY2 load; RVY2 load; RVY3 camber;
 SSZ3 camber; SSZ4 camber load;
-QSX2 camber; QSX7 camber; QSX10 camber; QSX12 camber:2; QSX14 camber; PPMX1 pressure camber;
+QSX2 camber; QSX7 camber; QSX10 camber; QSX11 camber; QSX12 camber:2; QSX14 camber;
+PPMX1 pressure camber;
 QSY3 speed; QSY4 speed2; QSY5 camber:2; QSY6 camber:2 load:0; QSY7 load; QSY8 pressure
 """
 _NEEDS_ITEMS = [item.split() for item in _NEEDS_TEXT.replace("\n", " ").split(";")
