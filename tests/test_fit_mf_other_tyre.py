@@ -52,12 +52,11 @@ def other_tyre(request, tmp_path_factory):
 def test_a_refit_that_stops_at_its_budget_far_below_the_optimum_is_solved_on(other_tyre):
     """Fy0 then Fy from the defaults: RVY4..6 are freed after the fit and the stage ends
     within 1.5 % (thesis error; measured 0.88 % at seed 1) with RVY4 near the truth's 40
-    (39.98); dropped, as
-    before, the re-fit left RVY4 at 20, RBY2 at its bound 100 and a 10.1 % error. Fy0 is
-    fitted without PEY5, as the screen held it before its plausible change scaled with
-    gamma^2 (identify.fit.mf_screen): with PEY5 free, Fy0 ends closer to the truth and the Fy
-    re-fit converges within its budget, so the budget case this test is about does not
-    arise."""
+    (39.98); dropped, as before, the re-fit left RVY4 at 20, RBY2 at its bound 100 and a
+    10.1 % error. Fy0 is fitted without PEY5, as the screen held it before its plausible
+    change scaled with gamma^2 (identify.fit.mf_screen): with PEY5 free, Fy0 ends closer to
+    the truth and the Fy re-fit converges within its budget, so the budget case this test is
+    about does not arise."""
     table, base, truth = other_tyre
     messages: list[str] = []
     without_pey5 = {"Fy0": [n for n in STAGES["Fy0"].coefficients if n != "PEY5"]}
