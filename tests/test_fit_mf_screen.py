@@ -168,3 +168,13 @@ def test_fy0_from_the_defaults_recovers_pey5_and_fy_at_4_deg(truth, fy0):
     got = _fy({**truth, **fy0.parameters}, at4)
     rel = np.sqrt(np.mean((got - want) ** 2) / np.mean(want ** 2))
     assert rel < 0.004, rel
+
+
+def test_the_combined_slip_shifts_are_bounded():
+    """RHX1, RHY1, RHY2 (slip shifts) and RBY3 (a slip-angle shift, rad) are bounded to
+    [-1, 1]: unbounded, the Fy stage's constrained polish escaped the validity conditions
+    through RHY1 = 1.4e5 (golden tyre, TTC seed 0: Fy 19.8 % from the truth, now 0.08 %)."""
+    from identify.model.parameters import bounds
+
+    for name in ("RHX1", "RHY1", "RHY2", "RBY3"):
+        assert bounds(name) == (-1.0, 1.0), name
