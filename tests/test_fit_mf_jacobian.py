@@ -152,8 +152,12 @@ def test_progress_reports_every_stage_with_its_time(truth, data):
         assert " s, " in mine[-1] and "converged" in mine[-1]
 
 
-def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data):
-    """MF_SOLVE stops once chi^2 no longer moves; the optimum is STRICT's to < 0.05 sd."""
+def test_noise_stop_ends_within_a_small_fraction_of_a_standard_error(truth, data,
+                                                                     monkeypatch):
+    """MF_SOLVE stops once chi^2 no longer moves; the optimum is STRICT's to < 0.05 sd. With
+    finite differences, as written (the exact Jacobian, since MIN_WORK is 30_000, converges
+    STRICT within the noise stop's window: nothing to save)."""
+    monkeypatch.setenv(mf_jacobian.ENV, "fd")
     noisy = add_noise(data, 5)
     sp = stage_problem("Mz0", noisy, _perturb(truth, STAGES["Mz0"].coefficients, seed=2))
     strict = fit(sp.problem, starts=sp.problem.x0()[None, :], tol=engine.STRICT, max_nfev=400)

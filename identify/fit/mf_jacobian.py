@@ -56,7 +56,7 @@ a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
-MIN_WORK = 50_000
+MIN_WORK = 30_000
 """Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
 ``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 4 ms and the tracing of
 the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit's ~100-250
@@ -66,7 +66,10 @@ Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7
 generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
 measurements, 2026-11-24). With the stored executables (a stage's first call 0.01-0.03 s) it
 still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
-(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24)."""
+(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24).
+30_000 since: the sample's Fx0 (1737 x 20) then took 0.09 s instead of 0.20 s (66 model
+evaluations instead of 816; CPU time, best of 3 warm fit_mf runs, one-off, 2026-11-24), its
+executable loads in ~0.01 s; its geometry stage (7450 x 6) costs the same either way."""
 
 
 @functools.cache
