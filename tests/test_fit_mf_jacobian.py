@@ -149,6 +149,20 @@ def test_search_keeps_one_of_two_mirror_images(truth, data, monkeypatch):
     assert mirrored(("QBZ9",), np.ones(1)) is None  # the pair not free: no mirror
 
 
+@needs_stop
+def test_search_stops_a_start_at_the_mirror_image_of_an_end(truth, data):
+    """A start at the mirror image of an earlier start is stopped after one iteration (it has
+    reached the mirror image of that start's path: the same prediction), not solved along
+    the mirror of that path to the mirror image of its end."""
+    noisy = add_noise(data, 6)
+    p = stage_problem("Mz0", noisy, _perturb(truth, STAGES["Mz0"].coefficients, seed=3),
+                      screen=False).problem
+    one = search(p, p.x0()[None, :])
+    two = search(p, np.vstack([p.x0(), mirrored(p.free, p.x0())]))
+    assert len(two.candidates) == 1 and two.starts_at_best == 2
+    assert one.nfev > 6 and two.nfev - one.nfev <= 3
+
+
 def test_subsample_is_evenly_spaced():
     assert subsample(SUBSAMPLE) is None
     idx = subsample(10 * SUBSAMPLE + 3)

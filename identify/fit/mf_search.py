@@ -205,7 +205,9 @@ class _Reached:
     only, in their own solver's metric)."""
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
-                 n_free: int, jac=None):
+                 free: tuple[str, ...], jac=None):
+        n_free = len(free)
+        self.free = free
         self.ends = [(j, e.x, e.jac, e.cost,
                       engine.residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
@@ -223,8 +225,13 @@ class _Reached:
 
     def __call__(self, x: np.ndarray, cost: float) -> str | None:
         self.path.append((np.array(x, dtype=float), cost))
+        # x, and its mirror image where it has one (Mz0: the same prediction and cost; the
+        # Jacobian at the mirror image is J with the pair's columns negated, so the path test
+        # compares x with the mirrored path points in the metric of J)
+        alike = [x] + [m for m in [mirrored(self.free, x)] if m is not None]
         for j, xe, Je, ce, s2 in self.ends:
-            if cost <= ce + 0.5 * MERGE_CHI2 * s2 and _within_merge(Je, x - xe, s2):
+            if cost <= ce + 0.5 * MERGE_CHI2 * s2 and any(_within_merge(Je, y - xe, s2)
+                                                          for y in alike):
                 self.into = j
                 return f"reached the end point of start {j + 1}"
         at, J = self._at
@@ -232,7 +239,10 @@ class _Reached:
             return None
         for j, path, s2 in self.paths:
             for xt, ct in path:
-                if abs(cost - ct) <= 0.5 * MERGE_CHI2 * s2 and _within_merge(J, x - xt, s2):
+                if abs(cost - ct) > 0.5 * MERGE_CHI2 * s2:
+                    continue
+                others = [xt] + ([mirrored(self.free, xt)] if len(alike) > 1 else [])
+                if any(_within_merge(J, x - y, s2) for y in others):
                     self.into = j
                     return f"reached the path of start {j + 1}"
         return None
@@ -271,7 +281,7 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     ends: list[engine.Estimate] = []
     paths: list[list[tuple[np.ndarray, float]]] = []
     for x0 in np.atleast_2d(starts):
-        reached = _Reached(ends, paths, len(problem.free), jac)
+        reached = _Reached(ends, paths, problem.free, jac)
         end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH,
                                    jac=reached.jac, max_nfev=SEARCH_NFEV, stop=reached)
         paths.append(reached.path)
