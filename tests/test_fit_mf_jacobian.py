@@ -12,6 +12,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
@@ -19,7 +20,8 @@ import pytest
 from identify.fit import engine, mf_data, mf_jacobian, mf_jax_cache, mf_search
 from identify.fit.mf_search import (SUBSAMPLE, mirrored, prune, search, start_points,
                                     subsample)
-from identify.fit.mf_stage_defs import STAGES, names_read, stage_inputs, stage_model, stage_predict
+from identify.fit.mf_stage_defs import (STAGES, names_read, stage_inputs, stage_model,
+                                        stage_predict, subset_state)
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.mf_uncertainty import _upstream_jacobian
 from identify.fit.optimize import fit
@@ -78,6 +80,36 @@ def test_jacobian_of_some_coefficients_in_any_order_is_those_columns(truth, data
         np.testing.assert_array_equal(part, whole[:, [every.index(n) for n in names]])
     assert mf_jacobian._runs([0, 1, 2, 4, 5, 7]) == [(0, 3, 0), (4, 6, 3), (7, 8, 5)]
     assert mf_jacobian._runs([3, 1, 2]) == [(3, 4, 0), (1, 3, 1)]
+
+
+@needs_jax
+def test_fy0_at_pure_slip_has_its_own_program_with_the_same_jacobian(truth, data, exact):
+    """An Fy0 stage whose points are all at kappa == 0 uses the program without the
+    combined-slip expression (mf_jacobian.PURE_FY0); its Jacobian is the combined program's
+    (which selects Fy0 there) to round-off, and at kappa != 0 the combined one is used."""
+    jax, jnp = mf_jacobian._jax()
+    sp = stage_problem("Fy0", data, truth, screen=False)
+    pure_points = np.flatnonzero(sp.state.kappa == 0)
+    assert pure_points.size > 100
+    s = subset_state(sp.state, pure_points)
+    names = STAGES["Fy0"].coefficients
+    theta = np.array([truth[n] for n in names])
+
+    def jac(pure):
+        return np.asarray(jax.jacfwd(lambda th: stage_predict(
+            "Fy0", {**truth, **dict(zip(names, th))}, s, {}, xp=jnp, pure_slip=pure))(theta))
+    np.testing.assert_allclose(jac(True), jac(False), rtol=1e-13, atol=1e-12)
+    mf_jacobian._EXECUTABLES.clear()
+    got = mf_jacobian.stage_jacobian("Fy0", truth, s)(truth, names)
+    assert [json.loads(k)["stage"] for k in mf_jacobian._EXECUTABLES] == [mf_jacobian.PURE_FY0]
+    # compiled (XLA fuses and reorders) against op by op: round-off
+    np.testing.assert_allclose(got, jac(False), rtol=1e-9, atol=1e-9)
+    mixed = subset_state(sp.state, np.arange(sp.state.kappa.size))
+    mixed = dataclasses.replace(mixed, kappa=np.where(np.arange(mixed.kappa.size) == 0, 0.01,
+                                                      mixed.kappa))
+    mf_jacobian._EXECUTABLES.clear()
+    mf_jacobian.stage_jacobian("Fy0", truth, mixed)(truth, names)
+    assert [json.loads(k)["stage"] for k in mf_jacobian._EXECUTABLES] == ["Fy0"]
 
 
 @needs_jax

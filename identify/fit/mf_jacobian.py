@@ -114,17 +114,24 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
     return available()
 
 
+PURE_FY0 = "Fy0 pure slip"
+"""The program of the Fy0 stage whose points are all at kappa == 0 (stage_predict's
+``pure_slip``): its own compiled function and cache entry."""
+
+
 @functools.cache
 def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
     """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
     parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
-    compiles it again only for a new chunk structure)."""
+    compiles it again only for a new chunk structure). ``stage`` PURE_FY0: Fy0 at kappa == 0."""
     jax, jnp = _jax()
+    pure = stage == PURE_FY0
+    name = "Fy0" if pure else stage
 
     def predict(theta, fixed, s, inputs):
         P = dict(zip(others, fixed))
         P.update(zip(coefficients, theta))
-        return stage_predict(stage, P, s, inputs, xp=jnp)
+        return stage_predict(name, P, s, inputs, xp=jnp, pure_slip=pure)
 
     return jax.jit(jax.jacfwd(predict))
 
@@ -245,18 +252,20 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         pad = np.concatenate([index, np.full(CHUNK - index.size, a)])
         chunks.append((index.size, _chunk(s, pad, n), _chunk(inputs, pad, n)))
     position = {c: j for j, c in enumerate(coefficients)}
+    # Fy0 with every point at kappa == 0 (the pure-slip sweeps): the pure-slip program
+    program = PURE_FY0 if stage == "Fy0" and not np.any(s.kappa != 0) else stage
 
     def call(theta, sc, ic):
         nonlocal others, fn, fixed
         if fn is None:  # every chunk has the same shapes: one executable
             try:
-                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+                fn = _executable(program, coefficients, others, (theta, fixed, sc, ic))
             except KeyError:  # a held value the set above missed (raised while tracing)
                 every = tuple(k for k in base if k not in set(coefficients))
                 if others == every:
                     raise
                 others, fixed = every, np.array([float(base[k]) for k in every])
-                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+                fn = _executable(program, coefficients, others, (theta, fixed, sc, ic))
         return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:
