@@ -24,7 +24,7 @@ from identify.fit.mf_stage_defs import (STAGES, names_read, stage_inputs, stage_
                                         stage_predict, subset_state)
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.mf_uncertainty import _upstream_jacobian
-from identify.fit.optimize import fit
+from identify.fit.optimize import _sharing_residuals, fit
 from tests.test_fit_calibration_mf import add_noise
 from tests import test_fit_mf_stages as _stages
 from tests.test_fit_mf_stages import _perturb
@@ -110,6 +110,22 @@ def test_fy0_at_pure_slip_has_its_own_program_with_the_same_jacobian(truth, data
     mf_jacobian._EXECUTABLES.clear()
     mf_jacobian.stage_jacobian("Fy0", truth, mixed)(truth, names)
     assert [json.loads(k)["stage"] for k in mf_jacobian._EXECUTABLES] == ["Fy0"]
+
+
+@needs_jax
+def test_polish_gradient_takes_the_objectives_residuals(truth, data, exact):
+    """The constrained polish's objective and gradient (optimize._sharing_residuals) are the
+    problem's objective_value and objective_gradient bit for bit, and the gradient at the
+    objective's last x evaluates no model."""
+    problem, counter = engine.counted(stage_problem("Fy", data, truth).problem)
+    objective, gradient = _sharing_residuals(problem)
+    x = problem.x0() * 1.01
+    assert objective(x) == problem.objective_value(x)
+    before = counter.calls
+    np.testing.assert_array_equal(gradient(x), problem.objective_gradient(x))
+    assert counter.calls == before + 1  # objective_gradient's own evaluation only
+    y = x * 1.01  # another x: its own residuals
+    np.testing.assert_array_equal(gradient(y), problem.objective_gradient(y))
 
 
 @needs_jax
