@@ -178,6 +178,11 @@ def _fill_short_gaps(theta: np.ndarray, x: np.ndarray) -> np.ndarray:
     finite = np.isfinite(x)
     if finite.all():
         return x
+    gappy = ~finite.all(axis=0)
+    if not gappy.all():  # only the columns with a NaN (the others are returned as they are)
+        out = x.copy()
+        out[:, gappy] = _fill_short_gaps(theta, x[:, gappy])
+        return out
     n = len(theta)
     index = np.arange(n)[:, None]
     before = np.maximum.accumulate(np.where(finite, index, -1), axis=0)
