@@ -144,7 +144,7 @@ sample 103 and 103 -> 91 and 88, the TTC session 176 and 184 -> 143 and 139 (wal
 and, in a load spike on main's run, 309 -> 137). Against ddb9f71's 351-379 and 612 (earlier
 rounds): 3.9-4.3x and 4.2-4.4x, still short of the issue's 5x (72 and 122). What went (CPU
 times of warm fit_mf runs and step timings, one-off): trf's SVDs through a QR first with U
-never formed (identify.fit.trf_svd: 40-60 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
+never formed (identify.fit.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
 exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
 sample's Fx0 0.20 -> 0.09 s); Mz0's mirror images (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) taken as
 one optimum by the search, as candidates and as a start's stop (the TTC session's second Mz0

@@ -81,7 +81,7 @@ class Tolerances:
     noise_window : int
     qr_svd : bool
         Take the solver's SVDs through a QR decomposition (identify.fit.trf_svd: the same
-        steps to round-off, in 40-60 % of the SVDs' time); the MF stages' solves.
+        steps to round-off, in 35-50 % of the SVDs' time); the MF stages' solves.
     """
 
     xtol: float
