@@ -119,7 +119,7 @@ def test_mcmc_stopped_by_the_budget_is_a_warning_with_a_budget_that_suffices(tmp
 
 
 def test_chain_text_says_steps_tau_and_time_left():
-    from identify.fit.mcmc import ChainProgress
+    from identify.fit.mcmc_steps import ChainProgress
 
     running = ChainProgress(steps=1000, max_steps=40000, tau=40.0, target=2001, elapsed=10.0,
                             budget=None)

@@ -399,3 +399,26 @@ def test_a_chain_stopped_by_the_budget_continues_in_its_session():
     assert more.converged and more.n_steps > first.n_steps
     assert more.seconds > first.seconds
     assert session.sampler.iteration == more.n_steps  # one chain, not a new one
+
+
+def test_a_chain_that_has_not_moved_gives_no_runtime_warning():
+    """Every proposal off the walkers' start has zero density, so no walker moves: each
+    coordinate's autocorrelation is 0/0. The chain's tau is then unknown (NaN), and no
+    RuntimeWarning reaches the user's screen (one showed in the test suite's summary when a
+    budget stopped a chain after a few steps)."""
+    import warnings
+
+    import emcee
+
+    from identify.fit.mcmc_steps import run_chain
+
+    p0 = np.random.default_rng(0).standard_normal((16, 2))
+    starts = {tuple(p) for p in p0}
+    sampler = emcee.EnsembleSampler(
+        16, 2, lambda x: 0.0 if tuple(x) in starts else -np.inf)
+    sampler.random_state = np.random.RandomState(0).get_state()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        _, steps, tau, stop = run_chain(sampler, p0, 300, None, None, 0.0,
+                                        lambda: sampler.get_autocorr_time(tol=0))
+    assert steps == 300 and stop == "max_steps" and np.isnan(tau).all()

@@ -292,7 +292,11 @@ def test_settings_provenance_and_tyre_round_trip():
     s = FitSettings(seed=3, mcmc=True, only=("CFx", "MF"), fittyp=62, mcmc_max_steps=1000)
     assert s.to_dict()["only"] == ["CFx", "MF"]
     assert FitSettings.from_dict(s.to_dict()) == s
-    assert FitSettings.from_dict({"seed": 1}) == FitSettings(seed=1)
+    # a record without a setting predates it: it says what that fit ran with
+    old = FitSettings.from_dict({"seed": 1})
+    assert old == FitSettings(seed=1, mf_passes=1, segment=False, mcmc_reparam=False,
+                              mcmc_budget_s=None)
+    assert FitSettings.from_dict(FitSettings(seed=1).to_dict()) == FitSettings(seed=1)
     p = Provenance.now(command="mfid fit x", seed=3, settings=s,
                        checksums={"b.csv": "2" * 64, "a.csv": "1" * 64}, folder="m")
     assert [i.path for i in p.inputs] == [str(Path("m") / "a.csv"), str(Path("m") / "b.csv")]

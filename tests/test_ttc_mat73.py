@@ -85,17 +85,30 @@ def test_integer_channels_empty_strings_and_row_vectors(tmp_path):
     assert run.data["RUN"].dtype == np.float64 and (run.data["RUN"] == 3).all()
 
 
-def test_a_variable_of_a_class_a_ttc_file_does_not_hold_is_one_line(tmp_path):
+def test_a_variable_of_a_class_a_ttc_file_does_not_hold_is_left_out(tmp_path):
+    """An extra variable MATLAB saved beside the channels (a function handle) is left out, as
+    scipy.io's v5 reading leaves it: the file imports."""
     path = small_mat73(tmp_path / "B1run1.mat")
     with h5py.File(path, "r+") as fh:
         ds = fh.create_dataset("handle", data=np.zeros((1, 1)))
+        ds.attrs["MATLAB_class"] = np.bytes_("function_handle")
+    mat = read_mat73(path)
+    assert "handle" not in mat and "FZ" in mat
+    assert read_ttc(path, Problems(strict=True)) is not None
+
+
+def test_a_channel_of_a_class_a_ttc_file_does_not_hold_is_one_line(tmp_path):
+    path = small_mat73(tmp_path / "B1run1.mat")
+    with h5py.File(path, "r+") as fh:
+        del fh["FZ"]
+        ds = fh.create_dataset("fz", data=np.zeros((1, 1)))
         ds.attrs["MATLAB_class"] = np.bytes_("function_handle")
     out = tmp_path / "out"
     result = runner.invoke(app, ["import", str(path), "--out", str(out)])
     assert result.exit_code == 2 and not out.exists()
     assert result.stderr.splitlines() == [
-        f"error: {path}: truncated or corrupt MATLAB v7.3 .mat file (handle: MATLAB class "
-        "'function_handle' is not read)"]
+        f"error: {path}: MATLAB v7.3 .mat file: fz: MATLAB class 'function_handle' is not "
+        "read"]
 
 
 def test_a_member_name_that_is_not_utf8_is_read_as_text(tmp_path):

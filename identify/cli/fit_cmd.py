@@ -30,7 +30,8 @@ from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
 from identify.core.errors import FitError, InputError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
-from identify.fit.mcmc import BUDGET_S, ChainProgress
+from identify.fit.mcmc import BUDGET_S
+from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
 from identify.io.fitdir import EXTRACTION_NAME

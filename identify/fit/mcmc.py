@@ -40,13 +40,8 @@ tests/test_fit_mcmc.py checks the posterior width against a linear problem's exa
 from __future__ import annotations
 
 import dataclasses
-import math
-import signal
-import threading
 import time
 from collections.abc import Callable
-from contextlib import contextmanager
-from dataclasses import dataclass
 from pathlib import Path
 
 import emcee
@@ -55,16 +50,10 @@ import numpy as np
 from identify.fit.engine import problem_covariance
 from identify.fit.mcmc_laplace import LaplaceMove, laplace, laplace_start, sigma0
 from identify.fit.mcmc_reparam import KyaRidge
+from identify.fit.mcmc_steps import TAU_FACTOR, ChainProgress, run_chain
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult, MCMCSummary
 
-TAU_FACTOR = 50
-CHUNK = 500
-"""Most steps between two estimates of the autocorrelation time."""
-FIRST_CHECK = 250
-"""Steps before the first estimate; later ones come when the chain should pass 50 tau by the
-last estimate (at least MIN_CHECK, at most CHUNK steps later)."""
-MIN_CHECK = 100
 MAX_STEPS = 40000
 """Default cap on a chain [steps] (it stops earlier, at 50 tau)."""
 BUDGET_S = 900.0
@@ -167,50 +156,6 @@ class _Posterior:
         return np.column_stack([lp, x[:, list(self.reparam.index)], log_jac])
 
 
-@dataclass(frozen=True)
-class ChainProgress:
-    """Where a chain stands, for a progress bar (``run_mcmc(progress=...)``).
-
-    Attributes
-    ----------
-    steps : int              steps done
-    max_steps : int          the step cap
-    tau : float              largest autocorrelation time so far [steps]; NaN before the
-                             first estimate (after FIRST_CHECK steps)
-    target : int             steps the chain is expected to run: 50 tau (the cap while tau is
-                             unknown), at most the cap
-    elapsed : float          [s] since the chain started
-    budget : float or None   the time budget [s]
-    stop : str               "" while running; then "converged", "max_steps" or "budget"
-    """
-
-    steps: int
-    max_steps: int
-    tau: float
-    target: int
-    elapsed: float
-    budget: float | None
-    stop: str = ""
-
-    @property
-    def eta(self) -> float:
-        """Estimated seconds left (NaN before the first step), at most the budget left."""
-        if self.stop:
-            return 0.0
-        if self.steps == 0:
-            return math.nan
-        left = (max(self.target - self.steps, 0)) * self.elapsed / self.steps
-        if self.budget is not None:
-            left = min(left, max(self.budget - self.elapsed, 0.0))
-        return left
-
-
-STOPS = ("converged", "max_steps", "budget")
-"""Why a chain stopped: longer than 50 tau, the step cap, the time budget."""
-PROGRESS_EVERY = 1.0
-"""Seconds between progress calls while a chain runs."""
-
-
 def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int,
            rng: np.random.Generator) -> np.ndarray:
     """Walkers in a small ball (0.1 standard error) around the optimum, inside the bounds."""
@@ -230,103 +175,6 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
     if ar1:
         p0[:, k + 1] = 0.5 + 0.01 * rng.standard_normal(nw)
     return p0
-
-
-@contextmanager
-def _signals_between_steps():
-    """Hold SIGINT/SIGTERM while the walkers evaluate, deliver them between steps.
-
-    emcee prints a traceback for any exception raised inside the log-probability (Ctrl-C
-    included) before passing it on; a signal that arrives during a step is recorded and, when
-    the block ends, handed to the handler that was in place (the CLI's: one line, exit 130 or
-    143, temporary chain files removed). Yields the list of pending signals; outside the main
-    thread signals cannot be handled and nothing changes.
-    """
-    if threading.current_thread() is not threading.main_thread():
-        yield []
-        return
-    pending: list[int] = []
-    watched = (signal.SIGINT, signal.SIGTERM)
-    previous = {s: signal.getsignal(s) for s in watched}
-
-    def hold(signum, frame):
-        if previous[signum] is not signal.SIG_IGN:  # an ignored signal must not end the chain
-            pending.append(signum)
-
-    for s in watched:
-        signal.signal(s, hold)
-    try:
-        yield pending
-    finally:
-        for s in watched:
-            signal.signal(s, previous[s])
-    if pending:
-        handler = previous[pending[0]]
-        if callable(handler):
-            handler(pending[0], None)
-        elif pending[0] == signal.SIGINT and handler == signal.SIG_DFL:
-            raise KeyboardInterrupt
-        else:
-            signal.raise_signal(pending[0])
-
-
-def _converges_at(tau: np.ndarray) -> int | None:
-    """Steps at which the chain is longer than 50 x the largest autocorrelation time ``tau``;
-    None while tau is unknown (not finite)."""
-    if not np.all(np.isfinite(tau)):
-        return None
-    return int(math.ceil(TAU_FACTOR * float(np.max(tau)))) + 1
-
-
-def _next_chunk(tau: np.ndarray, steps: int) -> int:
-    """Steps to the next estimate of tau: to where the last one says 50 tau is reached, at
-    least MIN_CHECK, at most CHUNK (CHUNK while tau is unknown)."""
-    at = _converges_at(tau)
-    return CHUNK if at is None else min(max(at - steps, MIN_CHECK), CHUNK)
-
-
-def _run(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
-         tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
-    """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
-    FIRST_CHECK steps and then where the last estimate says 50 tau is reached (MIN_CHECK to
-    CHUNK steps on); return the last state, steps, the autocorrelation times ``tau_fn()`` and
-    why it stopped. ``steps0``, ``tau0``: a chain continued from where it stopped."""
-    steps, tau, stop = steps0, np.full(1, np.inf) if tau0 is None else tau0, ""
-    last = -math.inf
-    chunk = _next_chunk(tau, steps) if steps0 and _converges_at(tau) is not None else FIRST_CHECK
-
-    def report(stop_now=""):
-        tmax = float(np.max(tau)) if np.all(np.isfinite(tau)) else math.nan
-        at = _converges_at(tau)
-        target = max_steps if at is None else min(max_steps, at)
-        progress(ChainProgress(steps, max_steps, tmax, target, time.perf_counter() - t0,
-                               budget, stop_now))
-
-    with _signals_between_steps() as pending:
-        while not stop and not pending:
-            for new in sampler.sample(state, iterations=min(chunk, max_steps - steps)):
-                state = new
-                steps += 1
-                now = time.perf_counter()
-                if pending:
-                    break
-                if budget is not None and now - t0 >= budget:
-                    stop = "budget"
-                    break
-                if progress is not None and now - last >= PROGRESS_EVERY:
-                    last = now
-                    report()
-            if pending:
-                break
-            tau = tau_fn() if steps >= 2 else tau
-            if np.all(np.isfinite(tau)) and steps > TAU_FACTOR * np.max(tau):
-                stop = "converged"
-            elif steps >= max_steps and not stop:
-                stop = "max_steps"
-            chunk = _next_chunk(tau, steps)
-    if progress is not None:
-        report(stop)
-    return state, steps, tau, stop
 
 
 def _write_chain_file(path, sampler, reparam: KyaRidge | None) -> None:
@@ -436,7 +284,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
         b.chain, b.log_prob = b.chain[:b.iteration], b.log_prob[:b.iteration]
         if b.blobs is not None:
             b.blobs = b.blobs[:b.iteration]
-        return _summary(problem, result, session, seed, ar1, reparam, chain_file, *_run(
+        return _summary(problem, result, session, seed, ar1, reparam, chain_file, *run_chain(
             session.sampler, session.state, max_steps, budget, progress, t0, session.tau_fn,
             session.steps, session.tau), t0=t0)
     if moves not in MOVES:
@@ -478,7 +326,7 @@ def run_mcmc(problem: FitProblem, result: FitResult, *, seed: int = 0, ar1: bool
     session = session if session is not None else ChainSession()
     session.sampler, session.tau_fn = sampler, tau_fn
     return _summary(problem, result, session, seed, ar1, reparam, chain_file,
-                    *_run(sampler, p0, max_steps, budget, progress, t0, tau_fn), t0=t0)
+                    *run_chain(sampler, p0, max_steps, budget, progress, t0, tau_fn), t0=t0)
 
 
 def _summary(problem, result, session: ChainSession, seed, ar1, reparam, chain_file, state,

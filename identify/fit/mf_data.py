@@ -26,6 +26,8 @@ from identify.fit.mf_stage_defs import PURE_ALPHA, PURE_KAPPA
 REQUIRED = ("run", "Vx", "alpha", "kappa", "gamma", "p", "Fz")
 SWEEP_KAPPA = 0.02
 """[-] a run whose kappa spans more than this holds a longitudinal-slip sweep."""
+SPAN_QUANTILES = (0.01, 0.99)
+"""Quantiles of a run's alpha, kappa and gamma whose difference is the run's span."""
 SWEEP_ANGLE = np.deg2rad(1.0)
 """[rad] a run whose alpha or gamma spans more than this holds a lateral sweep."""
 SEGMENT_COLUMN = "segment_id"
@@ -66,6 +68,47 @@ def quantity_values(frame: pd.DataFrame, quantity: str) -> np.ndarray:
         return np.where(omega > 0, vx / omega, np.nan)
 
 
+def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per row: whether its run sweeps kappa (1st to 99th percentile span above SWEEP_KAPPA),
+    whether it sweeps alpha or gamma (above SWEEP_ANGLE), and whether it rolls freely (no
+    kappa sweep and a median |kappa| at most FREE_KAPPA; an alpha sweep at a held slip ratio
+    does not)."""
+    # slip spans per run: pandas' own max/min (they skip NaN as np.nanmax/np.nanmin do) over
+    # integer run codes, which then index the spans: a Python lambda per run and Series.map
+    # on the string run ids cost ~20 ms per call on a 14642-point table (1.7 ms now; one-off,
+    # 2026-11-24), and every stage selects three times
+    codes, runs = pd.factorize(frame["run"], use_na_sentinel=False)
+    groups = pd.DataFrame({"run": codes, **{c: frame[c].to_numpy(float)
+                                            for c in ("alpha", "kappa", "gamma")}}
+                          ).groupby("run", sort=True)
+    # robust spans (1st to 99th percentile): a few stray samples of a noisy kappa channel
+    # do not make a cornering run a slip-ratio sweep
+    span = (groups.quantile(SPAN_QUANTILES[1]) - groups.quantile(SPAN_QUANTILES[0])
+            ).reindex(np.arange(runs.size))
+    kappa_sweep = (span["kappa"] > SWEEP_KAPPA).to_numpy(bool)
+    held = (groups["kappa"].median().abs().reindex(np.arange(runs.size)) > FREE_KAPPA
+            ).to_numpy(bool)
+    lateral_sweep = ((span["alpha"] > SWEEP_ANGLE) | (span["gamma"] > SWEEP_ANGLE)
+                     ).to_numpy(bool)
+    return kappa_sweep[codes], lateral_sweep[codes], (~kappa_sweep & ~held)[codes]
+
+
+def rolling_kappa(frame: pd.DataFrame) -> pd.DataFrame:
+    """``frame`` with kappa = 0 in the runs that roll freely (:func:`run_sweeps`; a copy when
+    any changes).
+
+    Such a run rolls freely: its slip-ratio channel is the noise of the wheel-speed and radius
+    measurement (SL of a cornering run scatters by a few 0.001 about 0; SR, the older TTC
+    rounds' stand-in, more), not a slip. Taken as a slip it entered the pure stages' model as
+    Kx x noise of Fx (about 2 % of Fz at 0.001) and, through the arm s Fx, as noise on Mz0."""
+    _, _, rolling = run_sweeps(frame)
+    k = frame["kappa"].to_numpy(float)
+    rolling &= np.isfinite(k) & (k != 0)
+    if not rolling.any():
+        return frame
+    return frame.assign(kappa=np.where(rolling, 0.0, k))
+
+
 def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     """Row positions of the points a stage fits (finite quantity, positive load).
 
@@ -83,29 +126,21 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
     a = np.abs(frame["alpha"].to_numpy(float))
     k = np.abs(frame["kappa"].to_numpy(float))
     ok = np.isfinite(quantity_values(frame, quantity)) & (frame["Fz"].to_numpy(float) > 0)
-    # slip spans per run: pandas' own max/min (they skip NaN as np.nanmax/np.nanmin do) over
-    # integer run codes, which then index the spans: a Python lambda per run and Series.map
-    # on the string run ids cost ~20 ms per call on a 14642-point table (1.7 ms now; one-off,
-    # 2026-11-24), and every stage selects three times
-    codes, runs = pd.factorize(frame["run"], use_na_sentinel=False)
-    groups = pd.DataFrame({"run": codes, **{c: frame[c].to_numpy(float)
-                                            for c in ("alpha", "kappa", "gamma")}}
-                          ).groupby("run", sort=True)
-    span = (groups.max() - groups.min()).reindex(np.arange(runs.size))
-    kappa_sweep = (span["kappa"] > SWEEP_KAPPA).to_numpy(bool)[codes]
-    lateral_sweep = ((span["alpha"] > SWEEP_ANGLE) | (span["gamma"] > SWEEP_ANGLE)
-                     ).to_numpy(bool)[codes]
+    kappa_sweep, lateral_sweep, rolling = run_sweeps(frame)
     if selection == "free_rolling":
         ok &= ((k <= FREE_KAPPA) & ~kappa_sweep
                & (frame["Vx"].to_numpy(float) >= FREE_MIN_SPEED))
     elif selection == "longitudinal":
         ok &= (a <= PURE_ALPHA) & kappa_sweep
     elif selection == "lateral":
-        ok &= (k <= PURE_KAPPA) & lateral_sweep
+        # in a run that rolls freely kappa is the channel's noise (SL of a real cornering
+        # run scatters by a few 0.001), not a slip to select on
+        ok &= ((k <= PURE_KAPPA) | rolling) & lateral_sweep
     elif selection == "combined":
-        ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA)
+        ok &= (a > PURE_ALPHA) & (k > PURE_KAPPA) & ~rolling
     elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
-        ok &= (k > PURE_KAPPA) & bool(np.any(ok & (a > PURE_ALPHA) & (k > PURE_KAPPA)))
+        slip = (k > PURE_KAPPA) & ~rolling
+        ok &= slip & bool(np.any(ok & slip & (a > PURE_ALPHA)))
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

@@ -17,7 +17,7 @@ from identify.fit import mf_data
 from identify.fit.mf_constraints import stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import point_columns
-from identify.fit.mf_screen import screen as sensitivity_screen
+from identify.fit.mf_screen import screen as sensitivity_screen, term_magnitudes
 from identify.fit.mf_stage_defs import NEEDS, STAGES, StageDef, stage_model, subset_state
 from identify.fit.problem import FitProblem
 from identify.model.modes import FIT_MODE
@@ -181,7 +181,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     screened = None
     if screen and hold is None:
         screened = build([n for n in names if n not in held])
-        more, _ = sensitivity_screen(screened)
+        more, _ = sensitivity_screen(screened,
+                                     magnitudes=term_magnitudes(screened.free, s))
         held.update(more)
         if more:
             screened = None

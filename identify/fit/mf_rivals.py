@@ -27,15 +27,15 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     """``result`` with the other minima the data cannot rule out (FitResult.rivals).
 
     Every candidate of the global search that ended more than one standard error from the
-    optimum in some coefficient is solved again on all points (locally, REFIT_NFEV); a
-    converged end whose objective is within RIVAL_CHI2 of the optimum's, in chi^2 on the scale
-    of the reported intervals (iid chi^2 divided by the median ratio of the stage's variances
-    to the iid ones), and that differs by more than 1.96 standard errors in some coefficient
-    is a rival. A linearised interval describes the minimum the search reported; where the
-    data hold a second one as good, the coefficients that differ are not determined on their
-    own (identify.fit.identifiability: "another minimum within the 95 % region"). On a
-    generated TTC session's Fx0 stage two such basins lie on either side of the truth
-    (docs/intervals.md). ``solved``: the candidates' solves in the global fit on the same
+    optimum in some coefficient is solved again on all points (locally, REFIT_NFEV); a converged
+    end whose objective is within RIVAL_CHI2 of the optimum's, in chi^2 on the scale of the
+    reported intervals (iid chi^2 divided by the median ratio of the stage's variances to the
+    iid ones), and that lies outside the reported 95 % interval (t(0.975, dof) standard errors)
+    of some coefficient is a rival. A linearised interval describes the minimum the search
+    reported; where the data hold a second one as good, the coefficients that differ are not
+    determined on their own (identify.fit.identifiability: "another minimum within the 95 %
+    region"). On a generated TTC session's Fx0 stage two such basins lie on either side of the
+    truth (docs/intervals.md). ``solved``: the candidates' solves in the global fit on the same
     problem (identify.fit.optimize.fit's ``record``), replayed where they tell the outcome of
     the solve within REFIT_NFEV (identify.fit.optimize.replay) instead of solved again."""
     free = result.free
@@ -45,6 +45,9 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     se = np.array([result.stderr.get(n, np.nan) for n in free])
     if not np.all(np.isfinite(se) & (se > 0)):
         return result
+    # the reported 95 % intervals' half-widths (t(0.975, dof) standard errors), the ones
+    # identify.fit.identifiability checks a rival against
+    half = np.array([0.5 * (hi - lo) for lo, hi in (result.interval(n) for n in free)])
     problem = sp.problem
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
@@ -60,7 +63,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         if not converged:
             continue
         xr = _mirrored(free, xe, xb)
-        far = np.abs(xr - xb) > 1.959964 * se
+        far = np.abs(xr - xb) > half
         if not far.any():
             continue
         if scale is None:

@@ -11,7 +11,16 @@ reported with the reason) instead of being "recovered" by luck or wandering to a
    e.g. QSX5..QSX9 while QSX4 = 0) is held; so is one whose unit-normalised column lies within
    ``DEPENDENCE_TOL`` of the span of the coefficients accepted before it (priority order of the
    stage), e.g. RBY3 when the combined data hold only two slip angles, and one whose unique
-   effect is negligible (``EFFECT_TOL``), e.g. PEY5 when the data's cambers are small.
+   effect is negligible (``EFFECT_TOL``) for a plausible change of the coefficient,
+   max(|value|, |default|, DELTA_FLOOR / m). m is the largest magnitude of the monomial the
+   coefficient multiplies (identify.fit.mf_stage_defs.TERMS: gamma^2 for PEY5, |gamma| for
+   PKY3, dfz for PDY2, dpi gamma for PPY5, 1 for a zero-order one) over the stage's points, or
+   its value at the REFERENCE extent (|gamma| 0.1 rad, |dfz| 0.5, |dpi| 0.25) when that is
+   larger: the floor moves the coefficient's factor by DELTA_FLOOR at the larger extreme. So
+   PEY5 at 0 on data with 0..4 deg camber has the plausible change 1 (a fixed 0.01 moved
+   Ey by 5e-5 at 4 deg and held it, though the golden test tyre's PEY5 = 300 adds 1.46 there),
+   while on data within +-0.3 deg, where the same change moves Ey by 3e-5 at most, it stays
+   negligible (tests/test_fit_mf_screen.py).
 
 After the stage's global fit (identify.fit.mf_stages):
 
@@ -28,8 +37,10 @@ from typing import Sequence
 
 import numpy as np
 
+from identify.fit.mf_stage_defs import TERMS
 from identify.fit.problem import FitProblem
 from identify.model.parameters import spec
+from identify.model.state import OperatingState
 
 DEPENDENCE_TOL = 1e-5
 """Relative residual of a unit-normalised Jacobian column after projection on the accepted
@@ -37,14 +48,23 @@ columns below which a coefficient counts as not separable. Central differences w
 relative step of 1e-6 resolve exact dependence to ~1e-9."""
 EFFECT_TOL = 1e-6
 """Unique effect below which a coefficient counts as negligible: the norm of the projected
-column times the coefficient's plausible change max(|value|, |default|, DELTA_FLOOR), in units
-of the weighted residuals (the root sum over pressures of squared thesis errors / 100), i.e. a
-plausible change moves the fit by less than 1e-4 %."""
+column times the coefficient's plausible change max(|value|, |default|, DELTA_FLOOR / m) (m:
+:func:`term_magnitudes`), in units of the weighted residuals (the root sum over pressures of
+squared thesis errors / 100), i.e. a plausible change moves the fit by less than 1e-4 %."""
 Z_GATE = 2.0
 """A fitted coefficient has significantly moved from its start value when
 |value - start| >= Z_GATE standard errors (rule 3)."""
 DELTA_FLOOR = 0.01
-"""Smallest plausible change of a coefficient (for one whose value and default are 0)."""
+"""Smallest plausible change of the factor a coefficient's term adds to (for one whose value
+and default are 0): the coefficient's own change for a zero-order one, DELTA_FLOOR / m for one
+that multiplies a monomial of largest magnitude m (:func:`term_magnitudes`)."""
+REFERENCE = {"gamma": 0.1, "dfz": 0.5, "dpi": 0.25}
+"""The extent over which a tyre's camber, load and pressure terms act in the usual tests:
+|gamma| [rad] 0.1 (5.7 deg; a camber sweep's 4..6 deg), |dfz| 0.5 (0.5..1.5 Fz0), |dpi|
+0.25 (a +-25 % pressure range). A monomial's magnitude m is at least its value here, so
+that the plausible change of a coefficient does not grow without bound when the data's
+variable barely varies: PEY5 (on gamma^2) on data within +-0.3 deg moves Ey by
+DELTA_FLOOR (0.3 deg / 5.7 deg)^2 = 3e-5 and stays negligible, as on data without camber."""
 STEP = 1e-6
 """Relative step of the central differences (of max(|value|, 1e-3))."""
 
@@ -116,9 +136,47 @@ def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = N
     return held, residual
 
 
-def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL
+def term_magnitudes(names: Sequence[str], s: OperatingState) -> np.ndarray:
+    """The magnitude m of the monomial each coefficient multiplies (identify.fit.mf_stage_defs
+    TERMS: gamma^2 for PEY5, dfz gamma for PKY7, dpi for PPY1, ...): its largest |value| over
+    the points ``s``, or at the REFERENCE extent if that is larger; 1 for a zero-order
+    coefficient.
+
+    Parameters
+    ----------
+    names : sequence of str
+    s : OperatingState   the stage's points (gamma [rad], dfz [-], dpi [-])
+
+    Returns
+    -------
+    ndarray [-], one per name
+    """
+    out = np.ones(len(names))
+    for j, name in enumerate(names):
+        powers = TERMS.get(name)
+        if not powers:
+            continue
+        term = np.ones_like(s.dfz, dtype=float)
+        ref = 1.0
+        for var, k in powers.items():
+            term = term * np.abs(getattr(s, var)) ** k
+            ref *= REFERENCE[var] ** k
+        out[j] = max(float(np.max(term, initial=0.0)), ref)
+    return out
+
+
+def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL,
+           magnitudes: np.ndarray | None = None
            ) -> tuple[dict[str, str], dict[str, float]]:
     """Sensitivity rule for the free parameters of ``problem`` (declaration order = priority).
+
+    Parameters
+    ----------
+    problem : FitProblem
+    tol : float          DEPENDENCE_TOL
+    magnitudes : ndarray, optional
+        :func:`term_magnitudes` of ``problem.free`` at its points (default 1: every
+        coefficient zero-order).
 
     Returns
     -------
@@ -130,6 +188,7 @@ def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL
     J = problem.residual_jacobian(x0)
     if J is None:
         J = jacobian(problem, x0)
-    delta = np.array([max(abs(x), abs(float(spec(n).default)), DELTA_FLOOR)
-                      for n, x in zip(free, x0)])
+    m = np.ones(len(free)) if magnitudes is None else np.asarray(magnitudes, dtype=float)
+    delta = np.array([max(abs(x), abs(float(spec(n).default)), DELTA_FLOOR / mj)
+                      for n, x, mj in zip(free, x0, m)])
     return dependence(J, free, delta, tol)

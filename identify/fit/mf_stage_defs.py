@@ -42,9 +42,12 @@ class StageDef:
                            a wheel speed omega > 0 and Vx >= FREE_MIN_SPEED; see
                            identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
                            in runs with a kappa sweep),
-                           ``"lateral"`` (|kappa| <= PURE_KAPPA in runs with an alpha or gamma
-                           sweep), ``"combined"`` (|alpha| > PURE_ALPHA and |kappa| > PURE_KAPPA),
-                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle, when
+                           ``"lateral"`` (runs with an alpha or gamma sweep: every point of
+                           a run without a kappa sweep, whose kappa is the channel's noise,
+                           |kappa| <= PURE_KAPPA in the others), ``"combined"`` (|alpha| >
+                           PURE_ALPHA and |kappa| > PURE_KAPPA in runs with a kappa sweep),
+                           ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle in runs
+                           with a kappa sweep, when
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
                            a slip-ratio sweep at zero slip angle pins it) or ``"all"``
@@ -87,25 +90,27 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
 DEFAULT_STAGES = ("geometry", "Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
 
 _NEEDS_TEXT = """
-Q_V1 speed; DREFF load; FREFF load2; BREFF load2;
-PDX2 load; PDX3 camber; PEX2 load; PEX3 load2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
-PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2; PPX3 pressure; PPX4 pressure2;
-PDY2 load; PDY3 camber; PEY2 load; PEY3 alpha_sign; PEY4 camber alpha_sign; PEY5 camber;
-PKY2 load; PKY3 camber; PKY4 load2; PKY5 camber; PKY6 camber; PKY7 camber load; PHY2 load;
-PVY2 load; PVY3 camber; PVY4 camber load; PPY1 pressure; PPY2 pressure; PPY3 pressure;
-PPY4 pressure2; PPY5 pressure camber;
-QBZ2 load; QBZ3 load2; QBZ4 camber; QBZ5 camber; QDZ2 load; QDZ3 camber; QDZ4 camber;
-QDZ7 load; QDZ8 camber; QDZ9 camber load; QDZ10 camber; QDZ11 camber load; QEZ2 load;
-QEZ3 load2; QEZ5 camber; QHZ2 load; QHZ3 camber; QHZ4 camber load; PPZ1 pressure;
+Q_V1 speed; DREFF load:0; FREFF load2:0; BREFF load2:0;
+PDX2 load; PDX3 camber:2; PEX2 load; PEX3 load2:2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
+PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2:2; PPX3 pressure; PPX4 pressure2:2;
+PDY2 load; PDY3 camber:2; PEY2 load; PEY3 alpha_sign; PEY4 camber alpha_sign; PEY5 camber:2;
+PKY2 load:0; PKY3 camber; PKY4 load2:0; PKY5 camber:2; PKY6 camber; PKY7 camber load;
+PHY2 load; PVY2 load; PVY3 camber; PVY4 camber load; PPY1 pressure; PPY2 pressure;
+PPY3 pressure; PPY4 pressure2:2; PPY5 pressure camber;
+QBZ2 load; QBZ3 load2:2; QBZ4 camber; QBZ5 camber; QDZ2 load; QDZ3 camber; QDZ4 camber:2;
+QDZ7 load; QDZ8 camber; QDZ9 camber load; QDZ10 camber:2; QDZ11 camber:2 load; QEZ2 load;
+QEZ3 load2:2; QEZ5 camber; QHZ2 load; QHZ3 camber; QHZ4 camber load; PPZ1 pressure;
 PPZ2 pressure camber;
-RBX3 camber; REX2 load; RBY4 camber; REY2 load; RHY2 load; RVY2 load; RVY3 camber;
+RBX3 camber:2; REX2 load; RBY4 camber:2; REY2 load; RHY2 load; RVY2 load; RVY3 camber;
 SSZ3 camber; SSZ4 camber load;
-QSX2 camber; QSX7 camber; QSX10 camber; QSX12 camber; QSX14 camber; PPMX1 pressure camber;
-QSY3 speed; QSY4 speed2; QSY5 camber; QSY6 camber load; QSY7 load; QSY8 pressure
+QSX2 camber; QSX7 camber; QSX10 camber; QSX11 camber; QSX12 camber:2; QSX14 camber;
+PPMX1 pressure camber;
+QSY3 speed; QSY4 speed2; QSY5 camber:2; QSY6 camber:2 load:0; QSY7 load; QSY8 pressure
 """
+_NEEDS_ITEMS = [item.split() for item in _NEEDS_TEXT.replace("\n", " ").split(";")
+                if item.strip()]
 NEEDS: dict[str, tuple[str, ...]] = {
-    item.split()[0]: tuple(item.split()[1:])
-    for item in _NEEDS_TEXT.replace("\n", " ").split(";") if item.strip()}
+    item[0]: tuple(t.split(":")[0] for t in item[1:]) for item in _NEEDS_ITEMS}
 """Coverage a coefficient needs: ``load``/``load2``/``load3`` >= 2/3/4 load levels (PKX3: with
 three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches,
 PKX2 = +-a, and a local solve from near one branch can end on the other), ``pressure``/
@@ -117,6 +122,31 @@ BREFF is separable from Q_RE0 only through the pressure scaling of that term by 
 Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more pressures with PFZ1 != 0 (the
 sensitivity screen holds it otherwise, and the value then rests on the CFz relation's PFZ1);
 Q_V1 needs free rolling at two speeds (omega^2 term)."""
+TERM_VARIABLES = {"camber": "gamma", "load": "dfz", "load2": "dfz", "load3": "dfz",
+                  "pressure": "dpi", "pressure2": "dpi"}
+"""The variable of a need that the coefficient's term multiplies: |gamma| [rad], |dfz| [-],
+|dpi| [-] (speed terms and slip signs are not small: none)."""
+
+
+def _terms(item: list[str]) -> dict[str, int]:
+    """variable -> power of one NEEDS item (name and its ``need[:k]`` tokens)."""
+    powers: dict[str, int] = {}
+    for token in item[1:]:
+        need, _, k = token.partition(":")
+        power = int(k or 1)
+        if need in TERM_VARIABLES and power:
+            var = TERM_VARIABLES[need]
+            powers[var] = powers.get(var, 0) + power
+    return powers
+
+
+TERMS: dict[str, dict[str, int]] = {
+    item[0]: _terms(item) for item in _NEEDS_ITEMS if _terms(item)}
+"""The monomial a coefficient multiplies in the model equations, variable -> power (the same
+text as NEEDS: ``need:k`` is the need's variable to the power k, k = 1 when not written; e.g.
+PEY5 gamma^2 in Ey, QDZ11 dfz |gamma| gamma, PPY5 dpi gamma; PKY2 and PKY4 need loads but
+multiply none); a coefficient not listed is zero-order. The identifiability screen scales a
+coefficient's plausible change with it (identify.fit.mf_screen.term_magnitudes)."""
 
 Values = Mapping[str, float]
 Model = Callable[[Values], np.ndarray]

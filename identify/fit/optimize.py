@@ -118,6 +118,10 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
         again = run(pol.x)
         if again.cost <= pol.cost:
             pol = again
+    if not pol.success and problem.constraints and _dominated(problem, pol.x, lsq.x):
+        return Outcome(lsq.x, False, f"{pol.message} (the polish ended no better in the "
+                       "objective nor in the constraints: the least-squares point is kept)",
+                       pol.status, lsq)
     if not problem.constraints and pol.cost > problem.objective_value(lsq.x):
         return Outcome(lsq.x, True, "least-squares pre-solve kept (SLSQP did not improve)",
                        lsq.status, lsq)
@@ -144,6 +148,21 @@ def _sharing_residuals(problem: FitProblem):
         r = last[1] if same else problem.residuals(x)
         return J.T @ (r * problem.weights())
     return objective, gradient
+
+
+def _violation(problem: FitProblem, x: np.ndarray) -> float:
+    """The largest violation of ``problem``'s constraints at ``x`` (0 when feasible, inf
+    where they are not finite)."""
+    g = np.asarray(problem.constraint_values(x), dtype=float)
+    if not np.all(np.isfinite(g)):
+        return np.inf
+    return max(0.0, -float(g.min(initial=0.0)))
+
+
+def _dominated(problem: FitProblem, x: np.ndarray, ref: np.ndarray) -> bool:
+    """Whether ``x`` is no better than ``ref`` in the objective and in the constraints."""
+    fx, fr = problem.objective_value(x), problem.objective_value(ref)
+    return (not fx < fr) and not _violation(problem, x) < _violation(problem, ref)
 
 
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,

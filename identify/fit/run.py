@@ -102,13 +102,24 @@ class FitSettings:
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitSettings:
-        """Inverse of :meth:`to_dict`; a missing setting takes its default, an unknown one is
-        a TypeError."""
-        d = dict(d)
+        """Inverse of :meth:`to_dict`; an unknown setting is a TypeError.
+
+        A missing setting means the record was written before that setting existed, so it
+        takes the value that such a fit ran with (:data:`RECORD_DEFAULTS`: one MF pass, no
+        segmentation, no Fy0 reparametrisation, no MCMC budget), else its default; a fit.json
+        then says what was done, not what mfid would do today."""
+        d = {**RECORD_DEFAULTS, **d}
         for key in ("only", "forms", "hold"):
             if key in d:
                 d[key] = tuple(d[key] or ())
         return cls(**d)
+
+
+RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
+                                     "mcmc_reparam": False, "mcmc_budget_s": None}
+"""Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
+pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
+budget before 9b39edb)."""
 
 
 @dataclass(frozen=True)

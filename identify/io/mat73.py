@@ -23,7 +23,7 @@ file can make the library loop for good.
 """
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Container, Mapping
 from pathlib import Path
 
 import h5py
@@ -43,6 +43,10 @@ _INTERNAL = ("#refs#", "#subsystem#")
 
 class Mat73Error(ValueError):
     """A v7.3 file that does not hold what its MATLAB attributes say (one line: why)."""
+
+
+class Mat73Unread(Mat73Error):
+    """A variable of a MATLAB class a TTC file does not hold (a function handle, an object)."""
 
 
 def is_mat73_header(head: bytes) -> bool:
@@ -67,7 +71,7 @@ def _value(fh: h5py.File, obj, name: str, depth: int = 0):
     cls = _class(obj)
     if isinstance(obj, h5py.Group):
         if cls != "struct":
-            raise Mat73Error(f"{name}: a group of MATLAB class '{cls or 'none'}'")
+            raise Mat73Unread(f"{name}: a group of MATLAB class '{cls or 'none'}'")
         return {_name(k): _value(fh, obj[k], f"{name}.{_name(k)}", depth + 1) for k in obj}
     if int(np.asarray(obj.attrs.get("MATLAB_empty", 0)).reshape(-1)[0]) == 1:
         return "" if cls == "char" else np.zeros(0)
@@ -84,16 +88,21 @@ def _value(fh: h5py.File, obj, name: str, depth: int = 0):
             raise Mat73Error(f"{name}: {cls} data of HDF5 type {array.dtype}")
         array = array.T
         return array.reshape(-1) if array.ndim == 2 and 1 in array.shape else array
-    raise Mat73Error(f"{name}: MATLAB class '{cls or 'none'}' is not read")
+    raise Mat73Unread(f"{name}: MATLAB class '{cls or 'none'}' is not read")
 
 
-def read_mat73(path: str | Path) -> dict:
+def read_mat73(path: str | Path, needed: Container[str] = ()) -> dict:
     """The variables of the v7.3 file ``path``: name -> value (see module).
+
+    A variable of a MATLAB class a TTC file does not hold (a function handle, an object) is
+    left out, as scipy.io's reading of a v5 file leaves it to be skipped, unless its name is
+    in ``needed``.
 
     Raises
     ------
     Mat73Error
-        The file is corrupt, or a variable is of a kind a TTC file does not hold (one line).
+        The file is corrupt, or a ``needed`` variable is of a kind a TTC file does not hold
+        (one line).
     """
     path = Path(path)
     why = metadata_problem(path)
@@ -101,7 +110,17 @@ def read_mat73(path: str | Path) -> dict:
         raise Mat73Error(f"corrupt HDF5 inside ({why})")
     try:
         with h5py.File(path, "r") as fh:
-            return {_name(k): _value(fh, fh[k], _name(k)) for k in fh if k not in _INTERNAL}
+            out = {}
+            for key in fh:
+                if key in _INTERNAL:
+                    continue
+                name = _name(key)
+                try:
+                    out[name] = _value(fh, fh[key], name)
+                except Mat73Unread:
+                    if name in needed:
+                        raise
+            return out
     except Mat73Error:
         raise
     except HDF5_ERRORS as exc:

@@ -33,7 +33,7 @@ import scipy.io
 
 from identify.io.common import Problems, open_text, starts_with
 from identify.io.hdf5 import RawRun
-from identify.io.mat73 import Mat73Error, is_mat73_header, read_mat73
+from identify.io.mat73 import Mat73Error, Mat73Unread, is_mat73_header, read_mat73
 from identify.io.mat_guard import loadmat_crash, mat_problem
 from identify.io.ttc_dat import read_dat
 from identify.io.ttc_names import (
@@ -135,6 +135,15 @@ def _text(value) -> str:
     return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
 
 
+class _TtcVariables:
+    """The variables of a TTC .mat file that must be read (any case of a channel's name): a
+    v7.3 variable of another MATLAB class is left out, as in a v5 file."""
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and (ttc_name(name) in TTC_CHANNELS
+                                          or name in ("channel", *TTC_STRINGS))
+
+
 def _read_mat(path: Path, problems: Problems):
     try:
         with open(path, "rb") as fh:
@@ -146,7 +155,10 @@ def _read_mat(path: Path, problems: Problems):
         return None
     if v73:
         try:
-            mat = read_mat73(path)
+            mat = read_mat73(path, needed=_TtcVariables())
+        except Mat73Unread as exc:
+            problems.add(path, f"MATLAB v7.3 .mat file: {exc}")
+            return None
         except Mat73Error as exc:
             problems.add(path, f"truncated or corrupt MATLAB v7.3 .mat file ({exc})")
             return None

@@ -14,8 +14,10 @@ file's units and SAE axes:
   the actual conditions gives Fx, Fy, Mx, Mz, the wheel speed (omega = (1 + kappa) Vx / Re),
   the loaded radius;
 - noise: AR(1) of lag-one correlation ``ar1`` and a standard deviation of ``noise`` times each
-  channel's RMS (forces, moments, slip, camber, speeds); fixed levels on pressure (0.3 kPa),
-  radii (0.5 mm) and temperatures (0.2 K) at ``noise = 0.01``, in proportion otherwise.
+  channel's RMS (forces, moments, slip, camber, speeds), at least 0.001 on the slip ratios SL
+  and SR (so a cornering run's SL scatters about 0 as a real one does); fixed levels on
+  pressure (0.3 kPa), radii (0.5 mm) and temperatures (0.2 K) at ``noise = 0.01``, in
+  proportion otherwise.
 
 All of it is vectorised over the samples.
 """
@@ -36,6 +38,9 @@ __all__ = ["AMBIENT_C", "actual_conditions", "to_file_units", "ttc_channels"]
 #: Ambient temperature [degC].
 AMBIENT_C = 25.0
 _P_ATM = 101325.0
+#: Least noise of the slip-ratio channels at ``noise = 0.01`` [-]: a real cornering run's SL
+#: scatters about 0 (wheel-speed and radius noise), it is never exactly 0.
+SLIP_FLOOR = {"SL": 1e-3, "SR": 1e-3}
 _TARGET_C = {"start": AMBIENT_C, "pressure_change": AMBIENT_C, "warmup": 70.0,
              "transition": 55.0, "sweep": 55.0}
 
@@ -118,6 +123,8 @@ def ttc_channels(model: TyreModel, act: dict[str, np.ndarray], run_number: int, 
         x = ch[name]
         sigma = (fixed[name] * noise / 0.01 if name in fixed
                  else noise * float(np.sqrt(np.mean(x ** 2))))
+        if name in SLIP_FLOOR:
+            sigma = max(sigma, SLIP_FLOOR[name] * noise / 0.01)
         if sigma > 0:
             ch[name] = x + sigma * ar1_unit(rng, x.size, ar1)
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -25,7 +25,8 @@ from identify.core.progress import Progress
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
-from identify.fit.mcmc import ChainProgress, ChainSession, run_mcmc
+from identify.fit.mcmc import ChainSession, run_mcmc
+from identify.fit.mcmc_steps import ChainProgress
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_uncertainty import propagate
@@ -235,7 +236,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
-    and a :class:`identify.fit.mcmc.ChainProgress` about once a second while it runs and when
+    and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
     it stops.
 
     Returns

@@ -1,0 +1,69 @@
+"""Which trailer points each MF stage fits (identify.fit.mf_data.select) when the slip-ratio
+channel of a cornering run is noisy, as SL of a real TTC cornering run is (and SR, the
+older rounds' stand-in, more so)."""
+import numpy as np
+import pandas as pd
+
+from identify.fit.mf_data import rolling_kappa, select
+
+
+def _table(kappa_noise: float, seed: int = 0) -> pd.DataFrame:
+    """A cornering run (alpha sweep, kappa = noise only) and a drive/brake run (kappa sweeps
+    at alpha 0 and 4 deg)."""
+    rng = np.random.default_rng(seed)
+    n = 2000
+    corner = pd.DataFrame({"run": "corner", "alpha": np.deg2rad(np.linspace(-10, 10, n)),
+                           "kappa": kappa_noise * rng.standard_normal(n)})
+    corner.loc[7, "kappa"] = 0.05  # one stray sample must not make it a kappa sweep
+    drive = pd.DataFrame({"run": "drive",
+                          "alpha": np.repeat(np.deg2rad([0.0, 4.0]), n // 2),
+                          "kappa": np.tile(np.linspace(-0.2, 0.2, n // 2), 2)})
+    t = pd.concat([corner, drive], ignore_index=True)
+    return t.assign(gamma=0.0, Vx=16.0, p=2e5, Fz=4000.0, Fx=1.0, Fy=1.0, Mz=1.0, omega=50.0)
+
+
+def test_a_noisy_kappa_in_a_cornering_run_is_rolling_not_slip():
+    t = _table(kappa_noise=0.003)
+    corner = (t["run"] == "corner").to_numpy()
+    lateral = select(t, "lateral", "Fy")
+    # every cornering point is pure lateral, though 50 % of them have |kappa| > 0.002
+    assert corner[lateral].sum() == corner.sum()
+    assert np.mean(np.abs(t.loc[corner, "kappa"]) > 0.002) > 0.4
+    # the drive/brake run's lateral points are its near-zero kappa ones only
+    drive_lat = t.iloc[lateral][t["run"].iloc[lateral] == "drive"]
+    assert (np.abs(drive_lat["kappa"]) <= 0.002).all() and len(drive_lat) > 0
+    # no cornering point is a combined-slip point for the Fx/Mz stages or the Fy stage
+    for selection in ("combined", "kappa_slip"):
+        rows = select(t, selection, "Fx")
+        assert not corner[rows].any() and len(rows) > 0
+    combined = t.iloc[select(t, "combined", "Fx")]
+    assert np.allclose(np.rad2deg(combined["alpha"]), 4.0)
+    # free rolling: the cornering run only
+    assert set(t.iloc[select(t, "free_rolling", "Re")]["run"]) == {"corner"}
+
+
+def test_clean_kappa_selects_as_before():
+    t = _table(kappa_noise=0.0)
+    t.loc[7, "kappa"] = 0.0
+    corner = (t["run"] == "corner").to_numpy()
+    assert corner[select(t, "lateral", "Fy")].sum() == corner.sum()
+    drive = ~corner
+    longitudinal = select(t, "longitudinal", "Fx")
+    assert drive[longitudinal].all() and len(longitudinal) == 1000
+
+
+def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
+    """The cornering run's noisy kappa becomes 0 (the MF stages would take it for a slip: Kx
+    times 0.003 is 6 % of Fz of Fx); the drive/brake run's sweep and an alpha sweep at a held
+    slip ratio of 0.05 keep theirs, and the latter is combined slip, not pure lateral."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    t = pd.concat([t, held], ignore_index=True)
+    out = rolling_kappa(t)
+    corner, drive, at_slip = (t["run"] == r for r in ("corner", "drive", "held"))
+    assert (out.loc[corner, "kappa"] == 0).all()
+    pd.testing.assert_series_equal(out.loc[~corner, "kappa"], t.loc[~corner, "kappa"])
+    assert (t.loc[corner, "kappa"] != 0).any()  # not modified
+    lateral = set(t.iloc[select(t, "lateral", "Fy")]["run"])
+    assert "held" not in lateral and "corner" in lateral
+    assert "held" in set(t.iloc[select(t, "combined", "Fx")]["run"])
