@@ -167,6 +167,20 @@ sample's ~90 evaluations, ~2.1 s CPU): importing JAX 0.3 s; the Fy0 and Mz0 sear
 ~25 %, near their floors: a 2048-point chunk's forward-mode Jacobian of 27 coefficients costs
 3-4 evaluations of the chunk); their solves on all points and re-fits (~0.35 s); on the TTC
 session also the binning (0.33 s) and the Fy stage's two constrained polishes (~0.25 s).
+After merging main (effd982; main at ce1e6cd, 13:21-13:23 UTC, load average 1.8-2.4, two
+rounds, ``git archive main`` into /tmp/fc4/main2, the same way): the sample 99 and 101 -> 91 and
+88; the TTC session 271 and 274 -> 232 and 235. main's TTC session changed with 18276a1 (the
+generator's slip ratio scatters about 0 in cornering runs: 135121 samples) and 7ceb1da (such
+runs' points taken at kappa = 0): on it the Mz0 stage crawls along a valley, both search starts
+from the carried-forward and the default values ending at SEARCH_NFEV (200; chi^2 still
+falling by ~0.008 an iteration, above the noise stop's 0.02 per 5) and both candidates' solves
+on all points at MAX_NFEV (100), before the re-fit with QEZ4, QEZ5 converges in 8: Mz0 3.3 s
+and 678 evaluations on main, 2.7 s and 690 here (one run each), where it took 0.8 s on the
+session before. A search noise stop of 5e-2 or 1e-1 s^2 (instead of 1e-2) saved 6 % of that
+fit but found a second rival of Fx0: not taken. fit.json of ce1e6cd and effd982 (``mfid fit
+--no-report``): MF coefficients within 2e-5 (sample) and 1.1e-5 (TTC session) of their
+standard errors, standard errors within 5.5e-7 and 5.9e-4 (DREFF, as above) relative, thesis
+errors within 2.3e-7 percentage points, rivals the same to 4.5e-6 relative.
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
