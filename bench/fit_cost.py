@@ -135,6 +135,53 @@ Measured 2026-11-24 10:44-10:45 UTC on main after the merge (d985d29), load aver
 round, ``--passes 2`` (``mfid fit``'s default): the sample 103 (cpu 104), ``--ttc 0`` 177 (cpu
 184); against ddb9f71's 351-379 and 612: 3.4-3.6x and 3.3-3.5x.
 
+Measured 2026-11-24 13:04-13:08 UTC, load average 1.3-2.9 (other helpers on the 2 cores), two
+rounds twice, each main at 3e0c61b (``git archive`` into /tmp/fc4/main, ``PYTHONPATH=/tmp/fc4/main
+python bench/fit_cost.py --passes 2 --label main-3e0c61b``, and the same with ``--ttc 0``) and
+then the fit-cost-4 branch, back to back, caches warm; the ``cpu`` lines: at cf3c0a2 the
+sample 102 and 102 -> 88 and 92, the TTC session 177 and 180 -> 147 and 149; at 261934a the
+sample 103 and 103 -> 91 and 88, the TTC session 176 and 184 -> 143 and 139 (wall 172 -> 138
+and, in a load spike on main's run, 309 -> 137). Against ddb9f71's 351-379 and 612 (earlier
+rounds): 3.9-4.3x and 4.2-4.4x, still short of the issue's 5x (72 and 122). What went (CPU
+times of warm fit_mf runs and step timings, one-off): trf's SVDs through a QR first with U
+never formed (identify.fit.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
+exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
+sample's Fx0 0.20 -> 0.09 s); Mz0's mirror images (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) taken as
+one optimum by the search, as candidates and as a start's stop (the TTC session's second Mz0
+candidate, solved on all points for 37 evaluations, was the first's mirror image; Mz0 nfev
+256 -> 201 there, 119 -> 102 on the sample); an Fy0 program without the combined-slip
+expression where no point has kappa != 0 (the sample: Fy0 0.60 -> 0.52 s); the least-squares
+polish's gradient reusing the residuals its objective just computed (Fy nfev 179 -> 131 on
+the TTC session); on the TTC session the binning (identify.segment.filters: the kept rows
+copied once, not per stretch; short NaN runs filled only in the columns with one; mf_table
+0.55 -> 0.33 s, the table bit-identical). Fitted values: ``mfid fit --no-report`` fit.json of
+main and the branch: the MF coefficients within 2e-5 of their standard errors (sample) and
+1.1e-5 (TTC session), standard errors within 5.5e-7 relative (sample) and 5.9e-4 (the TTC
+session's geometry DREFF, whose standard error is 23 times its value; the others within
+3.3e-7), thesis errors within 1.2e-7 percentage points; rivals the same (to 1e-5 relative);
+the stop criterion named in some stages' messages and statuses differs (the round-off of the
+QR route, the exact Jacobian of the sample's geometry and Fx0 stages), and the TTC session's
+Mz0 reports 3 starts at the best instead of 1 (its mirror-image starts now count). Left (the
+sample's ~90 evaluations, ~2.1 s CPU): importing JAX 0.3 s; the Fy0 and Mz0 searches on the
+4096-point subsample (~0.55 s: per trust-region iteration the exact Jacobian ~55 %, the SVD
+~25 %, near their floors: a 2048-point chunk's forward-mode Jacobian of 27 coefficients costs
+3-4 evaluations of the chunk); their solves on all points and re-fits (~0.35 s); on the TTC
+session also the binning (0.33 s) and the Fy stage's two constrained polishes (~0.25 s).
+After merging main (effd982; main at ce1e6cd, 13:21-13:23 UTC, load average 1.8-2.4, two
+rounds, ``git archive main`` into /tmp/fc4/main2, the same way): the sample 99 and 101 -> 91 and
+88; the TTC session 271 and 274 -> 232 and 235. main's TTC session changed with 18276a1 (the
+generator's slip ratio scatters about 0 in cornering runs: 135121 samples) and 7ceb1da (such
+runs' points taken at kappa = 0): on it the Mz0 stage crawls along a valley, both search starts
+from the carried-forward and the default values ending at SEARCH_NFEV (200; chi^2 still
+falling by ~0.008 an iteration, above the noise stop's 0.02 per 5) and both candidates' solves
+on all points at MAX_NFEV (100), before the re-fit with QEZ4, QEZ5 converges in 8: Mz0 3.3 s
+and 678 evaluations on main, 2.7 s and 690 here (one run each), where it took 0.8 s on the
+session before. A search noise stop of 5e-2 or 1e-1 s^2 (instead of 1e-2) saved 6 % of that
+fit but found a second rival of Fx0: not taken. fit.json of ce1e6cd and effd982 (``mfid fit
+--no-report``): MF coefficients within 2e-5 (sample) and 1.1e-5 (TTC session) of their
+standard errors, standard errors within 5.5e-7 and 5.9e-4 (DREFF, as above) relative, thesis
+errors within 2.3e-7 percentage points, rivals the same to 4.5e-6 relative.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """

@@ -24,6 +24,7 @@ presets, so the difference between a strict fit and a discovery refit is visible
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import inspect
 import warnings
@@ -38,6 +39,7 @@ from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, 
                                      jackknife_steps, jackknife_with_dof, pseudo_solve,
                                      standard_errors, t_quantile)
 from identify.fit.problem import FitProblem
+from identify.fit.trf_svd import qr_svd
 
 __all__ = ["CLUSTER_KINDS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE", "MF_SOLVE",
            "NOISE_STATUS", "SEARCH", "STOP_STATUS", "STRICT", "CountingModel", "Estimate",
@@ -77,6 +79,9 @@ class Tolerances:
         a flat valley of noisy data for hundreds of evaluations. 0: off. Needs scipy >= 1.16
         (least_squares' callback); ignored before.
     noise_window : int
+    qr_svd : bool
+        Take the solver's SVDs through a QR decomposition (identify.fit.trf_svd: the same
+        steps to round-off, in 35-50 % of the SVDs' time); the MF stages' solves.
     """
 
     xtol: float
@@ -88,6 +93,7 @@ class Tolerances:
     polish_maxiter: int = 300
     noise_ftol: float = 0.0
     noise_window: int = 5
+    qr_svd: bool = False
 
     def budget(self, n_free: int, max_nfev: int | None = None) -> int:
         """The evaluation budget of one solve: ``max_nfev`` or the per-parameter default."""
@@ -99,7 +105,8 @@ STRICT = Tolerances(xtol=1e-15, ftol=1e-15, gtol=1e-15, nfev_per_parameter=200)
 the reported optimum is the optimum (the thesis acceptance compares it with the best of five
 differential-evolution runs to 0.5 %, and noise-free recovery to 1e-6 relative)."""
 
-SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60, noise_ftol=1e-2)
+SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60, noise_ftol=1e-2,
+                    qr_svd=True)
 """The MF stages' global search on a subsample (identify.fit.mf_search.search): each start only
 has to reach its basin (1e-8 relative, or a cost that changes by less than 1e-2 s^2 over 5
 iterations, chi^2 by < 0.02); the candidates are then solved on all points with MF_SOLVE
@@ -107,7 +114,7 @@ iterations, chi^2 by < 0.02); the candidates are then solved on all points with 
 10-25 % fewer evaluations in Fy0, Mz0 and Fy: a one-off comparison, 2026-11-24; the nfev
 column of bench/fit_cost.py shows them)."""
 
-MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4)
+MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4, qr_svd=True)
 """The MF stages' solves on all points (identify.fit.mf_stages): STRICT, and stopped once the
 cost falls by less than 1e-4 s^2 over 5 iterations (chi^2 by < 2e-4: a small fraction of a
 standard error from the optimum). On a 93074-point TTC session the Mz0 solve from a candidate
@@ -206,10 +213,11 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
     caller = _Stop(noise, stop)
     if (noise is not None or stop is not None) and _HAS_CALLBACK:
         extra["callback"] = caller
-    res = optimize.least_squares(residuals, x0, jac=jac if jac is not None else "2-point",
-                                 bounds=(lo, hi), method="trf", x_scale="jac",
-                                 xtol=tol.xtol, ftol=tol.ftol, gtol=tol.gtol,
-                                 max_nfev=tol.budget(x0.size, max_nfev), **extra)
+    with qr_svd() if tol.qr_svd else contextlib.nullcontext():
+        res = optimize.least_squares(residuals, x0, jac=jac if jac is not None else "2-point",
+                                     bounds=(lo, hi), method="trf", x_scale="jac",
+                                     xtol=tol.xtol, ftol=tol.ftol, gtol=tol.gtol,
+                                     max_nfev=tol.budget(x0.size, max_nfev), **extra)
     status, message = int(res.status), str(res.message)
     if caller.message is not None:
         status, message = STOP_STATUS, caller.message

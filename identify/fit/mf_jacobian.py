@@ -56,7 +56,7 @@ a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
-MIN_WORK = 50_000
+MIN_WORK = 30_000
 """Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
 ``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 4 ms and the tracing of
 the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit's ~100-250
@@ -66,7 +66,10 @@ Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7
 generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
 measurements, 2026-11-24). With the stored executables (a stage's first call 0.01-0.03 s) it
 still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
-(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24)."""
+(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24).
+30_000 since: the sample's Fx0 (1737 x 20) then took 0.09 s instead of 0.20 s (66 model
+evaluations instead of 816; CPU time, best of 3 warm fit_mf runs, one-off, 2026-11-24), its
+executable loads in ~0.01 s; its geometry stage (7450 x 6) costs the same either way."""
 
 
 @functools.cache
@@ -111,17 +114,24 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
     return available()
 
 
+PURE_FY0 = "Fy0 pure slip"
+"""The program of the Fy0 stage whose points are all at kappa == 0 (stage_predict's
+``pure_slip``): its own compiled function and cache entry."""
+
+
 @functools.cache
 def _compiled(stage: str, coefficients: tuple[str, ...], others: tuple[str, ...]):
     """jit(jacfwd) of the stage prediction with respect to ``coefficients`` (theta), the other
     parameters a vector in ``others`` order; one per stage and parameter set per process (JAX
-    compiles it again only for a new chunk structure)."""
+    compiles it again only for a new chunk structure). ``stage`` PURE_FY0: Fy0 at kappa == 0."""
     jax, jnp = _jax()
+    pure = stage == PURE_FY0
+    name = "Fy0" if pure else stage
 
     def predict(theta, fixed, s, inputs):
         P = dict(zip(others, fixed))
         P.update(zip(coefficients, theta))
-        return stage_predict(stage, P, s, inputs, xp=jnp)
+        return stage_predict(name, P, s, inputs, xp=jnp, pure_slip=pure)
 
     return jax.jit(jax.jacfwd(predict))
 
@@ -242,18 +252,20 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         pad = np.concatenate([index, np.full(CHUNK - index.size, a)])
         chunks.append((index.size, _chunk(s, pad, n), _chunk(inputs, pad, n)))
     position = {c: j for j, c in enumerate(coefficients)}
+    # Fy0 with every point at kappa == 0 (the pure-slip sweeps): the pure-slip program
+    program = PURE_FY0 if stage == "Fy0" and not np.any(s.kappa != 0) else stage
 
     def call(theta, sc, ic):
         nonlocal others, fn, fixed
         if fn is None:  # every chunk has the same shapes: one executable
             try:
-                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+                fn = _executable(program, coefficients, others, (theta, fixed, sc, ic))
             except KeyError:  # a held value the set above missed (raised while tracing)
                 every = tuple(k for k in base if k not in set(coefficients))
                 if others == every:
                     raise
                 others, fixed = every, np.array([float(base[k]) for k in every])
-                fn = _executable(stage, coefficients, others, (theta, fixed, sc, ic))
+                fn = _executable(program, coefficients, others, (theta, fixed, sc, ic))
         return fn(theta, fixed, sc, ic)
 
     def jacobian(values: Mapping[str, float], names: tuple[str, ...]) -> np.ndarray:

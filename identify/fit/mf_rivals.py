@@ -13,15 +13,12 @@ from identify.core.progress import Progress
 from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian, residual_variance
 from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
-from identify.fit.mf_search import REFIT_NFEV
+from identify.fit.mf_search import MIRROR, REFIT_NFEV
 from identify.fit.optimize import Solved, fit, replay, snapped
 from identify.fit.result import FitResult, Rival
 
 __all__ = ["MIRROR", "with_rivals"]
 
-
-MIRROR = ("QBZ9", "QBZ10")
-"""Mz0's mirror pair: (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict identically (canonical_br)."""
 
 
 def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],

@@ -93,13 +93,16 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
     # (J^T J, the Gauss-Newton Hessian of 0.5 r^T r; see engine.polish)
     metric = (lsq.jac.T @ lsq.jac if problem.objective == "wls" and lsq.jac is not None
               and lsq.jac.shape[1] == lsq.x.size else None)
+    objective, gradient = problem.objective_value, (problem.objective_gradient
+                                                    if problem.jacobian is not None else None)
+    if problem.objective == "wls" and gradient is not None:
+        objective, gradient = _sharing_residuals(problem)
 
     def run(x1):
-        return engine.polish(problem.objective_value, x1, problem.bounds(), tol,
+        return engine.polish(objective, x1, problem.bounds(), tol,
                              constraints=(problem.constraint_values if problem.constraints
                                           else None),
-                             gradient=(problem.objective_gradient
-                                       if problem.jacobian is not None else None),
+                             gradient=gradient,
                              metric=metric,
                              local_constraints=(problem.local_constraints
                                                 if any(c.local is not None
@@ -124,6 +127,27 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
                        lsq.status, lsq)
     return Outcome(pol.x, pol.success, pol.message, pol.status, lsq,
                    polished=not np.array_equal(pol.x, lsq.x))
+
+
+def _sharing_residuals(problem: FitProblem):
+    """(objective, gradient) of a weighted least-squares ``problem`` with an exact Jacobian:
+    its objective_value and objective_gradient, the same numbers, except that the gradient
+    takes the residuals of the objective's last evaluation when it is asked at the same x
+    (SLSQP asks for the gradient where it has just evaluated the objective: one model
+    evaluation fewer per iteration)."""
+    last: list = [None, None]
+
+    def objective(x: np.ndarray) -> float:
+        r = problem.residuals(x)
+        last[:] = [np.array(x, dtype=float), r]
+        return float(0.5 * r @ r)
+
+    def gradient(x: np.ndarray) -> np.ndarray:
+        J = problem.model_jacobian(x)
+        same = last[0] is not None and np.array_equal(last[0], x)
+        r = last[1] if same else problem.residuals(x)
+        return J.T @ (r * problem.weights())
+    return objective, gradient
 
 
 def _violation(problem: FitProblem, x: np.ndarray) -> float:
