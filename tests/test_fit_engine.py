@@ -628,3 +628,28 @@ def test_a_failed_polish_no_better_in_objective_nor_constraints_keeps_the_lsq_po
     assert _violation(problem, feasible) == 0.0 and not _dominated(problem, feasible, x_ls)
     nan = np.array([1.4e5, 0.17, np.nan, 0.47])  # not finite: never better
     assert _dominated(problem, nan, x_ls)
+
+
+def test_a_solve_that_runs_out_of_budget_crawling_is_converged_one_still_falling_is_not():
+    """y = t fitted with a atan(b t) on t <= 0.3: the data fix a b but not a and b, and the
+    solver crawls along a b = 1 towards a -> inf. Stopped by its budget where the cost falls by
+    less than crawl_ftol (0.05) s^2 over 5 iterations (60 evaluations: 0.025), it is reported
+    converged (CRAWL_STATUS) with the drop in its message; stopped earlier (30 evaluations),
+    where it still falls faster, it is not; with budget enough, the noise stop ends it."""
+    from identify.fit.engine import CRAWL_STATUS, MF_SOLVE, NOISE_STATUS, least_squares
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 0.3, 200)
+    y = t + 1e-3 * rng.standard_normal(t.size)
+
+    def residuals(x):
+        return x[0] * np.arctan(x[1] * t) - y
+
+    box = (np.zeros(2), np.full(2, np.inf))
+    early = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=30)
+    crawl = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=60)
+    ample = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=400)
+    assert early.status == 0 and not early.success
+    assert crawl.status == CRAWL_STATUS and crawl.success and "crawling" in crawl.message
+    assert ample.status == NOISE_STATUS
+    assert crawl.x[0] * crawl.x[1] == pytest.approx(1.0, rel=0.01)
