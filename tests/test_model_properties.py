@@ -82,3 +82,17 @@ def test_no_load_no_force(kappa, alpha, gamma, vx, p):
 def test_negative_load_is_clipped_to_zero():
     out = _eval(P61, [(-500.0, 0.1, 0.1, 0.0, 16.7, 2.5e5)])
     assert out["Fz"][0] == 0.0 and out["Fx"][0] == 0.0
+
+
+def test_an_mf62_loaded_radius_without_a_root_is_flagged_without_a_warning():
+    """MF 6.2 at 9.76 kN and kappa 0.25 (Fx 10.7 kN, beyond the load): the loaded-radius
+    secant finds no root. It says so (Rl_converged False) and leaves the other points of the
+    call alone, without numpy's RuntimeWarning (found by the batch property above)."""
+    import warnings
+
+    pts = [(200.0, 0.0, 0.0, 0.0, 2.0, 1.6e5), (9760.0, 0.25, 0.0, 0.0, 2.0, 1.6e5)]
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        out = _eval(P62, pts, 111)
+    assert list(out["Rl_converged"]) == [True, False]
+    assert out["Rl"][0] == _eval(P62, pts[:1], 111)["Rl"][0]

@@ -157,9 +157,12 @@ def deflection_62(P: Mapping[str, float], s: OperatingState, fx: np.ndarray, fy:
     for _ in range(max_updates):
         if not active.any():
             break
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             x = np.where(active, x1 - y1 * (x1 - x0) / (y1 - y0), x1)
-        y = _load_62(P, s, fx, fy, omega, r_omega, x)[0] - target
+            # a secant step that left the physical range (no root: Fx beyond the load, e.g.
+            # 1.1 Fz at 9.8 kN) gives inf/NaN here and ends unconverged (Rl_converged False),
+            # not a RuntimeWarning on the user's screen
+            y = _load_62(P, s, fx, fy, omega, r_omega, x)[0] - target
         keep = active & (np.abs(y1) < np.abs(y0))
         x0 = np.where(keep, x1, x0)
         y0 = np.where(keep, y1, y0)
@@ -167,7 +170,8 @@ def deflection_62(P: Mapping[str, float], s: OperatingState, fx: np.ndarray, fy:
         y1 = np.where(active, y, y1)
         active = active & (np.abs(y) > tol)
     rl = x1
-    rho = _load_62(P, s, fx, fy, omega, r_omega, rl)[1]
+    with np.errstate(invalid="ignore", over="ignore"):
+        rho = _load_62(P, s, fx, fy, omega, r_omega, rl)[1]
     rho = np.where(s.fz == 0, 1e-6, rho)
     with np.errstate(divide="ignore"):
         cz = target / rho
