@@ -182,6 +182,14 @@ fit but found a second rival of Fx0: not taken. fit.json of ce1e6cd and effd982 
 standard errors, standard errors within 5.5e-7 and 5.9e-4 (DREFF, as above) relative, thesis
 errors within 2.3e-7 percentage points, rivals the same to 4.5e-6 relative.
 
+Measured 2026-11-24 13:57-13:59 UTC at b047b78 (the merge, the crawl status of
+engine.Tolerances.crawl_ftol and the combined-slip bounds), load average 0.9-1.5, one round,
+``--passes 2``: the sample 99 (cpu 94); ``--ttc 0`` 245 (cpu 261; 100 evaluations of every
+one of the 135121 samples), of which Mz0 1411 on its own (2.8 s, 655 evaluations: the crawl
+above). Against ddb9f71's 351-379 on the sample: 3.5-3.8x. The TTC session is not the one
+ddb9f71's 612 was measured on (the generator changed with 18276a1), so no ratio is claimed for
+it; on the session before that change this code's predecessor measured 4.2-4.4x (above).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
