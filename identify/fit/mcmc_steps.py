@@ -123,7 +123,7 @@ def _next_chunk(tau: np.ndarray, steps: int) -> int:
 
 
 def run_chain(sampler, state, max_steps: int, budget: float | None, progress, t0: float,
-         tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
+              tau_fn: Callable[[], np.ndarray], steps0: int = 0, tau0=None):
     """Run until 50 tau, the cap or the budget (checked every step), estimating tau after
     FIRST_CHECK steps and then where the last estimate says 50 tau is reached (MIN_CHECK to
     CHUNK steps on); return the last state, steps, the autocorrelation times ``tau_fn()`` and
