@@ -157,9 +157,11 @@ class Estimate:
     nfev, njev : int            the solver's function and Jacobian evaluation counts (scipy's:
                                 finite-difference evaluations are not in nfev)
     status : int                > 0 converged, 0 budget exhausted, < 0 failed (scipy's
-                                least-squares codes, and NOISE_STATUS (5) for a solve stopped
-                                by Tolerances.noise_ftol; a polish maps SLSQP's exit modes:
-                                success -> 2, the iteration limit -> 0, mode m otherwise -> -m)
+                                least-squares codes, NOISE_STATUS (5) for a solve stopped by
+                                Tolerances.noise_ftol, STOP_STATUS (6) by its ``stop``,
+                                CRAWL_STATUS (7) at its budget by Tolerances.crawl_ftol; a
+                                polish maps SLSQP's exit modes: success -> 2, the iteration
+                                limit -> 0, mode m otherwise -> -m)
     message : str
     success : bool              status > 0
     active_mask : ndarray       -1 on the lower bound, 1 on the upper, 0 inside (int, (k,))
