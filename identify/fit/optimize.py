@@ -217,8 +217,9 @@ def replay(solved: list[Solved], problem: FitProblem, start: np.ndarray,
     ends them): its outcome when it used fewer evaluations than both budgets (or the budgets
     are equal); not converged (``ok`` False) when it used more than ``max_nfev`` and the
     tolerances have no noise stop (the solve would stop at that budget, status 0; with a
-    noise stop, the callback after a rejected step at the budget could end it as converged);
-    None when nothing recorded tells (solve it)."""
+    noise stop, the callback after a rejected step at the budget could end it as converged,
+    and so could the crawl test, Tolerances.crawl_ftol); None when nothing recorded tells
+    (solve it)."""
     x0 = np.clip(np.asarray(start, dtype=float), *problem.bounds())
     budget = tol.budget(x0.size, max_nfev)
     for rec in solved:
