@@ -630,6 +630,25 @@ def test_a_failed_polish_no_better_in_objective_nor_constraints_keeps_the_lsq_po
     assert _dominated(problem, nan, x_ls)
 
 
+def test_constraint_violation_of_non_finite_values():
+    """optimize._violation, the one feasibility measure of the fit (the least-squares
+    optimum's, the reported start's, the failed polish's): the most negative constraint
+    value; +inf holds, -inf and NaN (a constraint the model cannot evaluate) violate
+    without limit."""
+    from identify.fit.optimize import _violation
+
+    value = [np.zeros(0)]
+    P = _params({"nom": 1.5e5, "p1": 0.1, "p2": 0.0, "p3": 0.4})
+    problem = FitProblem("CFy", "quadratic_load", P, stiffness, stiffness(P.valuesdict()),
+                         PRESSURES, constraints=(Constraint("c", lambda v: value[0]),))
+    x = problem.x0()
+    for g, want in (([], 0.0), ([1.0, 2.0], 0.0), ([1.0, -0.5], 0.5), ([np.inf, 1.0], 0.0),
+                    ([np.inf, -0.5], 0.5), ([-np.inf, 1.0], np.inf), ([np.nan, 1.0], np.inf),
+                    ([np.nan, np.inf], np.inf)):
+        value[0] = np.array(g)
+        assert _violation(problem, x) == want, g
+
+
 def test_a_solve_that_runs_out_of_budget_crawling_is_converged_one_still_falling_is_not():
     """y = t fitted with a atan(b t) on t <= 0.3: the data fix a b but not a and b, and the
     solver crawls along a b = 1 towards a -> inf. Stopped by its budget where the cost falls by

@@ -53,6 +53,27 @@ def test_context_patches_and_restores():
     assert trf.svd is scipy.linalg.svd
 
 
+def test_scipy_svd_is_back_when_the_solve_raises():
+    """A model that raises inside a solve with the QR route (a worker's error, an interrupt)
+    leaves scipy's trf with its own svd."""
+    if not trf_svd.PATCHABLE:
+        pytest.skip("this scipy's trf is not the one trf_svd knows")
+    from scipy.optimize._lsq import trf
+    patched = []
+
+    def residuals(x):
+        patched.append(trf.svd is trf_svd.tall_svd)
+        if x[0] > 1.5:
+            raise RuntimeError("the model failed")
+        return np.r_[x - 2.0, np.zeros(20)]
+
+    with pytest.raises(RuntimeError, match="the model failed"):
+        engine.least_squares(residuals, np.ones(1), (np.zeros(1), np.full(1, 10.0)),
+                             engine.MF_SOLVE)
+    assert patched and all(patched)
+    assert trf.svd is scipy.linalg.svd
+
+
 def test_solve_is_the_same_to_round_off():
     """A bounded nonlinear fit (exponentials, 2000 noisy points) solved with and without the QR
     route ends at the same point to 1e-9 of its scale with the same number of evaluations."""

@@ -157,9 +157,11 @@ class Estimate:
     nfev, njev : int            the solver's function and Jacobian evaluation counts (scipy's:
                                 finite-difference evaluations are not in nfev)
     status : int                > 0 converged, 0 budget exhausted, < 0 failed (scipy's
-                                least-squares codes, and NOISE_STATUS (5) for a solve stopped
-                                by Tolerances.noise_ftol; a polish maps SLSQP's exit modes:
-                                success -> 2, the iteration limit -> 0, mode m otherwise -> -m)
+                                least-squares codes, NOISE_STATUS (5) for a solve stopped by
+                                Tolerances.noise_ftol, STOP_STATUS (6) by its ``stop``,
+                                CRAWL_STATUS (7) at its budget by Tolerances.crawl_ftol; a
+                                polish maps SLSQP's exit modes: success -> 2, the iteration
+                                limit -> 0, mode m otherwise -> -m)
     message : str
     success : bool              status > 0
     active_mask : ndarray       -1 on the lower bound, 1 on the upper, 0 inside (int, (k,))
@@ -285,24 +287,22 @@ class _NoiseStop:
     def __init__(self, tol: Tolerances, n_free: int):
         self.tol, self.k, self.costs = tol, n_free, []
         self.fired = False
-        self.s2 = None
+        self.s2 = 0.0  # s^2 at the last iterate (costs[-1])
 
     def last_drop(self) -> float | None:
-        """The cost's fall over the last noise_window iterations in units of s^2 (None
-        before that many iterations)."""
+        """The cost's fall over the last noise_window iterations in units of s^2 at the last
+        iterate (None before that many iterations, or at a zero cost). The noise stop's test
+        and, at the end of a solve, the crawl test (Tolerances.crawl_ftol)."""
         w = self.tol.noise_window
-        if len(self.costs) <= w or not self.s2:
+        if len(self.costs) <= w or not self.s2 > 0:
             return None
         return (self.costs[-1 - w] - self.costs[-1]) / self.s2
 
     def __call__(self, intermediate_result) -> None:
-        cost = float(intermediate_result.cost)
-        self.costs.append(cost)
-        w = self.tol.noise_window
-        if len(self.costs) <= w:
-            return
-        s2 = self.s2 = residual_variance(cost, intermediate_result.fun.size, self.k)
-        if self.costs[-1 - w] - cost < self.tol.noise_ftol * s2:
+        self.costs.append(float(intermediate_result.cost))
+        self.s2 = residual_variance(self.costs[-1], intermediate_result.fun.size, self.k)
+        drop = self.last_drop()
+        if drop is not None and drop < self.tol.noise_ftol:
             self.fired = True
             raise StopIteration
 

@@ -60,11 +60,12 @@ MIN_WORK = 30_000
 """Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
 ``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 4 ms and the tracing of
 the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit's ~100-250
-Jacobians. 100_000 before: a decimated TTC session (tests/test_ttc_fit.py, seed 7) then fitted
-Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by finite differences in 4.7 + 5.6 + 5.2 s
-(3725, 4343 and 6445 model evaluations), exact: 1.7 + 1.7 + 1.9 s; the bundled sample and a
-generated 135k-sample TTC session cost the same CPU time either way (loaded machine; one-off
-measurements, 2026-11-24). With the stored executables (a stage's first call 0.01-0.03 s) it
+Jacobians. 100_000 at first; 50_000 from b8f44f6: a decimated TTC session
+(tests/test_ttc_fit.py, seed 7) fitted Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by
+finite differences in 4.7 + 5.6 + 5.2 s (3725, 4343 and 6445 model evaluations) at 100_000,
+exact at 50_000: 1.7 + 1.7 + 1.9 s; the bundled sample and a generated 135k-sample TTC
+session cost the same CPU time either way (loaded machine; one-off measurements, 2026-11-24).
+With the stored executables (a stage's first call 0.01-0.03 s) it
 still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
 (bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24).
 30_000 since: the sample's Fx0 (1737 x 20) then took 0.09 s instead of 0.20 s (66 model

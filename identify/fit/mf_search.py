@@ -228,7 +228,7 @@ class _Reached:
         # x, and its mirror image where it has one (Mz0: the same prediction and cost; the
         # Jacobian at the mirror image is J with the pair's columns negated, so the path test
         # compares x with the mirrored path points in the metric of J)
-        alike = [x] + [m for m in [mirrored(self.free, x)] if m is not None]
+        alike = _images(self.free, x)
         for j, xe, Je, ce, s2 in self.ends:
             if cost <= ce + 0.5 * MERGE_CHI2 * s2 and any(_within_merge(Je, y - xe, s2)
                                                           for y in alike):
@@ -241,8 +241,7 @@ class _Reached:
             for xt, ct in path:
                 if abs(cost - ct) > 0.5 * MERGE_CHI2 * s2:
                     continue
-                others = [xt] + ([mirrored(self.free, xt)] if len(alike) > 1 else [])
-                if any(_within_merge(J, x - y, s2) for y in others):
+                if any(_within_merge(J, x - y, s2) for y in _images(self.free, xt)):
                     self.into = j
                     return f"reached the path of start {j + 1}"
         return None
@@ -301,7 +300,7 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
         if chosen and not objs[i] <= best + CANDIDATE_RTOL * abs(best):
             break
         # an end point or its mirror image (Mz0: it predicts the same, see canonical_br)
-        alike = [ends[i].x] + [m for m in [mirrored(problem.free, ends[i].x)] if m is not None]
+        alike = _images(problem.free, ends[i].x)
         if any(_same_optimum(c, o, x, objs[i], n_free) for c, o in chosen for x in alike):
             continue
         chosen.append((ends[i], float(objs[i])))
@@ -321,6 +320,13 @@ def mirrored(free: tuple[str, ...], x: np.ndarray) -> np.ndarray | None:
     flipped = np.array(x, dtype=float)
     flipped[[free.index(n) for n in MIRROR]] *= -1
     return flipped
+
+
+def _images(free: tuple[str, ...], x: np.ndarray) -> list[np.ndarray]:
+    """``x`` and, where it has one, its mirror image (:func:`mirrored`): the points that
+    predict what ``x`` predicts."""
+    m = mirrored(free, x)
+    return [x] if m is None else [x, m]
 
 
 def canonical_br(result: FitResult, start: Mapping[str, float]) -> FitResult:

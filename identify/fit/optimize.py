@@ -151,12 +151,11 @@ def _sharing_residuals(problem: FitProblem):
 
 
 def _violation(problem: FitProblem, x: np.ndarray) -> float:
-    """The largest violation of ``problem``'s constraints at ``x`` (0 when feasible, inf
-    where they are not finite)."""
-    g = np.asarray(problem.constraint_values(x), dtype=float)
-    if not np.all(np.isfinite(g)):
-        return np.inf
-    return max(0.0, -float(g.min(initial=0.0)))
+    """The largest violation of ``problem``'s constraints at ``x``: 0 when every one holds
+    (+inf holds), inf where one is NaN or -inf. The one feasibility measure of this module
+    (:func:`_finish`, :func:`_search`, :func:`_dominated`)."""
+    low = float(np.asarray(problem.constraint_values(x), dtype=float).min(initial=0.0))
+    return np.inf if np.isnan(low) else max(0.0, -low)
 
 
 def _dominated(problem: FitProblem, x: np.ndarray, ref: np.ndarray) -> bool:
@@ -176,8 +175,7 @@ def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
     only start (its least-squares solve, or its own polish: not skipped by ``bound``, not
     shared with an earlier start), which :class:`Solved` records."""
     if problem.objective == "wls":
-        if lsq.status == 0 or not problem.constraints \
-                or problem.constraint_values(lsq.x).min(initial=0.0) >= 0.0:
+        if lsq.status == 0 or not problem.constraints or _violation(problem, lsq.x) == 0.0:
             return Outcome(lsq.x, lsq.success, lsq.message, lsq.status, lsq), True
         if lsq.cost >= bound:
             return Outcome(lsq.x, False, "not polished: infeasible least-squares optimum no "
@@ -219,8 +217,9 @@ def replay(solved: list[Solved], problem: FitProblem, start: np.ndarray,
     ends them): its outcome when it used fewer evaluations than both budgets (or the budgets
     are equal); not converged (``ok`` False) when it used more than ``max_nfev`` and the
     tolerances have no noise stop (the solve would stop at that budget, status 0; with a
-    noise stop, the callback after a rejected step at the budget could end it as converged);
-    None when nothing recorded tells (solve it)."""
+    noise stop, the callback after a rejected step at the budget could end it as converged,
+    and so could the crawl test, Tolerances.crawl_ftol); None when nothing recorded tells
+    (solve it)."""
     x0 = np.clip(np.asarray(start, dtype=float), *problem.bounds())
     budget = tol.budget(x0.size, max_nfev)
     for rec in solved:
@@ -250,7 +249,7 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
         out, own = _finish(problem, pre[i], cache, bound, tol)
-        if problem.constraint_values(out.x).min(initial=0.0) < -1e-8:
+        if _violation(problem, out.x) > 1e-8:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)
         done[i] = out

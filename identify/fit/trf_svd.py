@@ -107,8 +107,11 @@ _DEPTH = [0]
 
 @contextlib.contextmanager
 def qr_svd():
-    """Within this context scipy's trf takes its SVDs through :func:`tall_svd` (nestable,
-    thread-safe; nothing when not :data:`PATCHABLE`)."""
+    """Within this context scipy's trf takes its SVDs through :func:`tall_svd` (nothing when
+    not :data:`PATCHABLE`). Nestable, and scipy's ``svd`` is back when the last context
+    leaves, also on an exception. The name is the module's: while one thread is within, every
+    trf solve of the process takes the QR route, those of other threads too (the same steps
+    to round-off)."""
     if not PATCHABLE:
         yield
         return
