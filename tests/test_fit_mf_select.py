@@ -5,6 +5,8 @@ import numpy as np
 import pandas as pd
 
 from identify.fit.mf_data import rolling_kappa, select
+from identify.fit.mf_problem import stage_problem
+from identify.model.parameters import defaults
 
 
 def _table(kappa_noise: float, seed: int = 0) -> pd.DataFrame:
@@ -67,3 +69,17 @@ def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
     lateral = set(t.iloc[select(t, "lateral", "Fy")]["run"])
     assert "held" not in lateral and "corner" in lateral
     assert "held" in set(t.iloc[select(t, "combined", "Fx")]["run"])
+
+
+def test_a_stage_problem_built_again_on_the_raw_table_fits_what_fit_mf_fitted():
+    """stage_mcmc and mf_uncertainty.propagate build a stage's problem again on the table the
+    caller holds, not on fit_mf's copy with the rolling runs' kappa at 0: the problem takes
+    that 0 itself, or the Fy0 model at the cornering points is combined slip at the noise."""
+    t = _table(kappa_noise=0.003)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    raw = stage_problem("Fy0", t, params)
+    fitted = stage_problem("Fy0", rolling_kappa(t), params)
+    np.testing.assert_array_equal(raw.rows, fitted.rows)
+    np.testing.assert_array_equal(raw.state.kappa, fitted.state.kappa)
+    x = fitted.problem.x0()
+    np.testing.assert_array_equal(raw.problem.predict(x), fitted.problem.predict(x))
