@@ -4,6 +4,7 @@ older rounds' stand-in, more so)."""
 import numpy as np
 import pandas as pd
 
+from identify.fit.coverage import mf_coverage
 from identify.fit.mf_data import rolling_kappa, select
 from identify.fit.mf_problem import stage_problem
 from identify.model.parameters import defaults
@@ -83,3 +84,17 @@ def test_a_stage_problem_built_again_on_the_raw_table_fits_what_fit_mf_fitted():
     np.testing.assert_array_equal(raw.state.kappa, fitted.state.kappa)
     x = fitted.problem.x0()
     np.testing.assert_array_equal(raw.problem.predict(x), fitted.problem.predict(x))
+
+
+def test_the_coverage_table_counts_the_points_the_stages_fit():
+    """mf_coverage decides which stages are fitted and shows their slip ranges: it takes a
+    rolling run's kappa as 0 as the stages do (free rolling: every point of the cornering
+    run; Fy0: kappa within the drive run's +-PURE_KAPPA, not the noise's +-0.01)."""
+    t = _table(kappa_noise=0.004)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    stages = ("geometry", "Fx0", "Fy0", "Fx", "Fy")
+    for c in mf_coverage(t, params["FNOMIN"], stages=stages):
+        sp = stage_problem(c.stage, t, params, screen=False)
+        assert c.points == sp.rows.size
+        k = sp.state.kappa
+        assert c.kappa == (k.min(), k.max())

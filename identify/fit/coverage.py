@@ -197,6 +197,9 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
         One per stage, in order.
     """
     unavailable = dict(unavailable or {})
+    # the table as the stages fit it (identify.fit.mf_problem.stage_problem): a freely
+    # rolling run's kappa is the channel's noise, taken as 0
+    trailer = mf_data.rolling_kappa(trailer)
     kappa_sweep, angle_sweep = _sweeps(trailer)
     out: dict[str, StageCoverage] = {}
     for stage in stages:
