@@ -47,7 +47,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         return result
     # the reported 95 % intervals' half-widths (t(0.975, dof) standard errors), the ones
     # identify.fit.identifiability checks a rival against
-    half = np.array([0.5 * (hi - lo) for lo, hi in (result.interval(n) for n in free)])
+    half = np.array([result.quantile(n) for n in free]) * se
     problem = sp.problem
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
