@@ -98,3 +98,16 @@ def test_the_coverage_table_counts_the_points_the_stages_fit():
         assert c.points == sp.rows.size
         k = sp.state.kappa
         assert c.kappa == (k.min(), k.max())
+
+
+def test_the_coverage_table_counts_the_combined_points_of_a_held_slip_ratio():
+    """An alpha sweep at a held slip ratio is combined slip for the Fx, Fy and Mz stages
+    (select); the coverage table counted the combined points of the kappa sweeps only (990 of
+    the 2940 the Fx stage fits)."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    t = pd.concat([t, held], ignore_index=True)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    for c in mf_coverage(t, params["FNOMIN"], stages=("Fx0", "Fx", "Fy", "Mz0", "Mz")):
+        assert not c.skipped, c
+        assert c.points == stage_problem(c.stage, t, params, screen=False).rows.size, c.stage
