@@ -25,7 +25,7 @@ from identify.fit.mf_stages import fit_mf, stage_problem
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE
-from identify.model.parameters import defaults
+from identify.model.parameters import bounds, defaults
 from identify.model.state import prepare
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
@@ -174,7 +174,5 @@ def test_the_combined_slip_shifts_are_bounded():
     """RHX1, RHY1, RHY2 (slip shifts) and RBY3 (a slip-angle shift, rad) are bounded to
     [-1, 1]: unbounded, the Fy stage's constrained polish escaped the validity conditions
     through RHY1 = 1.4e5 (golden tyre, TTC seed 0: Fy 19.8 % from the truth, now 0.08 %)."""
-    from identify.model.parameters import bounds
-
     for name in ("RHX1", "RHY1", "RHY2", "RBY3"):
         assert bounds(name) == (-1.0, 1.0), name

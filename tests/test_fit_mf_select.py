@@ -4,7 +4,10 @@ older rounds' stand-in, more so)."""
 import numpy as np
 import pandas as pd
 
+from identify.fit.coverage import mf_coverage
 from identify.fit.mf_data import rolling_kappa, select
+from identify.fit.mf_problem import stage_problem
+from identify.model.parameters import defaults
 
 
 def _table(kappa_noise: float, seed: int = 0) -> pd.DataFrame:
@@ -67,3 +70,44 @@ def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
     lateral = set(t.iloc[select(t, "lateral", "Fy")]["run"])
     assert "held" not in lateral and "corner" in lateral
     assert "held" in set(t.iloc[select(t, "combined", "Fx")]["run"])
+
+
+def test_a_stage_problem_built_again_on_the_raw_table_fits_what_fit_mf_fitted():
+    """stage_mcmc and mf_uncertainty.propagate build a stage's problem again on the table the
+    caller holds, not on fit_mf's copy with the rolling runs' kappa at 0: the problem takes
+    that 0 itself, or the Fy0 model at the cornering points is combined slip at the noise."""
+    t = _table(kappa_noise=0.003)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    raw = stage_problem("Fy0", t, params)
+    fitted = stage_problem("Fy0", rolling_kappa(t), params)
+    np.testing.assert_array_equal(raw.rows, fitted.rows)
+    np.testing.assert_array_equal(raw.state.kappa, fitted.state.kappa)
+    x = fitted.problem.x0()
+    np.testing.assert_array_equal(raw.problem.predict(x), fitted.problem.predict(x))
+
+
+def test_the_coverage_table_counts_the_points_the_stages_fit():
+    """mf_coverage decides which stages are fitted and shows their slip ranges: it takes a
+    rolling run's kappa as 0 as the stages do (free rolling: every point of the cornering
+    run; Fy0: kappa within the drive run's +-PURE_KAPPA, not the noise's +-0.01)."""
+    t = _table(kappa_noise=0.004)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    stages = ("geometry", "Fx0", "Fy0", "Fx", "Fy")
+    for c in mf_coverage(t, params["FNOMIN"], stages=stages):
+        sp = stage_problem(c.stage, t, params, screen=False)
+        assert c.points == sp.rows.size
+        k = sp.state.kappa
+        assert c.kappa == (k.min(), k.max())
+
+
+def test_the_coverage_table_counts_the_combined_points_of_a_held_slip_ratio():
+    """An alpha sweep at a held slip ratio is combined slip for the Fx, Fy and Mz stages
+    (select); the coverage table counted the combined points of the kappa sweeps only (990 of
+    the 2940 the Fx stage fits)."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    t = pd.concat([t, held], ignore_index=True)
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    for c in mf_coverage(t, params["FNOMIN"], stages=("Fx0", "Fx", "Fy", "Mz0", "Mz")):
+        assert not c.skipped, c
+        assert c.points == stage_problem(c.stage, t, params, screen=False).rows.size, c.stage

@@ -1,6 +1,8 @@
 """Property tests of the forward model (hypothesis): invariances a correct MF must have."""
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
 from hypothesis import given, settings, strategies as st
 
@@ -88,8 +90,6 @@ def test_an_mf62_loaded_radius_without_a_root_is_flagged_without_a_warning():
     """MF 6.2 at 9.76 kN and kappa 0.25 (Fx 10.7 kN, beyond the load): the loaded-radius
     secant finds no root. It says so (Rl_converged False) and leaves the other points of the
     call alone, without numpy's RuntimeWarning (found by the batch property above)."""
-    import warnings
-
     pts = [(200.0, 0.0, 0.0, 0.0, 2.0, 1.6e5), (9760.0, 0.25, 0.0, 0.0, 2.0, 1.6e5)]
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)

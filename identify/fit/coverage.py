@@ -167,14 +167,6 @@ def _sweep_reason(stage: str, trailer: pd.DataFrame, kappa_sweep: np.ndarray,
     return ""
 
 
-def _rows(stage: str, trailer: pd.DataFrame, kappa_sweep: np.ndarray) -> np.ndarray:
-    sd = STAGES[stage]
-    rows = mf_data.select(trailer, sd.selection, sd.quantity)
-    if sd.selection == "combined":  # combined slip lives in the slip-ratio sweeps only
-        rows = rows[kappa_sweep[rows]]
-    return rows
-
-
 def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
                 stages: Sequence[str] = DEFAULT_STAGES,
                 unavailable: Mapping[str, str] | None = None) -> tuple[StageCoverage, ...]:
@@ -197,13 +189,20 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
         One per stage, in order.
     """
     unavailable = dict(unavailable or {})
+    # the table as the stages fit it (identify.fit.mf_problem.stage_problem): a freely
+    # rolling run's kappa is the channel's noise, taken as 0
+    trailer = mf_data.rolling_kappa(trailer)
     kappa_sweep, angle_sweep = _sweeps(trailer)
     out: dict[str, StageCoverage] = {}
     for stage in stages:
         sd = STAGES[stage]
         why = _channel_reason(stage, trailer, unavailable) or _sweep_reason(
             stage, trailer, kappa_sweep, angle_sweep)
-        rows = np.array([], dtype=int) if why else _rows(stage, trailer, kappa_sweep)
+        # the stage's own selection: its combined points are those of the runs that do not
+        # roll freely (a cornering run's noisy kappa is not combined slip; an alpha sweep at a
+        # held slip ratio is)
+        rows = (np.array([], dtype=int) if why
+                else mf_data.select(trailer, sd.selection, sd.quantity))
         if not why and rows.size < MIN_POINTS:
             why = f"{rows.size} point(s), {MIN_POINTS} needed"
         up = [u for u in UPSTREAM.get(stage, ()) if u in out and out[u].skipped]

@@ -117,7 +117,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     stage : str
         Stage name (``"geometry"``, ``"Fx0"`` ... ``"My"``).
     trailer : DataFrame
-        The trailer table (see identify.fit.mf_data).
+        The trailer table (see identify.fit.mf_data); a freely rolling run's kappa is taken
+        as 0 (mf_data.rolling_kappa).
     params : mapping
         Every .tir value (start values; held values are taken from here).
     free : mapping or collection, optional
@@ -141,6 +142,9 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     fnomin = float(params["FNOMIN"])
     at = like.points if like is not None else None
     if at is None or at.fnomin != fnomin:
+        # the table as identify.fit.mf_stages.fit_mf fits it, whoever builds the problem
+        # again (stage_mcmc, mf_uncertainty.propagate, identify.discover)
+        trailer = mf_data.rolling_kappa(trailer)
         rows = (mf_data.select(trailer, sd.selection, sd.quantity) if like is None
                 else like.rows)
         if rows.size == 0:

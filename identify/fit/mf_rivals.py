@@ -47,19 +47,20 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         return result
     # the reported 95 % intervals' half-widths (t(0.975, dof) standard errors), the ones
     # identify.fit.identifiability checks a rival against
-    half = np.array([0.5 * (hi - lo) for lo, hi in (result.interval(n) for n in free)])
+    half = np.array([result.quantile(n) for n in free]) * se
     problem = sp.problem
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
     ends: list[np.ndarray] = []
     spent = 0
+    solved = list(solved)
     for c in candidates:
         x0 = np.array([float(c.get(n, result.parameters[n])) for n in free])
         x0 = _mirrored(free, x0, xb)
         if np.all(np.abs(x0 - xb) <= se):
             continue
-        converged, xe, wls = _solve(problem, x0, list(solved))
-        spent += wls[1]
+        converged, xe, wls, nfev = _solve(problem, x0, solved)
+        spent += nfev
         if not converged:
             continue
         xr = _mirrored(free, xe, xb)
@@ -68,7 +69,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
             continue
         if scale is None:
             scale = _chi2_scale(problem, xb, se)
-        dchi2 = (wls[0] - result.wls) / scale if scale > 0 else np.inf
+        dchi2 = (wls - result.wls) / scale if scale > 0 else np.inf
         if dchi2 > RIVAL_CHI2:
             continue
         if any(np.all(np.abs(xr - seen) <= se) for seen in ends):
@@ -83,20 +84,20 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
 
 
 def _solve(problem, x0: np.ndarray, solved: list[Solved]
-           ) -> tuple[bool, np.ndarray, tuple[float, int]]:
+           ) -> tuple[bool, np.ndarray, float, int]:
     """The local solve of a candidate on all points from ``x0`` (identify.fit.optimize.fit
-    within REFIT_NFEV): (converged, end point, (r^T r there, model evaluations spent)), from
+    within REFIT_NFEV): converged, end point, r^T r there, model evaluations spent; from
     its recorded solve where that tells (identify.fit.optimize.replay: the same numbers)."""
     out = replay(solved, problem, x0, REFIT_NFEV, MF_SOLVE)
     if out is None:
         end = fit(problem, starts=x0[None, :], max_nfev=REFIT_NFEV, tol=MF_SOLVE)
-        return (end.converged, np.array([end.parameters[n] for n in end.free]),
-                (end.wls, end.nfev))
+        return (end.converged, np.array([end.parameters[n] for n in end.free]), end.wls,
+                end.nfev)
     if not out.ok:
-        return False, out.x, (np.nan, 0)
+        return False, out.x, np.nan, 0
     x = snapped(problem, out.x)  # the reported optimum, as fit's Diagnosis.x
     r = problem.residuals(x)
-    return True, x, (float(r @ r), 1)
+    return True, x, float(r @ r), 1
 
 
 def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:

@@ -37,6 +37,7 @@ from typing import Sequence
 
 import numpy as np
 
+from identify.fit.engine import fd_jacobian
 from identify.fit.mf_stage_defs import TERMS
 from identify.fit.problem import FitProblem
 from identify.model.parameters import spec
@@ -66,19 +67,10 @@ that the plausible change of a coefficient does not grow without bound when the 
 variable barely varies: PEY5 (on gamma^2) on data within +-0.3 deg moves Ey by
 DELTA_FLOOR (0.3 deg / 5.7 deg)^2 = 3e-5 and stays negligible, as on data without camber."""
 STEP = 1e-6
-"""Relative step of the central differences (of max(|value|, 1e-3))."""
-
-
-def jacobian(problem: FitProblem, x: np.ndarray) -> np.ndarray:
-    """Central-difference Jacobian of ``problem.residuals`` at ``x`` (no bound clipping)."""
-    cols = []
-    for j in range(x.size):
-        h = STEP * max(abs(x[j]), 1e-3)
-        xp, xm = x.copy(), x.copy()
-        xp[j] += h
-        xm[j] -= h
-        cols.append((problem.residuals(xp) - problem.residuals(xm)) / (2 * h))
-    return np.column_stack(cols) if cols else np.zeros((problem.measured.size, 0))
+"""Relative step of the central differences (identify.fit.engine.fd_jacobian) when the problem
+has no exact Jacobian: of max(|value|, STEP_FLOOR)."""
+STEP_FLOOR = 1e-3
+"""Smallest magnitude the relative STEP is taken of (a coefficient at 0 steps by 1e-9)."""
 
 
 def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = None,
@@ -186,8 +178,8 @@ def screen(problem: FitProblem, tol: float = DEPENDENCE_TOL,
     free = problem.free
     x0 = problem.x0()
     J = problem.residual_jacobian(x0)
-    if J is None:
-        J = jacobian(problem, x0)
+    if J is None:  # central differences, steps not clipped at the bounds
+        J = fd_jacobian(problem.residuals, x0, rel_step=STEP, floor=STEP_FLOOR)
     m = np.ones(len(free)) if magnitudes is None else np.asarray(magnitudes, dtype=float)
     delta = np.array([max(abs(x), abs(float(spec(n).default)), DELTA_FLOOR / mj)
                       for n, x, mj in zip(free, x0, m)])

@@ -43,11 +43,13 @@ class StageDef:
                            identify.fit.mf_data), ``"longitudinal"`` (|alpha| <= PURE_ALPHA
                            in runs with a kappa sweep),
                            ``"lateral"`` (runs with an alpha or gamma sweep: every point of
-                           a run without a kappa sweep, whose kappa is the channel's noise,
-                           |kappa| <= PURE_KAPPA in the others), ``"combined"`` (|alpha| >
-                           PURE_ALPHA and |kappa| > PURE_KAPPA in runs with a kappa sweep),
+                           a run that rolls freely -- no kappa sweep, median |kappa| <=
+                           FREE_KAPPA -- whose kappa is the channel's noise, |kappa| <=
+                           PURE_KAPPA in the others), ``"combined"`` (|alpha| > PURE_ALPHA
+                           and |kappa| > PURE_KAPPA in runs that do not roll freely: a kappa
+                           sweep, or an alpha sweep at a held slip ratio),
                            ``"kappa_slip"`` (|kappa| > PURE_KAPPA at any slip angle in runs
-                           with a kappa sweep, when
+                           that do not roll freely, when
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
                            a slip-ratio sweep at zero slip angle pins it) or ``"all"``

@@ -379,7 +379,9 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     if passes < 1:
         raise ValueError(f"passes must be >= 1, not {passes}")
     mf_data.check_columns(trailer, tuple(sorted({STAGES[s].quantity for s in stages})))
-    trailer = mf_data.rolling_kappa(trailer)  # a freely rolling run's kappa is noise: 0
+    # a freely rolling run's kappa is noise: 0 (stage_problem takes it so too; done once
+    # here, its builds find nothing to change and copy no table)
+    trailer = mf_data.rolling_kappa(trailer)
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)

@@ -106,8 +106,8 @@ class FitSettings:
 
         A missing setting means the record was written before that setting existed, so it
         takes the value that such a fit ran with (:data:`RECORD_DEFAULTS`: one MF pass, no
-        segmentation, no Fy0 reparametrisation, no MCMC budget), else its default; a fit.json
-        then says what was done, not what mfid would do today."""
+        segmentation, no Fy0 reparametrisation, no MCMC budget, no binning), else its
+        default; a fit.json then says what was done, not what mfid would do today."""
         d = {**RECORD_DEFAULTS, **d}
         for key in ("only", "forms", "hold"):
             if key in d:
@@ -116,10 +116,11 @@ class FitSettings:
 
 
 RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
-                                     "mcmc_reparam": False, "mcmc_budget_s": None}
+                                     "mcmc_reparam": False, "mcmc_budget_s": None,
+                                     "bin_alpha_deg": None, "bin_kappa": None}
 """Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
 pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
-budget before 9b39edb)."""
+budget before 9b39edb, every trailer sample fitted, no binning, before 631434a)."""
 
 
 @dataclass(frozen=True)
