@@ -90,7 +90,7 @@ def read_dat(path: Path, problems: Problems):
         return None
     attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     if frame.isna().to_numpy().any():  # pandas fills a short row with NaN: tell it from NaN
-        cut = _ragged(path, len(names), sep, len(frame), problems)
+        cut = _ragged(path, len(names), sep, problems)
         if cut is None:
             return None
         if cut:  # the last row cut short (a file copied while written): dropped, warned
@@ -112,7 +112,7 @@ def _table(path: Path, sep: str, names: list[str], decimal: str) -> pd.DataFrame
 _SEP_NAME = {"\t": "tab", ",": "comma"}
 
 
-def _ragged(path: Path, width: int, sep: str, rows: int, problems: Problems) -> str | None:
+def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     """Report the rows whose number of fields is not ``width``: None if there is one; "" if
     there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
     (a file cut short: that row is dropped with a warning)."""
