@@ -135,10 +135,12 @@ def test_dat_comma_separated_or_crlf(tmp_path, sep, end):
 
 
 def test_dat_trailing_tab_on_the_data_rows_only(tmp_path):
-    """With NaN cells in the data (which send the reader to count fields per row)."""
+    """With NaN cells in the data (one in the last column, which sends the reader to count
+    fields per row)."""
     lines = _dat_lines()
     lines[3:] = [line + "\t" for line in lines[3:]]
     lines[10] = "\t".join(["NaN" if i == 7 else c for i, c in enumerate(lines[10].split("\t"))])
+    lines[20] = "\t".join(["NaN" if i == 11 else c for i, c in enumerate(lines[20].split("\t"))])
     run = _read(_write(tmp_path / "B1run1.dat", lines))
     assert np.isnan(run.data["FY"][7]) and np.isfinite(run.data["FY"]).sum() == 199
 

@@ -89,7 +89,10 @@ def read_dat(path: Path, problems: Problems):
         problems.add(path, "no data rows below the header", line=3)
         return None
     attrs = {"format": "ttc-dat", "title": lines[0].strip()}
-    if frame.isna().to_numpy().any():  # pandas fills a short row with NaN: tell it from NaN
+    # pandas fills a short row with NaN (a long one is a ParserError above): a short row
+    # leaves its last column NaN, so only a NaN there sends the reader back to the file to
+    # tell a short row from a NaN cell
+    if frame[names[-1]].isna().any():
         cut = _ragged(path, len(names), sep, problems)
         if cut is None:
             return None
