@@ -121,9 +121,10 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     (a file cut short: that row is dropped with a warning)."""
     with open_text(path, encoding="latin-1", newline="") as fh:
         lines = fh.read().split("\n")[3:]
-    counts = np.array([_fields(line, sep) if line.strip() else width for line in lines])
+    counts = np.array([_fields(line, sep) if line.strip() else 0 for line in lines], dtype=int)
+    filled = np.flatnonzero(counts)  # a blank line (0 fields) is not a row
+    counts[counts == 0] = width
     bad = np.flatnonzero(counts != width)
-    filled = np.flatnonzero([bool(line.strip()) for line in lines])
     if bad.size == 1 and filled.size and bad[0] == filled[-1] and counts[bad[0]] < width:
         return f"{int(bad[0]) + 4} {int(counts[bad[0]])}"
     for i in bad[:10]:
