@@ -156,6 +156,35 @@ def test_dat_cut_inside_its_last_row_is_a_warning_and_the_row_is_dropped(tmp_pat
                         "ends inside it) (1 of 200 samples); row dropped")
 
 
+def test_dat_cut_after_the_sign_of_a_number_is_the_same_warning(tmp_path):
+    """Cut after the '-' of FZ's -1000 (the file copied while the logger wrote it). Before: the
+    whole file refused, 'data below the header are not tab-separated numbers (could not
+    convert string to float: '-')'."""
+    lines = _dat_lines()
+    lines[-1] = lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, last=False)
+    ch, frame, warnings = _tidy(path)
+    assert len(frame) == 199
+    (cut,) = [w for w in warnings if w.kind == "truncated"]
+    assert str(cut) == (f"{path}:203: ET: the last row stops after 9 of 12 fields (the file "
+                        "ends inside it) (1 of 200 samples); row dropped")
+
+
+@pytest.mark.parametrize("last,end", [(None, True), ("END", False)],
+                         ids=["ends-with-newline", "not-a-number-start"])
+def test_dat_with_a_bad_last_row_is_still_one_line(tmp_path, last, end):
+    """Not what a cut leaves: a file that ends with a newline (its '-' is bad data), or a last
+    row that is no start of a number."""
+    lines = _dat_lines()
+    lines[-1] = last or lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, last=end)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()] == [
+        f"{path}:4: data below the header are not tab-separated numbers (could not convert "
+        f"string to float: '{last or '-'}')"]
+
+
 def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
     lines = _dat_lines()
     lines[50] = "\t".join(lines[50].split("\t")[:5])

@@ -9,6 +9,9 @@ line naming the file and line.
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import re
 from pathlib import Path
 
 import numpy as np
@@ -74,21 +77,22 @@ def read_dat(path: Path, problems: Problems):
         problems.add(path, "channel named twice", line=2, key=dup)
     if twice:  # which column is the channel is unknown; pandas refuses the names anyway
         return None
+    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     try:
-        frame = _table(path, sep, names, ".")
+        frame = _numbers(path, sep, names)
     except (ValueError, pd.errors.ParserError) as exc:
-        try:  # a decimal comma (a European locale's export), tab-separated
-            frame = _table(path, sep, names, ",") if sep == "\t" else None
-        except (ValueError, pd.errors.ParserError):
-            frame = None
-        if frame is None:
+        found = _without_cut_row(path, sep, names)  # cut inside a number: "-" of "-1000"
+        if found is None:
             problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
                                f"numbers ({exc})", line=4)
             return None
+        frame, line, fields = found
+        attrs["cut_row"] = str(line)
+        attrs["cut_row_detail"] = (f"the last row stops after {fields} of {len(names)} "
+                                   "fields (the file ends inside it)")
     if len(frame) == 0:
         problems.add(path, "no data rows below the header", line=3)
         return None
-    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     # pandas fills a short row with NaN (a long one is a ParserError above): a short row
     # leaves its last column NaN, so only a NaN there sends the reader back to the file to
     # tell a short row from a NaN cell
@@ -96,7 +100,8 @@ def read_dat(path: Path, problems: Problems):
         cut = _ragged(path, len(names), sep, problems)
         if cut is None:
             return None
-        if cut:  # the last row cut short (a file copied while written): dropped, warned
+        if cut and "cut_row" not in attrs:  # the last row cut short (a file copied while
+            # written): dropped, warned; unless it was dropped above
             line, fields = cut.split()
             frame = frame.iloc[:-1]
             attrs["cut_row"] = line
@@ -106,13 +111,49 @@ def read_dat(path: Path, problems: Problems):
     return data, dict(zip(names, unit_cells)), attrs
 
 
-def _table(path: Path, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
-    return pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
+def _numbers(source: Path | str, sep: str, names: list[str]) -> pd.DataFrame:
+    """The data rows of a file (or of its text) with a decimal point, else (tab-separated) a
+    decimal comma (a European locale's export); raises the decimal point's error."""
+    try:
+        return _table(source, sep, names, ".")
+    except (ValueError, pd.errors.ParserError) as exc:
+        if sep == "\t":
+            with contextlib.suppress(ValueError, pd.errors.ParserError):
+                return _table(source, sep, names, ",")
+        raise exc
+
+
+def _without_cut_row(path: Path, sep: str, names: list[str]
+                     ) -> tuple[pd.DataFrame, int, int] | None:
+    """(data rows, line, fields of the cut row) of a file that ends inside a number of its last
+    row (no newline at its end), read without that row; None when the file ends with a
+    newline or the rows above are not numbers either."""
+    with open_text(path, encoding="latin-1", newline="") as fh:
+        head, newline, last = fh.read().rpartition("\n")
+    lines = head.count("\n") + 2  # the last row's line
+    cells = last.rstrip("\r").split(sep)
+    if not last.strip() or lines < 4 or len(cells) > len(names) or not (
+            _numeric([c.replace(",", ".") for c in cells[:-1]] + ["0"])
+            and _NUMBER_START.fullmatch(cells[-1])):
+        return None  # not cut, cut in the header, or not a row a cut leaves (bad data)
+    try:
+        frame = _numbers(head + newline, sep, names)
+    except (ValueError, pd.errors.ParserError):
+        return None
+    return frame, lines, _fields(last, sep)
+
+
+def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
+    gz = isinstance(source, Path) and source.suffix == ".gz"
+    text = io.StringIO(source) if isinstance(source, str) else source  # a new one each read
+    return pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
                        dtype=np.float64, index_col=False, engine="c", encoding="latin-1",
-                       compression="infer" if path.suffix == ".gz" else None)
+                       compression="infer" if gz else None)
 
 
 _SEP_NAME = {"\t": "tab", ",": "comma"}
+#: The start of a number where a cut may end a file: "-", "12.", "1e-" (decimal comma too).
+_NUMBER_START = re.compile(r"\s*[+-]?\d*(?:[.,]\d*)?(?:[eE][+-]?\d*)?")
 
 
 def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
