@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import io
+import itertools
 import re
 from pathlib import Path
 
@@ -160,9 +161,9 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     """Report the rows whose number of fields is not ``width``: None if there is one; "" if
     there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
     (a file cut short: that row is dropped with a warning)."""
-    with open_text(path, encoding="latin-1", newline="") as fh:
-        lines = fh.read().split("\n")[3:]
-    counts = np.array([_fields(line, sep) if line.strip() else 0 for line in lines], dtype=int)
+    with open_text(path, encoding="latin-1", newline="\n") as fh:  # line by line, not held
+        counts = np.fromiter((_fields(line.removesuffix("\n"), sep) if line.strip() else 0
+                              for line in itertools.islice(fh, 3, None)), dtype=int)
     filled = np.flatnonzero(counts)  # a blank line (0 fields) is not a row
     counts[counts == 0] = width
     bad = np.flatnonzero(counts != width)
