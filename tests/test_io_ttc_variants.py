@@ -185,6 +185,19 @@ def test_dat_with_a_bad_last_row_is_still_one_line(tmp_path, last, end):
         f"string to float: '{last or '-'}')"]
 
 
+def test_dat_whose_rows_are_wider_than_its_header_is_one_line(tmp_path):
+    """A channel name missing from line 2 (13 values a row under 12 names). Before: read
+    with the 13th value of every row dropped (pandas' index_col=False, a ParserWarning
+    only), so each channel after the missing name got its neighbour's values."""
+    lines = _dat_lines()
+    lines[3:] = [line + "\t7" for line in lines[3:]]
+    path = _write(tmp_path / "B1run1.dat", lines)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()][0] == (
+        f"{path}:4: ragged row: 13 fields, the header has 12")
+
+
 def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
     lines = _dat_lines()
     lines[50] = "\t".join(lines[50].split("\t")[:5])

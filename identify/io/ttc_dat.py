@@ -13,6 +13,7 @@ import contextlib
 import io
 import itertools
 import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -94,10 +95,10 @@ def read_dat(path: Path, problems: Problems):
     if len(frame) == 0:
         problems.add(path, "no data rows below the header", line=3)
         return None
-    # pandas fills a short row with NaN (a long one is a ParserError above): a short row
-    # leaves its last column NaN, so only a NaN there sends the reader back to the file to
-    # tell a short row from a NaN cell
-    if frame[names[-1]].isna().any():
+    # pandas fills a short row with NaN, which leaves its last column NaN, and cuts a first
+    # row wider than the names to their width (only a trailing separator may go; a wider
+    # row further down is a ParserError above): then the reader counts the fields per row
+    if frame.attrs["wider"] or frame[names[-1]].isna().any():
         cut = _ragged(path, len(names), sep, problems)
         if cut is None:
             return None
@@ -147,9 +148,19 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
 def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
     gz = isinstance(source, Path) and source.suffix == ".gz"
     text = io.StringIO(source) if isinstance(source, str) else source  # a new one each read
-    return pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
-                       dtype=np.float64, index_col=False, engine="c", encoding="latin-1",
-                       compression="infer" if gz else None)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        frame = pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None,
+                            names=names, dtype=np.float64, index_col=False, engine="c",
+                            encoding="latin-1", compression="infer" if gz else None)
+    # index_col=False: the fields of a first row wider than the names are dropped, with a
+    # ParserWarning ("Length of header or names does not match length of data")
+    wider = [w for w in caught if issubclass(w.category, pd.errors.ParserWarning)]
+    for w in caught:
+        if w not in wider:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    frame.attrs["wider"] = bool(wider)
+    return frame
 
 
 _SEP_NAME = {"\t": "tab", ",": "comma"}
