@@ -393,7 +393,7 @@ def test_sr_offset_leaves_out_the_unloaded_samples_between_sweeps(tmp_path):
 def test_sr_offset_is_not_extrapolated_from_a_narrow_load_spread(tmp_path):
     """Free rolling at 1000 +- 10 N only, the sweep at 2000 N, RL / Re = 0.95 at both and SR
     noise 1e-4: the load slope fitted on the narrow spread is the noise's. Before: it was
-    extrapolated 1 kN, kappa 2.3e-3 off (seed 4); held at the free-rolling range, 2.9e-4."""
+    extrapolated 1 kN, kappa 2.3e-3 off (seed 4); held at the free-rolling range, 3.1e-4."""
     rng = np.random.default_rng(4)
     ch = _small_channels(drop=("SL",))
     kappa = np.concatenate([np.zeros(100), np.linspace(-0.1, 0.1, 100)])
