@@ -135,10 +135,12 @@ def test_dat_comma_separated_or_crlf(tmp_path, sep, end):
 
 
 def test_dat_trailing_tab_on_the_data_rows_only(tmp_path):
-    """With NaN cells in the data (which send the reader to count fields per row)."""
+    """With NaN cells in the data (one in the last column, which sends the reader to count
+    fields per row)."""
     lines = _dat_lines()
     lines[3:] = [line + "\t" for line in lines[3:]]
     lines[10] = "\t".join(["NaN" if i == 7 else c for i, c in enumerate(lines[10].split("\t"))])
+    lines[20] = "\t".join(["NaN" if i == 11 else c for i, c in enumerate(lines[20].split("\t"))])
     run = _read(_write(tmp_path / "B1run1.dat", lines))
     assert np.isnan(run.data["FY"][7]) and np.isfinite(run.data["FY"]).sum() == 199
 
@@ -152,6 +154,48 @@ def test_dat_cut_inside_its_last_row_is_a_warning_and_the_row_is_dropped(tmp_pat
     (cut,) = [w for w in warnings if w.kind == "truncated"]
     assert str(cut) == (f"{path}:203: ET: the last row stops after 5 of 12 fields (the file "
                         "ends inside it) (1 of 200 samples); row dropped")
+
+
+def test_dat_cut_after_the_sign_of_a_number_is_the_same_warning(tmp_path):
+    """Cut after the '-' of FZ's -1000 (the file copied while the logger wrote it). Before: the
+    whole file refused, 'data below the header are not tab-separated numbers (could not
+    convert string to float: '-')'."""
+    lines = _dat_lines()
+    lines[-1] = lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, last=False)
+    ch, frame, warnings = _tidy(path)
+    assert len(frame) == 199
+    (cut,) = [w for w in warnings if w.kind == "truncated"]
+    assert str(cut) == (f"{path}:203: ET: the last row stops after 9 of 12 fields (the file "
+                        "ends inside it) (1 of 200 samples); row dropped")
+
+
+@pytest.mark.parametrize("last,end", [(None, True), ("END", False)],
+                         ids=["ends-with-newline", "not-a-number-start"])
+def test_dat_with_a_bad_last_row_is_still_one_line(tmp_path, last, end):
+    """Not what a cut leaves: a file that ends with a newline (its '-' is bad data), or a last
+    row that is no start of a number."""
+    lines = _dat_lines()
+    lines[-1] = last or lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, last=end)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()] == [
+        f"{path}:4: data below the header are not tab-separated numbers (could not convert "
+        f"string to float: '{last or '-'}')"]
+
+
+def test_dat_whose_rows_are_wider_than_its_header_is_one_line(tmp_path):
+    """A channel name missing from line 2 (13 values a row under 12 names). Before: read
+    with the 13th value of every row dropped (pandas' index_col=False, a ParserWarning
+    only), so each channel after the missing name got its neighbour's values."""
+    lines = _dat_lines()
+    lines[3:] = [line + "\t7" for line in lines[3:]]
+    path = _write(tmp_path / "B1run1.dat", lines)
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()][0] == (
+        f"{path}:4: ragged row: 13 fields, the header has 12")
 
 
 def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
@@ -349,7 +393,7 @@ def test_sr_offset_leaves_out_the_unloaded_samples_between_sweeps(tmp_path):
 def test_sr_offset_is_not_extrapolated_from_a_narrow_load_spread(tmp_path):
     """Free rolling at 1000 +- 10 N only, the sweep at 2000 N, RL / Re = 0.95 at both and SR
     noise 1e-4: the load slope fitted on the narrow spread is the noise's. Before: it was
-    extrapolated 1 kN, kappa 2.3e-3 off (seed 4); held at the free-rolling range, 2.9e-4."""
+    extrapolated 1 kN, kappa 2.3e-3 off (seed 4); held at the free-rolling range, 3.1e-4."""
     rng = np.random.default_rng(4)
     ch = _small_channels(drop=("SL",))
     kappa = np.concatenate([np.zeros(100), np.linspace(-0.1, 0.1, 100)])

@@ -60,7 +60,9 @@ def test_cornering_slip_ratio_scatters_about_zero(noisy):
     0.001 of noise at noise = 0.01, so the MF stages meet a noisy kappa in a cornering run."""
     mat = scipy.io.loadmat(noisy.files[0], simplify_cells=True)
     sl = mat["SL"][np.isfinite(mat["SL"])]
-    assert abs(np.median(sl)) < 5e-4 and 0.8e-3 < np.std(sl) < 1.5e-3
+    # seed 5: median -8.4e-6, std 0.995e-3 on 60457 samples (AR(1) 0.7: ~1e4 independent,
+    # the std's standard error ~0.7 %, the median's ~1.2e-5); without the floor both are 0
+    assert abs(np.median(sl)) < 1e-4 and 0.95e-3 < np.std(sl) < 1.05e-3
 
 
 def test_equal_seeds_equal_files(tmp_path):

@@ -9,6 +9,11 @@ line naming the file and line.
 """
 from __future__ import annotations
 
+import contextlib
+import io
+import itertools
+import re
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -74,26 +79,31 @@ def read_dat(path: Path, problems: Problems):
         problems.add(path, "channel named twice", line=2, key=dup)
     if twice:  # which column is the channel is unknown; pandas refuses the names anyway
         return None
+    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     try:
-        frame = _table(path, sep, names, ".")
+        frame = _numbers(path, sep, names)
     except (ValueError, pd.errors.ParserError) as exc:
-        try:  # a decimal comma (a European locale's export), tab-separated
-            frame = _table(path, sep, names, ",") if sep == "\t" else None
-        except (ValueError, pd.errors.ParserError):
-            frame = None
-        if frame is None:
+        found = _without_cut_row(path, sep, names)  # cut inside a number: "-" of "-1000"
+        if found is None:
             problems.add(path, f"data below the header are not {_SEP_NAME[sep]}-separated "
                                f"numbers ({exc})", line=4)
             return None
+        frame, line, fields = found
+        attrs["cut_row"] = str(line)
+        attrs["cut_row_detail"] = (f"the last row stops after {fields} of {len(names)} "
+                                   "fields (the file ends inside it)")
     if len(frame) == 0:
         problems.add(path, "no data rows below the header", line=3)
         return None
-    attrs = {"format": "ttc-dat", "title": lines[0].strip()}
-    if frame.isna().to_numpy().any():  # pandas fills a short row with NaN: tell it from NaN
-        cut = _ragged(path, len(names), sep, len(frame), problems)
+    # pandas fills a short row with NaN, which leaves its last column NaN, and cuts a first
+    # row wider than the names to their width (only a trailing separator may go; a wider
+    # row further down is a ParserError above): then the reader counts the fields per row
+    if frame.attrs["wider"] or frame[names[-1]].isna().any():
+        cut = _ragged(path, len(names), sep, problems)
         if cut is None:
             return None
-        if cut:  # the last row cut short (a file copied while written): dropped, warned
+        if cut and "cut_row" not in attrs:  # the last row cut short (a file copied while
+            # written): dropped, warned; unless it was dropped above
             line, fields = cut.split()
             frame = frame.iloc[:-1]
             attrs["cut_row"] = line
@@ -103,24 +113,71 @@ def read_dat(path: Path, problems: Problems):
     return data, dict(zip(names, unit_cells)), attrs
 
 
-def _table(path: Path, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
-    return pd.read_csv(path, sep=sep, decimal=decimal, skiprows=3, header=None, names=names,
-                       dtype=np.float64, index_col=False, engine="c", encoding="latin-1",
-                       compression="infer" if path.suffix == ".gz" else None)
+def _numbers(source: Path | str, sep: str, names: list[str]) -> pd.DataFrame:
+    """The data rows of a file (or of its text) with a decimal point, else (tab-separated) a
+    decimal comma (a European locale's export); raises the decimal point's error."""
+    try:
+        return _table(source, sep, names, ".")
+    except (ValueError, pd.errors.ParserError) as exc:
+        if sep == "\t":
+            with contextlib.suppress(ValueError, pd.errors.ParserError):
+                return _table(source, sep, names, ",")
+        raise exc
+
+
+def _without_cut_row(path: Path, sep: str, names: list[str]
+                     ) -> tuple[pd.DataFrame, int, int] | None:
+    """(data rows, line, fields of the cut row) of a file that ends inside a number of its last
+    row (no newline at its end), read without that row; None when the file ends with a
+    newline or the rows above are not numbers either."""
+    with open_text(path, encoding="latin-1", newline="") as fh:
+        head, newline, last = fh.read().rpartition("\n")
+    lines = head.count("\n") + 2  # the last row's line
+    cells = last.rstrip("\r").split(sep)
+    if not last.strip() or lines < 4 or len(cells) > len(names) or not (
+            _numeric([c.replace(",", ".") for c in cells[:-1]] + ["0"])
+            and _NUMBER_START.fullmatch(cells[-1])):
+        return None  # not cut, cut in the header, or not a row a cut leaves (bad data)
+    try:
+        frame = _numbers(head + newline, sep, names)
+    except (ValueError, pd.errors.ParserError):
+        return None
+    return frame, lines, _fields(last, sep)
+
+
+def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
+    gz = isinstance(source, Path) and source.suffix == ".gz"
+    text = io.StringIO(source) if isinstance(source, str) else source  # a new one each read
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        frame = pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None,
+                            names=names, dtype=np.float64, index_col=False, engine="c",
+                            encoding="latin-1", compression="infer" if gz else None)
+    # index_col=False: the fields of a first row wider than the names are dropped, with a
+    # ParserWarning ("Length of header or names does not match length of data")
+    wider = [w for w in caught if issubclass(w.category, pd.errors.ParserWarning)]
+    for w in caught:
+        if w not in wider:
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    frame.attrs["wider"] = bool(wider)
+    return frame
 
 
 _SEP_NAME = {"\t": "tab", ",": "comma"}
+#: The start of a number where a cut may end a file: "-", "12.", "1e-" (decimal comma too).
+_NUMBER_START = re.compile(r"\s*[+-]?\d*(?:[.,]\d*)?(?:[eE][+-]?\d*)?")
 
 
-def _ragged(path: Path, width: int, sep: str, rows: int, problems: Problems) -> str | None:
+def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     """Report the rows whose number of fields is not ``width``: None if there is one; "" if
     there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
     (a file cut short: that row is dropped with a warning)."""
-    with open_text(path, encoding="latin-1", newline="") as fh:
-        lines = fh.read().split("\n")[3:]
-    counts = np.array([_fields(line, sep) if line.strip() else width for line in lines])
+    with open_text(path, encoding="latin-1", newline="\n") as fh:  # line by line, not held
+        counts = np.fromiter((_fields(line.removesuffix("\n"), sep) if line.strip() else 0
+                              for line in itertools.islice(fh, 3, None)), dtype=int)
+    filled = np.flatnonzero(counts)  # a blank line (0 fields) is not a row
+    counts[counts == 0] = width
     bad = np.flatnonzero(counts != width)
-    filled = np.flatnonzero([bool(line.strip()) for line in lines])
     if bad.size == 1 and filled.size and bad[0] == filled[-1] and counts[bad[0]] < width:
         return f"{int(bad[0]) + 4} {int(counts[bad[0]])}"
     for i in bad[:10]:

@@ -87,9 +87,9 @@ def revolution_average(frame: pd.DataFrame,
             twice, j = _revolution_mean(angle[i], once)  # at stretch[i[j]]
             taken.append(stretch[i[j]])
             averaged.append(2 * once[j] - twice)
-    # one copy of the kept rows and one assignment: a copy and an assignment per stretch
-    # cost 0.3 s of pandas overhead on a generated TTC session (139 stretches, one-off
-    # profile, 2026-11-24)
+    # one copy of the kept rows and one assignment, not one of each per stretch (pandas
+    # overhead per stretch: mf_table of a generated TTC session 0.55 -> 0.38 s, timed in
+    # bench/fit_cost.py --ttc 0, one run)
     result = frame.iloc[np.concatenate(taken) if taken else []].copy()
     if taken:
         result[cols] = np.concatenate(averaged)
