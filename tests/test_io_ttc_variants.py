@@ -145,29 +145,22 @@ def test_dat_trailing_tab_on_the_data_rows_only(tmp_path):
     assert np.isnan(run.data["FY"][7]) and np.isfinite(run.data["FY"]).sum() == 199
 
 
-def test_dat_cut_inside_its_last_row_is_a_warning_and_the_row_is_dropped(tmp_path):
+@pytest.mark.parametrize("cut, fields", [
+    (lambda row: "\t".join(row.split("\t")[:5]), 5),
+    # after the '-' of FZ's -1000 (copied while the logger wrote it); before, the whole file
+    # was refused: 'not tab-separated numbers (could not convert string to float: '-')'
+    (lambda row: row[:row.index("-") + 1], 9),
+], ids=["between-fields", "after-a-sign"])
+def test_dat_cut_inside_its_last_row_is_a_warning_and_the_row_is_dropped(tmp_path, cut,
+                                                                          fields):
     lines = _dat_lines()
-    lines[-1] = "\t".join(lines[-1].split("\t")[:5])
+    lines[-1] = cut(lines[-1])
     path = _write(tmp_path / "B1run1.dat", lines, last=False)
     ch, frame, warnings = _tidy(path)
     assert len(frame) == 199
-    (cut,) = [w for w in warnings if w.kind == "truncated"]
-    assert str(cut) == (f"{path}:203: ET: the last row stops after 5 of 12 fields (the file "
-                        "ends inside it) (1 of 200 samples); row dropped")
-
-
-def test_dat_cut_after_the_sign_of_a_number_is_the_same_warning(tmp_path):
-    """Cut after the '-' of FZ's -1000 (the file copied while the logger wrote it). Before: the
-    whole file refused, 'data below the header are not tab-separated numbers (could not
-    convert string to float: '-')'."""
-    lines = _dat_lines()
-    lines[-1] = lines[-1][:lines[-1].index("-") + 1]
-    path = _write(tmp_path / "B1run1.dat", lines, last=False)
-    ch, frame, warnings = _tidy(path)
-    assert len(frame) == 199
-    (cut,) = [w for w in warnings if w.kind == "truncated"]
-    assert str(cut) == (f"{path}:203: ET: the last row stops after 9 of 12 fields (the file "
-                        "ends inside it) (1 of 200 samples); row dropped")
+    (cut_row,) = [w for w in warnings if w.kind == "truncated"]
+    assert str(cut_row) == (f"{path}:203: ET: the last row stops after {fields} of 12 fields "
+                            "(the file ends inside it) (1 of 200 samples); row dropped")
 
 
 @pytest.mark.parametrize("last,end", [(None, True), ("END", False)],
