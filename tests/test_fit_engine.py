@@ -672,3 +672,44 @@ def test_a_solve_that_runs_out_of_budget_crawling_is_converged_one_still_falling
     assert crawl.status == CRAWL_STATUS and crawl.success and "crawling" in crawl.message
     assert ample.status == NOISE_STATUS
     assert crawl.x[0] * crawl.x[1] == pytest.approx(1.0, rel=0.01)
+
+
+def test_a_solve_still_going_at_dogleg_after_goes_on_with_the_dogleg_one_done_before_is_unchanged():
+    """Tolerances.dogleg_after: the crawl above (a atan(b t) along a b = 1), run to round-off
+    (no noise stop), is trust-region reflective for its first dogleg_after evaluations and
+    scipy's dogleg ("dogbox") from there, bit for bit, the evaluations of both counted against
+    one budget; a solve that ends within dogleg_after, or whose budget is no larger, is the
+    trust-region reflective solve unchanged."""
+    import dataclasses
+
+    from scipy import optimize
+
+    from identify.fit.engine import STRICT, least_squares
+
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 0.3, 200)
+    y = t + 1e-3 * rng.standard_normal(t.size)
+
+    def residuals(x):
+        return x[0] * np.arctan(x[1] * t) - y
+
+    box = (np.zeros(2), np.full(2, np.inf))
+    plain, switch = STRICT, dataclasses.replace(STRICT, dogleg_after=20)
+    opts = {"x_scale": "jac", "xtol": STRICT.xtol, "ftol": STRICT.ftol, "gtol": STRICT.gtol}
+    first = optimize.least_squares(residuals, np.ones(2), bounds=box, method="trf",
+                                   max_nfev=20, **opts)
+    assert first.status == 0  # still going after 20
+    rest = optimize.least_squares(residuals, first.x, bounds=box, method="dogbox",
+                                  max_nfev=60, **opts)
+    both = least_squares(residuals, np.ones(2), box, switch, max_nfev=80)
+    np.testing.assert_array_equal(both.x, rest.x)
+    assert both.cost == rest.cost and both.nfev == first.nfev + rest.nfev <= 80
+    assert both.cost < first.cost
+    # no switch where the budget ends first, or the solve within dogleg_after
+    # (the plain solve converges, xtol, at 109 evaluations)
+    for tol_after, budget in ((switch, 20), (dataclasses.replace(STRICT, dogleg_after=150), 300)):
+        a = least_squares(residuals, np.ones(2), box, tol_after, max_nfev=budget)
+        b = least_squares(residuals, np.ones(2), box, plain, max_nfev=budget)
+        np.testing.assert_array_equal(a.x, b.x)
+        assert (a.nfev, a.status, a.cost) == (b.nfev, b.status, b.cost)
+
