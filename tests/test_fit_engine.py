@@ -713,3 +713,39 @@ def test_a_solve_still_going_at_dogleg_after_goes_on_with_the_dogleg_one_done_be
         np.testing.assert_array_equal(a.x, b.x)
         assert (a.nfev, a.status, a.cost) == (b.nfev, b.status, b.cost)
 
+
+def test_a_polish_that_stays_at_a_kink_of_a_grid_margin_stops_there_converged():
+    """The MF validity margins are minima over a grid, with kinks where the minimising grid
+    point changes. Minimising |x - (3, 2.7)|^2 (x 1e-5, the size of an MF stage's objective)
+    outside the polygon min_t (1 - x0 cos t - x1 sin t) >= 0 (13 angles t in [0, pi/2]),
+    SLSQP reaches the vertex and then stays there, ~1e-9 outside, until its iteration limit:
+    its own test asks the violation to be below ftol. The stall test (engine._PolishStall)
+    ends it where the objective stops changing and every constraint holds to FEASIBLE_TOL:
+    the same objective (to polish_ftol), converged, in a small part of the evaluations."""
+    import dataclasses
+
+    from identify.fit.engine import FEASIBLE_TOL, STRICT, polish
+
+    t = np.linspace(0.0, np.pi / 2, 13)
+    target = np.array([3.0, 2.7])
+
+    def objective(x):
+        return 1e-5 * 0.5 * float(np.sum((x - target) ** 2))
+
+    def gradient(x):
+        return 1e-5 * (x - target)
+
+    def margin(x):
+        return np.array([np.min(1.0 - x[0] * np.cos(t) - x[1] * np.sin(t))])
+
+    free = (np.full(2, -np.inf), np.full(2, np.inf))
+    kw = {"constraints": margin, "gradient": gradient, "metric": 1e-5 * np.eye(2)}
+    never = dataclasses.replace(STRICT, noise_window=10**6)  # the stall test off
+    limit = polish(objective, target.copy(), free, never, **kw)
+    stall = polish(objective, target.copy(), free, STRICT, **kw)
+    assert limit.status == 0 and not limit.success  # SLSQP's iteration limit
+    assert margin(limit.x)[0] >= -FEASIBLE_TOL
+    assert stall.status == 2 and stall.success and "every constraint held" in stall.message
+    assert margin(stall.x)[0] >= -FEASIBLE_TOL
+    assert abs(stall.cost - limit.cost) < STRICT.polish_ftol
+    assert stall.nfev < limit.nfev / 10, (stall.nfev, limit.nfev)

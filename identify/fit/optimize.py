@@ -249,7 +249,7 @@ def _search(problem: FitProblem, points: np.ndarray, max_nfev: int | None,
     bound = np.inf
     for i in np.argsort([e.cost for e in pre], kind="stable"):
         out, own = _finish(problem, pre[i], cache, bound, tol)
-        if _violation(problem, out.x) > 1e-8:
+        if _violation(problem, out.x) > engine.FEASIBLE_TOL:
             out = dataclasses.replace(out, ok=False, message="constraint violated: "
                                       + out.message)
         done[i] = out
