@@ -356,7 +356,10 @@ class _PolishStall:
         self.fired, self.z = False, None
 
     def __call__(self, intermediate_result) -> None:
-        self.f.append(float(intermediate_result.fun))
+        fun = getattr(intermediate_result, "fun", None)
+        if fun is None:  # a scipy that calls back with x alone (and may not halt): off
+            return
+        self.f.append(float(fun))
         w = self.tol.noise_window
         if len(self.f) <= w or abs(self.f[-1 - w] - self.f[-1]) >= self.tol.polish_ftol \
                 or np.ptp(self.f[-1 - w:]) >= self.tol.polish_ftol:
