@@ -190,6 +190,22 @@ above). Against ddb9f71's 351-379 on the sample: 3.5-3.8x. The TTC session is no
 ddb9f71's 612 was measured on (the generator changed with 18276a1), so no ratio is claimed for
 it; on the session before that change this code's predecessor measured 4.2-4.4x (above).
 
+Measured 2026-11-24 (session 8) at 09b012b, load average 0.6-0.8, one sitting, ddb9f71 (its
+archive with the validity-grid patch above, ``PYTHONPATH=/tmp/before``) and then this code, on
+the bundled sample and on the binned table of the current generator's TTC session, seed 0 (14877
+points: ``--ttc 0 --save-table t.pkl``, then ``--trailer t.pkl --fnomin 5000 --nompres 250000
+--r0 0.3205`` in each checkout, ``--passes 2`` in this one); the ``cpu`` lines: the sample 365
+-> 92 (4.0x), the TTC session 590 -> 155 (3.8x), short of the issue's 5x. What went: the
+dogleg after 50 evaluations (engine.DOGLEG_AFTER; the TTC session's Mz0 655 -> 360
+evaluations, 2.7 -> 1.3 s, its objective the same to 3e-14) and the polish's stall test
+(engine._PolishStall: on seed 2's session the Fy stage 5.2 -> 0.4 s, 3540 -> 104
+evaluations); every fitted value of the sample bit for bit the same, of the TTC sessions of
+seeds 0, 1 and 2 within 6.1e-7 standard errors; at seed 4 the geometry stage (DREFF, FREFF,
+BREFF along their valley) ended 0.05 standard errors away, its objective 2e-5 higher, and the
+stages after it within 5.2e-5 (a one-off /tmp script, fit_mf before and after). Left: the
+JAX import, ~0.3 s in the first exact-Jacobian stage (13 evaluations of either session;
+without it 79 and 142: 4.6x and 4.2x), then the Fy0 and Mz0 searches and solves as above.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
