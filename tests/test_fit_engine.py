@@ -649,6 +649,18 @@ def test_constraint_violation_of_non_finite_values():
         assert _violation(problem, x) == want, g
 
 
+def _atan_crawl():
+    """(residuals, bounds) of y = t + 1e-3 noise fitted with a atan(b t) on t <= 0.3, a, b >=
+    0: the data fix a b but not a and b, and a solver crawls along a b = 1 towards a -> inf."""
+    rng = np.random.default_rng(0)
+    t = np.linspace(0.0, 0.3, 200)
+    y = t + 1e-3 * rng.standard_normal(t.size)
+
+    def residuals(x):
+        return x[0] * np.arctan(x[1] * t) - y
+    return residuals, (np.zeros(2), np.full(2, np.inf))
+
+
 def test_a_solve_that_runs_out_of_budget_crawling_is_converged_one_still_falling_is_not():
     """y = t fitted with a atan(b t) on t <= 0.3: the data fix a b but not a and b, and the
     solver crawls along a b = 1 towards a -> inf. Stopped by its budget where the cost falls by
@@ -657,14 +669,7 @@ def test_a_solve_that_runs_out_of_budget_crawling_is_converged_one_still_falling
     where it still falls faster, it is not; with budget enough, the noise stop ends it."""
     from identify.fit.engine import CRAWL_STATUS, MF_SOLVE, NOISE_STATUS, least_squares
 
-    rng = np.random.default_rng(0)
-    t = np.linspace(0.0, 0.3, 200)
-    y = t + 1e-3 * rng.standard_normal(t.size)
-
-    def residuals(x):
-        return x[0] * np.arctan(x[1] * t) - y
-
-    box = (np.zeros(2), np.full(2, np.inf))
+    residuals, box = _atan_crawl()
     early = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=30)
     crawl = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=60)
     ample = least_squares(residuals, np.ones(2), box, MF_SOLVE, max_nfev=400)
@@ -686,14 +691,7 @@ def test_a_solve_still_going_at_dogleg_after_goes_on_with_the_dogleg_one_done_be
 
     from identify.fit.engine import STRICT, least_squares
 
-    rng = np.random.default_rng(0)
-    t = np.linspace(0.0, 0.3, 200)
-    y = t + 1e-3 * rng.standard_normal(t.size)
-
-    def residuals(x):
-        return x[0] * np.arctan(x[1] * t) - y
-
-    box = (np.zeros(2), np.full(2, np.inf))
+    residuals, box = _atan_crawl()
     plain, switch = STRICT, dataclasses.replace(STRICT, dogleg_after=20)
     opts = {"x_scale": "jac", "xtol": STRICT.xtol, "ftol": STRICT.ftol, "gtol": STRICT.gtol}
     first = optimize.least_squares(residuals, np.ones(2), bounds=box, method="trf",
