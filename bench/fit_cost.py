@@ -11,6 +11,7 @@ every version, so ratios of different versions compare the fits, not the kernels
     python bench/fit_cost.py --ttc 0 [--save-table ttc0.pkl]   # a generated TTC session
     python bench/fit_cost.py --trailer table.pkl --fnomin 4980 --nompres 256600 --r0 0.3255
     python bench/fit_cost.py --trailer table.pkl ... --bin     # dense sweeps binned first
+    python bench/fit_cost.py --import-first      # JAX imported before the timer
 
 ``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
 e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
@@ -303,6 +304,9 @@ def main() -> None:
                     help="fit a generated TTC session of this seed (implies --bin)")
     ap.add_argument("--save-table", type=Path, metavar="PATH",
                     help="pickle the table the MF stages fit (for --trailer elsewhere)")
+    ap.add_argument("--import-first", action="store_true",
+                    help="import JAX (identify.fit.mf_jacobian.available) before the timer: "
+                         "the fit's cost without the one-off import a process pays once")
     ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
                     help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
     args = ap.parse_args()
@@ -326,6 +330,15 @@ def main() -> None:
         base = start_values(tyre.nominal_load_N, tyre.nominal_pressure_Pa,
                             tyre.unloaded_radius_m)
         name = args.folder.name
+    imported = ""
+    if args.import_first:
+        try:
+            from identify.fit.mf_jacobian import available
+            t_imp = time.perf_counter()
+            imported = (f"; JAX imported before the timer ({time.perf_counter() - t_imp:.2f} s)"
+                        if available() else "; no JAX to import")
+        except ImportError:  # versions before the exact Jacobians import nothing
+            imported = "; no JAX in this version"
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         t0, c0 = time.perf_counter(), time.process_time()
@@ -355,7 +368,7 @@ def main() -> None:
     commit = args.label or commit
     print(f"{name} at {commit} (MFID_JACOBIAN={os.environ.get('MFID_JACOBIAN', 'auto')}): "
           f"{len(trailer)} trailer samples{f', binned to {len(table)}' if args.bin else ''}; "
-          f"yardstick: numpy evaluate(), all outputs, useMode 211, best of {REPEATS}")
+          f"yardstick: numpy evaluate(), all outputs, useMode 211, best of {REPEATS}{imported}")
     print(f"{'stage':9} {'points':>7} {'fit s':>8} {'eval ms':>8} {'fit/eval':>9} {'nfev':>7} "
           f"{'conv':>4}  message")
     rows, all_eval = [], 0.0
