@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 from identify.fit.coverage import mf_coverage
-from identify.fit.mf_data import rolling_kappa, select
+from identify.fit.mf_data import rolling_kappa, run_sweeps, select
 from identify.fit.mf_problem import stage_problem
 from identify.model.parameters import defaults
 
@@ -70,6 +70,25 @@ def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
     lateral = set(t.iloc[select(t, "lateral", "Fy")]["run"])
     assert "held" not in lateral and "corner" in lateral
     assert "held" in set(t.iloc[select(t, "combined", "Fx")]["run"])
+
+
+def test_the_run_sweeps_of_a_table_hold_for_it_with_rolling_kappa_taken_as_zero():
+    """identify.fit.mf_stages.fit_mf takes run_sweeps once, on the raw table, and every stage
+    selects its rows on the table with rolling kappa set to 0 with them: they must be that
+    table's own (and rolling_kappa given them must not modify them)."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    t = pd.concat([t, held], ignore_index=True)
+    sweeps = run_sweeps(t)
+    given = tuple(a.copy() for a in sweeps)
+    rolled = rolling_kappa(t, sweeps)
+    for a, b, c in zip(sweeps, given, run_sweeps(rolled)):
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(a, c)
+    pd.testing.assert_frame_equal(rolled, rolling_kappa(t))
+    for selection in ("lateral", "combined", "kappa_slip", "longitudinal", "free_rolling"):
+        np.testing.assert_array_equal(select(rolled, selection, "Fx", sweeps),
+                                      select(rolled, selection, "Fx"))
 
 
 def test_a_stage_problem_built_again_on_the_raw_table_fits_what_fit_mf_fitted():

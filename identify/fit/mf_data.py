@@ -93,23 +93,30 @@ def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     return kappa_sweep[codes], lateral_sweep[codes], (~kappa_sweep & ~held)[codes]
 
 
-def rolling_kappa(frame: pd.DataFrame) -> pd.DataFrame:
-    """``frame`` with kappa = 0 in the runs that roll freely (:func:`run_sweeps`; a copy when
-    any changes).
+Sweeps = tuple[np.ndarray, np.ndarray, np.ndarray]
+""":func:`run_sweeps` of a table: (kappa_sweep, lateral_sweep, rolling) per row."""
+
+
+def rolling_kappa(frame: pd.DataFrame, sweeps: Sweeps | None = None) -> pd.DataFrame:
+    """``frame`` with kappa = 0 in the runs that roll freely (:func:`run_sweeps`, or
+    ``sweeps`` when the caller has them; a copy when any changes). The table it returns has
+    the same run_sweeps (a rolling run's kappa span and median were below the sweep and
+    held-slip thresholds, and 0 is too).
 
     Such a run rolls freely: its slip-ratio channel is the noise of the wheel-speed and radius
     measurement (SL of a cornering run scatters by a few 0.001 about 0; SR, the older TTC
     rounds' stand-in, more), not a slip. Taken as a slip it entered the pure stages' model as
     Kx x noise of Fx (about 2 % of Fz at 0.001) and, through the arm s Fx, as noise on Mz0."""
-    _, _, rolling = run_sweeps(frame)
+    rolling = (run_sweeps(frame) if sweeps is None else sweeps)[2]
     k = frame["kappa"].to_numpy(float)
-    rolling &= np.isfinite(k) & (k != 0)
+    rolling = rolling & np.isfinite(k) & (k != 0)
     if not rolling.any():
         return frame
     return frame.assign(kappa=np.where(rolling, 0.0, k))
 
 
-def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
+def select(frame: pd.DataFrame, selection: str, quantity: str,
+           sweeps: Sweeps | None = None) -> np.ndarray:
     """Row positions of the points a stage fits (finite quantity, positive load).
 
     Parameters
@@ -122,11 +129,13 @@ def select(frame: pd.DataFrame, selection: str, quantity: str) -> np.ndarray:
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, see quantity_values).
+    sweeps : Sweeps, optional
+        :func:`run_sweeps` of ``frame``, when the caller has them.
     """
     a = np.abs(frame["alpha"].to_numpy(float))
     k = np.abs(frame["kappa"].to_numpy(float))
     ok = np.isfinite(quantity_values(frame, quantity)) & (frame["Fz"].to_numpy(float) > 0)
-    kappa_sweep, lateral_sweep, rolling = run_sweeps(frame)
+    kappa_sweep, lateral_sweep, rolling = run_sweeps(frame) if sweeps is None else sweeps
     if selection == "free_rolling":
         ok &= ((k <= FREE_KAPPA) & ~kappa_sweep
                & (frame["Vx"].to_numpy(float) >= FREE_MIN_SPEED))

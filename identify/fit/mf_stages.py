@@ -381,7 +381,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     mf_data.check_columns(trailer, tuple(sorted({STAGES[s].quantity for s in stages})))
     # a freely rolling run's kappa is noise: 0 (stage_problem takes it so too; done once
     # here, its builds find nothing to change and copy no table)
-    trailer = mf_data.rolling_kappa(trailer)
+    sweeps = mf_data.run_sweeps(trailer)  # every stage's selection (stage_problem)
+    trailer = mf_data.rolling_kappa(trailer, sweeps)
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)
@@ -407,7 +408,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                                                    label, pass_no, progress)
             else:
                 _say(progress, f"{label}: points and identifiability screen")
-                sp = stage_problem(stage, trailer, params, free=free, screen=screen)
+                sp = stage_problem(stage, trailer, params, free=free, screen=screen,
+                                   sweeps=sweeps)
                 if sp is None:
                     skipped[stage] = _skip_reason(stage, trailer)
                     _say(progress, f"{label}: skipped, {skipped[stage]}")
