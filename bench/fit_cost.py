@@ -207,6 +207,18 @@ stages after it within 5.2e-5 (a one-off /tmp script, fit_mf before and after). 
 JAX import, ~0.3 s in the first exact-Jacobian stage (13 evaluations of either session;
 without it 79 and 142: 4.6x and 4.2x), then the Fy0 and Mz0 searches and solves as above.
 
+Measured later that session at de43ff4 (the search's subsample one chunk of 2048 points,
+mf_search.SUBSAMPLE; run_sweeps once per fit), load average 0.8-0.9, one sitting, ddb9f71
+(``PYTHONPATH=/tmp/before``, as above) and then this code with and without ``--import-first``:
+``cpu`` lines, the sample 354 -> 82 (4.3x) with the JAX import in the timed fit, 67 (5.3x)
+without it; the TTC session's table 628 -> 135 (4.65x) and 120 (5.2x); the wall-time
+``total`` lines 354 -> 81 and 66, 627 -> 132 and 116. Fitted values: the subsample within
+6e-7 standard errors of 4096's (sample, TTC seeds 0 and 2), run_sweeps bit for bit. Tried and
+not kept: stopping a solve that crawls with the dogleg too (10 iterations in a row below
+crawl_ftol; Mz0 on the TTC session 1.00 -> 0.82 s), which left the golden tyre's session
+(bench/ttc_truth.py --tir tests/data/tir/testA_61.tir, seed 0) at 17 % on Fy; a larger
+MERGE_CHI2 (9: no change); the dogleg on crawl detection before 50 evaluations (no change).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
