@@ -41,14 +41,14 @@ from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, 
 from identify.fit.problem import FitProblem
 from identify.fit.trf_svd import qr_svd
 
-__all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "ESSENTIAL_RTOL", "LAPLACE",
-           "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STOP_STATUS", "STRICT", "CountingModel",
-           "Estimate", "Tolerances",
+__all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "DOGLEG_AFTER", "ESSENTIAL_RTOL",
+           "FEASIBLE_TOL", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STOP_STATUS",
+           "STRICT", "CountingModel", "Estimate", "Tolerances",
            "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
-           "jackknife_with_dof",
-           "least_squares", "polish", "problem_covariance", "pseudo_solve", "residual_jacobian",
-           "residual_variance", "standard_errors", "t_quantile"]
+           "jackknife_with_dof", "least_squares", "polish", "problem_covariance",
+           "pseudo_solve", "residual_jacobian", "residual_variance", "standard_errors",
+           "t_quantile", "violation"]
 
 
 @dataclass(frozen=True)
@@ -336,8 +336,17 @@ class _NoiseStop:
 
 
 FEASIBLE_TOL = 1e-8
-"""A constraint value >= -FEASIBLE_TOL holds (the MF validity margins are minima over a grid,
-whose kinks can keep SLSQP ~1e-10 outside them for good)."""
+"""A constraint whose violation (:func:`violation`) is at most FEASIBLE_TOL holds (the MF
+validity margins are minima over a grid, whose kinks can keep SLSQP ~1e-10 outside them for
+good)."""
+
+
+def violation(values: np.ndarray) -> float:
+    """The largest violation of constraint values ``values`` (each must be >= 0): 0 when every
+    one holds (+inf holds), inf where one is NaN or -inf. The one feasibility measure of the
+    fits (identify.fit.optimize, the polish's stall test)."""
+    low = float(np.asarray(values, dtype=float).min(initial=0.0))
+    return np.inf if np.isnan(low) else max(0.0, -low)
 
 
 class _PolishStall:
@@ -361,14 +370,11 @@ class _PolishStall:
             return
         self.f.append(float(fun))
         w = self.tol.noise_window
-        if len(self.f) <= w or abs(self.f[-1 - w] - self.f[-1]) >= self.tol.polish_ftol \
-                or np.ptp(self.f[-1 - w:]) >= self.tol.polish_ftol:
+        if len(self.f) <= w or np.ptp(self.f[-1 - w:]) >= self.tol.polish_ftol:
             return
         z = np.array(intermediate_result.x, dtype=float)
-        if self.margin is not None:
-            low = np.asarray(self.margin(z), dtype=float).min(initial=0.0)
-            if not low >= -FEASIBLE_TOL:  # NaN: not held
-                return
+        if self.margin is not None and violation(self.margin(z)) > FEASIBLE_TOL:
+            return
         self.fired, self.z = True, z
         raise StopIteration
 

@@ -153,9 +153,8 @@ def _sharing_residuals(problem: FitProblem):
 def _violation(problem: FitProblem, x: np.ndarray) -> float:
     """The largest violation of ``problem``'s constraints at ``x``: 0 when every one holds
     (+inf holds), inf where one is NaN or -inf. The one feasibility measure of this module
-    (:func:`_finish`, :func:`_search`, :func:`_dominated`)."""
-    low = float(np.asarray(problem.constraint_values(x), dtype=float).min(initial=0.0))
-    return np.inf if np.isnan(low) else max(0.0, -low)
+    (:func:`_finish`, :func:`_search`, :func:`_dominated`): engine.violation."""
+    return engine.violation(problem.constraint_values(x))
 
 
 def _dominated(problem: FitProblem, x: np.ndarray, ref: np.ndarray) -> bool:
