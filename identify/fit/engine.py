@@ -118,13 +118,16 @@ class Tolerances:
 DOGLEG_AFTER = 50
 """Evaluations after which the MF stages' solves switch from trust-region reflective to the
 dogleg (Tolerances.dogleg_after). In a curved valley with a near-null direction, trf's
-regularised step moves a few per cent of the way along it per iteration; the dogleg takes the
-Gauss-Newton step whenever it fits the trust region. On a generated TTC session (seed 0, the
+regularised step hardly moves along it; the dogleg takes the Gauss-Newton step whenever it
+fits the trust region. On a generated TTC session (seed 0, the
 bundled tyre) the Mz0 search crawled along QBZ9 (Br of the residual torque, a singular value
 2e-7 of the largest) for its whole 200-evaluation budget from both starts and the solves on
 all points for their 100; from a common start on its subsample, trf was 2.4 s^2 above the
 dogleg's optimum after 400 evaluations, which the dogleg reached in 86 (one-off, 2026-11-24).
-Every solve of the bundled sample ends within 49 evaluations: 50 leaves it unchanged."""
+Every solve of the bundled sample ends by its own tests within 50 evaluations (with the
+2048-point search subsample, mf_search.SUBSAMPLE: one Fy0 start merges at exactly 50), so it
+never switches: its fit is the trust-region reflective one (one-off count of the scipy calls
+of fit_mf, passes 2, 2026-11-24)."""
 
 
 STRICT = Tolerances(xtol=1e-15, ftol=1e-15, gtol=1e-15, nfev_per_parameter=200)
