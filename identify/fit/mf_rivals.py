@@ -45,9 +45,9 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     se = np.array([result.stderr.get(n, np.nan) for n in free])
     if not np.all(np.isfinite(se) & (se > 0)):
         return result
-    # the reported 95 % intervals' half-widths (t(0.975, dof) standard errors), the ones
-    # identify.fit.identifiability checks a rival against
-    half = np.array([result.quantile(n) for n in free]) * se
+    # the reported 95 % intervals (FitResult.interval), the ones identify.fit.identifiability
+    # checks a rival against
+    lo, hi = np.array([result.interval(n) for n in free]).T
     problem = sp.problem
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
@@ -64,7 +64,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         if not converged:
             continue
         xr = _mirrored(free, xe, xb)
-        far = np.abs(xr - xb) > half
+        far = (xr < lo) | (xr > hi)
         if not far.any():
             continue
         if scale is None:
