@@ -48,7 +48,7 @@ __all__ = ["CHUNK", "ENV", "MIN_WORK", "available", "use_exact", "stage_jacobian
 
 CHUNK = 2048
 """Points per compiled Jacobian call (the MF search's subsample, identify.fit.mf_search.SUBSAMPLE,
-is two chunks). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
+is one chunk). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
 8192 with chunks of 4096, 6144 + 2048 with 2048), larger ones make fewer calls (each call has
 a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
 (a one-off /tmp scratch script, 2026-11-24, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 /
