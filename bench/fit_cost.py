@@ -143,8 +143,9 @@ then the fit-cost-4 branch, back to back, caches warm; the ``cpu`` lines: at cf3
 sample 102 and 102 -> 88 and 92, the TTC session 177 and 180 -> 147 and 149; at 261934a the
 sample 103 and 103 -> 91 and 88, the TTC session 176 and 184 -> 143 and 139 (wall 172 -> 138
 and, in a load spike on main's run, 309 -> 137). Against ddb9f71's 351-379 and 612 (earlier
-rounds): 3.9-4.3x and 4.2-4.4x, still short of the issue's 5x (72 and 122). What went (CPU
-times of warm fit_mf runs and step timings, one-off): trf's SVDs through a QR first with U
+rounds), over the four ``cpu`` lines: 3.8-4.3x and 4.1-4.4x, still short of the issue's 5x
+(72 and 122). What went (CPU times of warm fit_mf runs and step timings, one-off): trf's SVDs
+through a QR first with U
 never formed (identify.fit.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
 exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
 sample's Fx0 0.20 -> 0.09 s); Mz0's mirror images (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) taken as

@@ -39,10 +39,10 @@ to the rivals."""
 
 
 def _mirror_outside(result: FitResult, c1: str) -> bool:
-    """Whether the mirrored -c1 lies outside the optimum's 95 % interval of c1 (2 |c1| above
-    the interval's half-width, t(0.975, dof) standard errors: |c1| above about one standard
-    error; FitResult.interval): nearer 0 the mirrored point is
-    within the optimum's own interval, and the two branches meet there.
+    """Whether the mirrored -c1 lies outside the optimum's 95 % interval of c1
+    (FitResult.interval, t(0.975, dof) standard errors: |c1| above about one standard error;
+    False without a standard error): nearer 0 the mirrored point is within the optimum's own
+    interval, and the two branches meet there.
 
     A gate at 2 standard errors (before 2026-11-24) left the branch untried on the golden
     tyre's TTC session at seed 1 (tests/test_fit_mf_other_tyre.py: PKX2 = 6.2 +- 3.7,
@@ -51,8 +51,9 @@ def _mirror_outside(result: FitResult, c1: str) -> bool:
     on tests/test_fit_mf_basins.py's Fx0 stage, PKX2 = -0.0021 +- 0.00038, it is tried and
     ends at PKX2 ~ 0, chi^2 -1e-8; TAKE_CHI2 keeps the optimum, and the end is a rival in
     PKX2 alone."""
-    half = result.quantile(c1) * result.stderr.get(c1, np.nan)
-    return bool(2.0 * abs(result.parameters[c1]) > half)
+    lo, hi = result.interval(c1)
+    mirror = -float(result.parameters[c1])
+    return bool(mirror < lo or mirror > hi)  # NaN bounds: False
 
 
 def other_branch(stage: str, values: Mapping[str, float]) -> dict[str, float] | None:

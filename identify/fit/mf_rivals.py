@@ -13,7 +13,7 @@ from identify.core.progress import Progress
 from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian, residual_variance
 from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
-from identify.fit.mf_search import MIRROR, REFIT_NFEV
+from identify.fit.mf_search import MIRROR, REFIT_NFEV, mirrored
 from identify.fit.optimize import Solved, fit, replay, snapped
 from identify.fit.result import FitResult, Rival
 
@@ -45,9 +45,9 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     se = np.array([result.stderr.get(n, np.nan) for n in free])
     if not np.all(np.isfinite(se) & (se > 0)):
         return result
-    # the reported 95 % intervals' half-widths (t(0.975, dof) standard errors), the ones
-    # identify.fit.identifiability checks a rival against
-    half = np.array([result.quantile(n) for n in free]) * se
+    # the reported 95 % intervals (FitResult.interval), the ones identify.fit.identifiability
+    # checks a rival against
+    lo, hi = np.array([result.interval(n) for n in free]).T
     problem = sp.problem
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
@@ -64,7 +64,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         if not converged:
             continue
         xr = _mirrored(free, xe, xb)
-        far = np.abs(xr - xb) > half
+        far = (xr < lo) | (xr > hi)
         if not far.any():
             continue
         if scale is None:
@@ -111,11 +111,11 @@ def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
 
 
 def _mirrored(free: Sequence[str], x: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """``x`` with Mz0's mirror pair flipped when that brings it nearer ``ref``."""
-    if not all(n in free for n in MIRROR):
+    """``x`` or its mirror image (identify.fit.mf_search.mirrored), whichever is nearer
+    ``ref`` in Mz0's mirror pair."""
+    flipped = mirrored(tuple(free), x)
+    if flipped is None:
         return x
     i, j = (list(free).index(n) for n in MIRROR)
-    flipped = x.copy()
-    flipped[[i, j]] *= -1
     near = abs(flipped[i] - ref[i]) + abs(flipped[j] - ref[j])
     return flipped if near < abs(x[i] - ref[i]) + abs(x[j] - ref[j]) else x

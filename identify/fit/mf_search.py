@@ -296,7 +296,9 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     order = np.argsort(objs, kind="stable")
     best = objs[order[0]]
     n_free = len(problem.free)
-    at_best = sum(_same_optimum(ends[order[0]], best, e.x, o, n_free)
+    # a start at the best's mirror image reached the best too (as for the candidates below)
+    at_best = sum(any(_same_optimum(ends[order[0]], best, x, o, n_free)
+                      for x in _images(problem.free, e.x))
                   for e, o in zip(ends, objs))
     chosen: list[tuple[engine.Estimate, float]] = []
     for i in order:
