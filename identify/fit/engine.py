@@ -249,7 +249,8 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
     first = min(budget, tol.dogleg_after) if tol.dogleg_after else budget
 
     def solve(x_start, method, nfev):
-        with qr_svd() if tol.qr_svd else contextlib.nullcontext():
+        # the QR route replaces trf's SVD; scipy's dogbox takes lstsq steps and has none
+        with qr_svd() if tol.qr_svd and method == "trf" else contextlib.nullcontext():
             return optimize.least_squares(residuals, x_start,
                                           jac=jac if jac is not None else "2-point",
                                           bounds=(lo, hi), method=method, x_scale="jac",
