@@ -201,6 +201,28 @@ def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
         f"{path}:51: ragged row: 5 fields, the header has 12"]
 
 
+@pytest.mark.parametrize("row, extra", [(50, ""), (3, "\t7")], ids=["short", "wider"])
+def test_dat_with_cr_only_line_ends_and_a_ragged_row_is_one_line(tmp_path, row, extra):
+    """A file saved with a lone CR ending each line (classic Mac OS). Before, the field count
+    read it as one line: a short row was kept with NaN, a wider one lost its last field."""
+    lines = _dat_lines()
+    lines[row] = "\t".join(lines[row].split("\t")[:5]) if not extra else lines[row] + extra
+    path = _write(tmp_path / "B1run1.dat", lines, end="\r")
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()][0] == (
+        f"{path}:{row + 1}: ragged row: {13 if extra else 5} fields, the header has 12")
+
+
+def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
+    lines = _dat_lines()
+    lines[-1] = lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, end="\r", last=False)
+    ch, frame, warnings = _tidy(path)
+    assert len(frame) == 199
+    assert [w.kind for w in warnings].count("truncated") == 1
+
+
 @pytest.mark.parametrize("unit,si", [("C", 303.15), ("F", 273.15 + 5 / 9)])
 def test_temperature_unit_c_or_f_and_a_blank_ratio_unit(tmp_path, unit, si):
     ch = _small_channels() | {"TSTC": np.full(200, 30.0 if unit == "C" else 33.0)}

@@ -130,7 +130,7 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
     """(data rows, line, fields of the cut row) of a file that ends inside a number of its last
     row (no newline at its end), read without that row; None when the file ends with a
     newline or the rows above are not numbers either."""
-    with open_text(path, encoding="latin-1", newline="") as fh:
+    with open_text(path, encoding="latin-1") as fh:  # CR, CRLF, LF: all read as LF
         head, newline, last = fh.read().rpartition("\n")
     lines = head.count("\n") + 2  # the last row's line
     cells = last.rstrip("\r").split(sep)
@@ -172,7 +172,8 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     """Report the rows whose number of fields is not ``width``: None if there is one; "" if
     there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
     (a file cut short: that row is dropped with a warning)."""
-    with open_text(path, encoding="latin-1", newline="\n") as fh:  # line by line, not held
+    # line by line, not held; CR, CRLF and LF all end a line, as for pandas' reader
+    with open_text(path, encoding="latin-1") as fh:
         counts = np.fromiter((_fields(line.removesuffix("\n"), sep) if line.strip() else 0
                               for line in itertools.islice(fh, 3, None)), dtype=int)
     filled = np.flatnonzero(counts)  # a blank line (0 fields) is not a row
