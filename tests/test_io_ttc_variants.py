@@ -4,6 +4,8 @@ and .dat text with other line endings, separators and encodings. Each is read (w
 and its count where something is odd) or refused in one line naming the file and channel."""
 from __future__ import annotations
 
+import gzip
+
 import numpy as np
 import pytest
 import scipy.io
@@ -221,6 +223,21 @@ def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
     ch, frame, warnings = _tidy(path)
     assert len(frame) == 199
     assert [w.kind for w in warnings].count("truncated") == 1
+
+
+def test_dat_gz_cut_short_is_one_line_not_an_abort(tmp_path):
+    """A gzipped .dat copied before its compressor finished: the header reads, the data end
+    inside the stream. Before, pandas' EOFError left the reader, and the command line (click
+    takes EOFError for Ctrl-D) printed 'Aborted.' and exited 1 without naming the file."""
+    data = gzip.compress(("\n".join(_dat_lines()) + "\n").encode())
+    path = tmp_path / "B1run1.dat.gz"
+    path.write_bytes(data[:len(data) * 2 // 3])
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["import", str(path), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.splitlines() == [
+        f"error: {path}: cannot read file: Compressed file ended before the end-of-stream "
+        "marker was reached"]
 
 
 @pytest.mark.parametrize("unit,si", [("C", 303.15), ("F", 273.15 + 5 / 9)])

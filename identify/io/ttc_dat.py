@@ -82,6 +82,9 @@ def read_dat(path: Path, problems: Problems):
     attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     try:
         frame = _numbers(path, sep, names)
+    except (OSError, EOFError) as exc:  # gzip data cut short or corrupt below the header
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
     except (ValueError, pd.errors.ParserError) as exc:
         found = _without_cut_row(path, sep, names)  # cut inside a number: "-" of "-1000"
         if found is None:
