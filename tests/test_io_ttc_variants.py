@@ -225,6 +225,17 @@ def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
     assert [w.kind for w in warnings].count("truncated") == 1
 
 
+def test_dat_gzipped_without_a_gz_suffix_is_read(tmp_path):
+    """Gzip data in a file named .dat: the header was read decompressed (open_text tells gzip
+    by its magic bytes) and the rows below it as the compressed bytes (pandas by the suffix),
+    'not tab-separated numbers (could not convert string to float: ...)'."""
+    ch = _small_channels()
+    path = tmp_path / "B1run1.dat"
+    path.write_bytes(gzip.compress(("\n".join(_dat_lines()) + "\n").encode()))
+    run = _read(path)
+    np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
+
+
 def test_dat_gz_cut_short_is_one_line_not_an_abort(tmp_path):
     """A gzipped .dat copied before its compressor finished: the header reads, the data end
     inside the stream. Before, pandas' EOFError left the reader, and the command line (click

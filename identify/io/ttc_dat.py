@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems, open_text
+from identify.io.common import Problems, is_gzip, open_text
 from identify.io.ttc_names import ttc_name
 
 __all__ = ["read_dat"]
@@ -149,13 +149,13 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
 
 
 def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
-    gz = isinstance(source, Path) and source.suffix == ".gz"
+    gz = isinstance(source, Path) and is_gzip(source)  # as open_text tells it (the header)
     text = io.StringIO(source) if isinstance(source, str) else source  # a new one each read
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         frame = pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None,
                             names=names, dtype=np.float64, index_col=False, engine="c",
-                            encoding="latin-1", compression="infer" if gz else None)
+                            encoding="latin-1", compression="gzip" if gz else None)
     # index_col=False: the fields of a first row wider than the names are dropped, with a
     # ParserWarning ("Length of header or names does not match length of data")
     wider = [w for w in caught if issubclass(w.category, pd.errors.ParserWarning)]
