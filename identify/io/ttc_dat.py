@@ -136,7 +136,7 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
     with open_text(path, encoding="latin-1") as fh:  # CR, CRLF, LF: all read as LF
         head, newline, last = fh.read().rpartition("\n")
     lines = head.count("\n") + 2  # the last row's line
-    cells = last.rstrip("\r").split(sep)
+    cells = last.split(sep)
     if not last.strip() or lines < 4 or len(cells) > len(names) or not (
             _numeric([c.replace(",", ".") for c in cells[:-1]] + ["0"])
             and _NUMBER_START.fullmatch(cells[-1])):
@@ -193,8 +193,8 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
 
 
 def _fields(line: str, sep: str) -> int:
-    """The fields of a data line, a trailing separator not counted (pandas drops it)."""
-    line = line.rstrip("\r")
+    """The fields of a data line (its end read as LF, see open_text's callers), a trailing
+    separator not counted (pandas drops it)."""
     return line.removesuffix(sep).count(sep) + 1
 
 
