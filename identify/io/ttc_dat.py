@@ -2,10 +2,10 @@
 
 Line 1 a title, line 2 the channel names, line 3 their units, data from line 4, tab-separated
 (comma-separated when line 2 holds no tab; a decimal comma is read too). The title may be
-Windows-1252 text; CRLF, a byte-order mark, a trailing separator, blank last lines and gzip are
-read. A file cut inside its last row (copied while the logger wrote it) drops that row: the
-``cut_row`` attributes say which, and the trailer loader warns. Every other problem is one
-line naming the file and line.
+Windows-1252 text; CRLF or CR line ends, a byte-order mark, a trailing separator, blank last
+lines and gzip (told by its magic bytes, whatever the name) are read. A file cut inside its
+last row (copied while the logger wrote it) drops that row: the ``cut_row`` attributes say
+which, and the trailer loader warns. Every other problem is one line naming the file and line.
 """
 from __future__ import annotations
 
