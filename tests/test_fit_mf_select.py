@@ -130,3 +130,21 @@ def test_the_coverage_table_counts_the_combined_points_of_a_held_slip_ratio():
     for c in mf_coverage(t, params["FNOMIN"], stages=("Fx0", "Fx", "Fy", "Mz0", "Mz")):
         assert not c.skipped, c
         assert c.points == stage_problem(c.stage, t, params, screen=False).rows.size, c.stage
+
+
+def test_stray_slip_ratio_samples_do_not_make_a_held_slip_ratio_run_a_sweep_for_coverage():
+    """The coverage table's sweeps are mf_data.run_sweeps' (1st to 99th percentile span):
+    before, a max - min span of its own took two stray samples (0.09, 0.01) of an alpha sweep
+    held at kappa 0.05 for a slip-ratio sweep, so with no kappa sweep in the session Fx0 was
+    '0 point(s), 50 needed' and the combined Fy stage was fitted, not 'no slip-ratio sweep'."""
+    t = _table(kappa_noise=0.003)
+    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    clean = pd.concat([t[t["run"] != "drive"], held], ignore_index=True)
+    stray = clean.copy()
+    stray.loc[np.flatnonzero(stray["run"] == "held")[[10, 20]], "kappa"] = [0.09, 0.01]
+    fnomin = float(defaults()["FNOMIN"])
+    stages = ("Fx0", "Fy0", "Fy")
+    expected = {"Fx0": "no slip-ratio sweep", "Fy0": "", "Fy": "no slip-ratio sweep"}
+    for table in (clean, stray):
+        assert {c.stage: c.skipped for c in mf_coverage(table, fnomin, stages=stages)
+                } == expected

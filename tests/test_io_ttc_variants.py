@@ -4,6 +4,8 @@ and .dat text with other line endings, separators and encodings. Each is read (w
 and its count where something is odd) or refused in one line naming the file and channel."""
 from __future__ import annotations
 
+import gzip
+
 import numpy as np
 import pytest
 import scipy.io
@@ -199,6 +201,54 @@ def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
     assert read_ttc(path, problems) is None
     assert [str(p) for p in problems.finish()] == [
         f"{path}:51: ragged row: 5 fields, the header has 12"]
+
+
+@pytest.mark.parametrize("row, extra", [(50, ""), (3, "\t7")], ids=["short", "wider"])
+def test_dat_with_cr_only_line_ends_and_a_ragged_row_is_one_line(tmp_path, row, extra):
+    """A file saved with a lone CR ending each line (classic Mac OS). Before, the field count
+    read it as one line: a short row was kept with NaN, a wider one lost its last field."""
+    lines = _dat_lines()
+    lines[row] = "\t".join(lines[row].split("\t")[:5]) if not extra else lines[row] + extra
+    path = _write(tmp_path / "B1run1.dat", lines, end="\r")
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    assert [str(p) for p in problems.finish()][0] == (
+        f"{path}:{row + 1}: ragged row: {13 if extra else 5} fields, the header has 12")
+
+
+def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
+    lines = _dat_lines()
+    lines[-1] = lines[-1][:lines[-1].index("-") + 1]
+    path = _write(tmp_path / "B1run1.dat", lines, end="\r", last=False)
+    ch, frame, warnings = _tidy(path)
+    assert len(frame) == 199
+    assert [w.kind for w in warnings].count("truncated") == 1
+
+
+def test_dat_gzipped_without_a_gz_suffix_is_read(tmp_path):
+    """Gzip data in a file named .dat: the header was read decompressed (open_text tells gzip
+    by its magic bytes) and the rows below it as the compressed bytes (pandas by the suffix),
+    'not tab-separated numbers (could not convert string to float: ...)'."""
+    ch = _small_channels()
+    path = tmp_path / "B1run1.dat"
+    path.write_bytes(gzip.compress(("\n".join(_dat_lines()) + "\n").encode()))
+    run = _read(path)
+    np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
+
+
+def test_dat_gz_cut_short_is_one_line_not_an_abort(tmp_path):
+    """A gzipped .dat copied before its compressor finished: the header reads, the data end
+    inside the stream. Before, pandas' EOFError left the reader, and the command line (click
+    takes EOFError for Ctrl-D) printed 'Aborted.' and exited 1 without naming the file."""
+    data = gzip.compress(("\n".join(_dat_lines()) + "\n").encode())
+    path = tmp_path / "B1run1.dat.gz"
+    path.write_bytes(data[:len(data) * 2 // 3])
+    out = tmp_path / "out"
+    result = runner.invoke(app, ["import", str(path), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists()
+    assert result.stderr.splitlines() == [
+        f"error: {path}: cannot read file: Compressed file ended before the end-of-stream "
+        "marker was reached"]
 
 
 @pytest.mark.parametrize("unit,si", [("C", 303.15), ("F", 273.15 + 5 / 9)])

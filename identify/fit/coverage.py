@@ -127,17 +127,6 @@ def _span(x: np.ndarray) -> tuple[float, ...]:
     return (float(x.min()), float(x.max())) if x.size else ()
 
 
-def _sweeps(trailer: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
-    """Per row: in a run with a slip-ratio sweep; in a run with a slip-angle or camber sweep."""
-    span = trailer.groupby("run", sort=False)[["alpha", "kappa", "gamma"]].agg(
-        lambda x: float(np.nanmax(x) - np.nanmin(x)) if np.isfinite(x).any() else 0.0)
-    run = trailer["run"]
-    kappa_sweep = run.map(span["kappa"] > mf_data.SWEEP_KAPPA).to_numpy(bool)
-    angle_sweep = run.map((span["alpha"] > mf_data.SWEEP_ANGLE)
-                          | (span["gamma"] > mf_data.SWEEP_ANGLE)).to_numpy(bool)
-    return kappa_sweep, angle_sweep
-
-
 def _channel_reason(stage: str, trailer: pd.DataFrame,
                     unavailable: Mapping[str, str]) -> str:
     sd = STAGES[stage]
@@ -191,8 +180,11 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
     unavailable = dict(unavailable or {})
     # the table as the stages fit it (identify.fit.mf_problem.stage_problem): a freely
     # rolling run's kappa is the channel's noise, taken as 0
-    trailer = mf_data.rolling_kappa(trailer)
-    kappa_sweep, angle_sweep = _sweeps(trailer)
+    # the sweeps as the stages' selection finds them (1st to 99th percentile spans: a stray
+    # sample does not make a run a sweep), taken once; the same after rolling_kappa
+    sweeps = mf_data.run_sweeps(trailer)
+    trailer = mf_data.rolling_kappa(trailer, sweeps)
+    kappa_sweep, angle_sweep, _ = sweeps
     out: dict[str, StageCoverage] = {}
     for stage in stages:
         sd = STAGES[stage]
@@ -202,7 +194,7 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
         # roll freely (a cornering run's noisy kappa is not combined slip; an alpha sweep at a
         # held slip ratio is)
         rows = (np.array([], dtype=int) if why
-                else mf_data.select(trailer, sd.selection, sd.quantity))
+                else mf_data.select(trailer, sd.selection, sd.quantity, sweeps))
         if not why and rows.size < MIN_POINTS:
             why = f"{rows.size} point(s), {MIN_POINTS} needed"
         up = [u for u in UPSTREAM.get(stage, ()) if u in out and out[u].skipped]

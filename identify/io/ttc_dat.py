@@ -2,10 +2,10 @@
 
 Line 1 a title, line 2 the channel names, line 3 their units, data from line 4, tab-separated
 (comma-separated when line 2 holds no tab; a decimal comma is read too). The title may be
-Windows-1252 text; CRLF, a byte-order mark, a trailing separator, blank last lines and gzip are
-read. A file cut inside its last row (copied while the logger wrote it) drops that row: the
-``cut_row`` attributes say which, and the trailer loader warns. Every other problem is one
-line naming the file and line.
+Windows-1252 text; CRLF or CR line ends, a byte-order mark, a trailing separator, blank last
+lines and gzip (told by its magic bytes, whatever the name) are read. A file cut inside its
+last row (copied while the logger wrote it) drops that row: the ``cut_row`` attributes say
+which, and the trailer loader warns. Every other problem is one line naming the file and line.
 """
 from __future__ import annotations
 
@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems, open_text
+from identify.io.common import Problems, is_gzip, open_text
 from identify.io.ttc_names import ttc_name
 
 __all__ = ["read_dat"]
@@ -82,6 +82,9 @@ def read_dat(path: Path, problems: Problems):
     attrs = {"format": "ttc-dat", "title": lines[0].strip()}
     try:
         frame = _numbers(path, sep, names)
+    except (OSError, EOFError) as exc:  # gzip data cut short or corrupt below the header
+        problems.add(path, f"cannot read file: {getattr(exc, 'strerror', None) or exc}")
+        return None
     except (ValueError, pd.errors.ParserError) as exc:
         found = _without_cut_row(path, sep, names)  # cut inside a number: "-" of "-1000"
         if found is None:
@@ -130,10 +133,10 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
     """(data rows, line, fields of the cut row) of a file that ends inside a number of its last
     row (no newline at its end), read without that row; None when the file ends with a
     newline or the rows above are not numbers either."""
-    with open_text(path, encoding="latin-1", newline="") as fh:
+    with open_text(path, encoding="latin-1") as fh:  # CR, CRLF, LF: all read as LF
         head, newline, last = fh.read().rpartition("\n")
     lines = head.count("\n") + 2  # the last row's line
-    cells = last.rstrip("\r").split(sep)
+    cells = last.split(sep)
     if not last.strip() or lines < 4 or len(cells) > len(names) or not (
             _numeric([c.replace(",", ".") for c in cells[:-1]] + ["0"])
             and _NUMBER_START.fullmatch(cells[-1])):
@@ -146,13 +149,13 @@ def _without_cut_row(path: Path, sep: str, names: list[str]
 
 
 def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.DataFrame:
-    gz = isinstance(source, Path) and source.suffix == ".gz"
+    gz = isinstance(source, Path) and is_gzip(source)  # as open_text tells it (the header)
     text = io.StringIO(source) if isinstance(source, str) else source  # a new one each read
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         frame = pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None,
                             names=names, dtype=np.float64, index_col=False, engine="c",
-                            encoding="latin-1", compression="infer" if gz else None)
+                            encoding="latin-1", compression="gzip" if gz else None)
     # index_col=False: the fields of a first row wider than the names are dropped, with a
     # ParserWarning ("Length of header or names does not match length of data")
     wider = [w for w in caught if issubclass(w.category, pd.errors.ParserWarning)]
@@ -172,7 +175,8 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
     """Report the rows whose number of fields is not ``width``: None if there is one; "" if
     there is none; ``"<line> <fields>"`` when the only one is the last row, with fewer fields
     (a file cut short: that row is dropped with a warning)."""
-    with open_text(path, encoding="latin-1", newline="\n") as fh:  # line by line, not held
+    # line by line, not held; CR, CRLF and LF all end a line, as for pandas' reader
+    with open_text(path, encoding="latin-1") as fh:
         counts = np.fromiter((_fields(line.removesuffix("\n"), sep) if line.strip() else 0
                               for line in itertools.islice(fh, 3, None)), dtype=int)
     filled = np.flatnonzero(counts)  # a blank line (0 fields) is not a row
@@ -189,8 +193,8 @@ def _ragged(path: Path, width: int, sep: str, problems: Problems) -> str | None:
 
 
 def _fields(line: str, sep: str) -> int:
-    """The fields of a data line, a trailing separator not counted (pandas drops it)."""
-    line = line.rstrip("\r")
+    """The fields of a data line (its end read as LF, see open_text's callers), a trailing
+    separator not counted (pandas drops it)."""
     return line.removesuffix(sep).count(sep) + 1
 
 
