@@ -9,15 +9,11 @@ import gzip
 import numpy as np
 import pytest
 import scipy.io
-from typer.testing import CliRunner
 
-from identify.cli.app import app
 from identify.io.common import Problems
 from identify.io.trailer import channels_to_tidy, read_channels
 from identify.io.ttc import TTC_CHANNELS, read_ttc
-from tests.ttc_cases import _small_channels
-
-runner = CliRunner()
+from tests.ttc_cases import _small_channels, import_refused
 
 
 def _mat(path, ch, names=None, units=None, extra=None, shape=lambda v: v.reshape(-1, 1)):
@@ -243,10 +239,7 @@ def test_dat_gz_cut_short_is_one_line_not_an_abort(tmp_path):
     data = gzip.compress(("\n".join(_dat_lines()) + "\n").encode())
     path = tmp_path / "B1run1.dat.gz"
     path.write_bytes(data[:len(data) * 2 // 3])
-    out = tmp_path / "out"
-    result = runner.invoke(app, ["import", str(path), "--out", str(out)])
-    assert result.exit_code == 2 and not out.exists()
-    assert result.stderr.splitlines() == [
+    assert import_refused([path], tmp_path / "out") == [
         f"error: {path}: cannot read file: Compressed file ended before the end-of-stream "
         "marker was reached"]
 
@@ -372,10 +365,7 @@ def test_dat_with_a_decimal_comma(tmp_path):
 
 def test_import_of_dat_files_without_id_names_the_title_in_one_line(tmp_path):
     path = _write(tmp_path / "B1run1.dat", _dat_lines())
-    out = tmp_path / "out"
-    result = runner.invoke(app, ["import", str(path), "--out", str(out)])
-    assert result.exit_code == 2 and not out.exists()
-    assert result.stderr.splitlines() == [(
+    assert import_refused([path], tmp_path / "out") == [(
         "error: --id: no tyre id: the files carry no 'tireid' (a TTC .dat has only its title "
         "line: 'B1 run 1'); give --id")]
 
@@ -386,10 +376,7 @@ def test_two_tyres_are_not_imported_into_one_folder_without_id(tmp_path):
     a = _mat(tmp_path / "B1run1.mat", _small_channels())
     later = _small_channels() | {"ET": _small_channels()["ET"] + 100.0}  # not a's twin
     b = _mat(tmp_path / "B1run2.mat", later, extra={"tireid": "other tyre"})
-    out = tmp_path / "out"
-    result = runner.invoke(app, ["import", str(a), str(b), "--out", str(out)])
-    assert result.exit_code == 2 and not out.exists()
-    assert result.stderr.splitlines() == [
+    assert import_refused([a, b], tmp_path / "out") == [
         f"error: {a}: tireid 'small', but {b} has 'other tyre': one tyre per folder (give --id "
         "to import them as one tyre)"]
 

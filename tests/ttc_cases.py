@@ -5,12 +5,23 @@ from pathlib import Path
 
 import numpy as np
 import scipy.io
+from typer.testing import CliRunner
+
+from identify.cli.app import app
 
 from identify.io.mat73 import write_mat73
 from identify.io.tir import read_tir
 from identify.io.ttc import TTC_CHANNELS
 from identify.simulate.default_tyre import default_tir_path
 from identify.simulate.ttc import TtcSession, _write_dat, _write_mat, simulate_ttc
+
+
+def import_refused(files: list[Path], out: Path) -> list[str]:
+    """``mfid import FILES --out OUT`` that must refuse its input: asserts exit 2 and that
+    nothing was written, and returns the lines it printed on stderr."""
+    result = CliRunner().invoke(app, ["import", *map(str, files), "--out", str(out)])
+    assert result.exit_code == 2 and not out.exists(), result.output
+    return result.stderr.splitlines()
 
 
 def session(path: Path, **settings) -> TtcSession:
