@@ -17,7 +17,7 @@ from identify.io.folder import inspect_folder, load_folder
 from identify.io.trailer import read_trailer
 from identify.workflows.import_session import safe_id
 from tests.measurement_cases import trailer_channels, write_csv
-from tests.ttc_cases import UNUSABLE, session
+from tests.ttc_cases import UNUSABLE, decimated, session
 
 runner = CliRunner()
 
@@ -108,6 +108,19 @@ def test_unusable_file_exits_2_with_one_line(tmp_path, name, make, expected):
     text = "error: " + expected.format(p=path)
     assert lines[0].startswith(text[:-3]) if text.endswith("...") else lines[0] == text
     assert not (tmp_path / "out").exists()
+
+
+def test_dat_files_without_id_take_the_out_folders_name(imported, tmp_path):
+    """A TTC .dat carries no tireid. Before: exit 2, 'no tyre id ...; give --id', although
+    the user had named the folder the session goes into."""
+    s = imported[0]
+    dats = [f for f in decimated(s, tmp_path / "short", 10) if f.suffix == ".dat"]
+    out = tmp_path / "Hoosier R25B 18x6-10"
+    result = runner.invoke(app, ["import", *map(str, dats), "--out", str(out)])
+    assert result.exit_code == 0, result.stderr
+    assert tomllib.loads((out / "tyre.toml").read_text())["tyre"]["id"] == "Hoosier-R25B-18x6-10"
+    assert ("  tyre id 'Hoosier-R25B-18x6-10': the --out folder's name (the files carry no "
+            "'tireid'; --id sets another)") in result.stdout.splitlines()
 
 
 def test_plain_csv_with_units_and_axes(tmp_path):

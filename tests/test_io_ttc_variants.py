@@ -363,11 +363,14 @@ def test_dat_with_a_decimal_comma(tmp_path):
     np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
 
 
-def test_import_of_dat_files_without_id_names_the_title_in_one_line(tmp_path):
+def test_import_of_dat_files_without_id_into_a_folder_named_without_letters_is_one_line(
+        tmp_path):
+    """The id falls back to the --out folder's name; one that makes no safe name (``---``)
+    leaves none: the error names the title line the .dat has instead."""
     path = _write(tmp_path / "B1run1.dat", _dat_lines())
-    assert import_refused([path], tmp_path / "out") == [(
+    assert import_refused([path], tmp_path / "---") == [(
         "error: --id: no tyre id: the files carry no 'tireid' (a TTC .dat has only its title "
-        "line: 'B1 run 1'); give --id")]
+        "line: 'B1 run 1') and the --out folder's name makes none; give --id")]
 
 
 def test_two_tyres_are_not_imported_into_one_folder_without_id(tmp_path):

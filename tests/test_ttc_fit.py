@@ -106,9 +106,6 @@ def test_segmentation_drops_warmups_cold_tread_and_records_filters(cornering):
     assert set(doc["unavailable"]) == {"omega", "My"}
 
 
-def _id(suffix):
-    """A .dat file carries no ``tireid`` string (the .mat does): the id is given."""
-    return ["--id", "sim-225-50-R17"] if suffix == ".dat" else []
 
 
 def _fit(folder, out):
@@ -151,7 +148,7 @@ def test_import_then_fit_a_short_session_without_hand_edits(tmp_path, suffix):
     files = [f for f in decimated(full, tmp_path / "short", 10) if f.suffix == suffix]
     before_in = _tree_hashes(tmp_path / "short")
     folder = tmp_path / "folder"
-    result = runner.invoke(app, ["import", *map(str, files), "--out", str(folder), *_id(suffix)])
+    result = runner.invoke(app, ["import", *map(str, files), "--out", str(folder)])
     assert result.exit_code == 0, result.stderr
     assert _tree_hashes(tmp_path / "short") == before_in
     before = _tree_hashes(folder)
@@ -168,7 +165,7 @@ def test_import_then_fit_the_full_session_without_hand_edits(tmp_path, suffix):
     files = [f for f in s.files if f.suffix == suffix]
     before_in = _tree_hashes(s.path)
     folder = tmp_path / "folder"
-    result = runner.invoke(app, ["import", *map(str, files), "--out", str(folder), *_id(suffix)])
+    result = runner.invoke(app, ["import", *map(str, files), "--out", str(folder)])
     assert result.exit_code == 0, result.stderr
     assert _tree_hashes(s.path) == before_in
     before = _tree_hashes(folder)

@@ -3,8 +3,9 @@
 No manifest is written by hand: everything the folder's ``tyre.toml`` says comes from the files
 or from a stated rule.
 
-- Tyre id: ``--id``, else the files' ``tireid`` (TTC .mat), made a safe file name (letters,
-  digits, ``.``, ``_``, ``-``; other runs of characters become one ``-``).
+- Tyre id: ``--id``, else the files' ``tireid`` (TTC .mat), else the ``--out`` folder's name
+  (a TTC ``.dat`` carries no tireid; a note says where the id came from), made a safe file
+  name (letters, digits, ``.``, ``_``, ``-``; other runs of characters become one ``-``).
 - Runs: every run of every file (an HDF5 file may hold several); the same data given twice (a
   TTC run's ``.mat`` and ``.dat``) is imported once, from the ``.mat`` (exact values).
 - Test of each run, from its content (identify.segment): slip-angle sweeps only ->
@@ -204,11 +205,16 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
                                                 "--id to import them as one tyre)")
         notes.append(f"tireids {', '.join(map(repr, tireids))} imported as one tyre (--id)")
     name = safe_id(tyre_id if tyre_id is not None else (tireids[0] if tireids else ""))
+    if not name and tyre_id is None:  # e.g. TTC .dat files: the folder's name, said so
+        name = safe_id(out.resolve().name)
+        if name:
+            notes.append(f"tyre id {name!r}: the --out folder's name (the files carry no "
+                         "'tireid'; --id sets another)")
     if not name:
         title = next((ch.attrs["title"] for _, ch, _ in kept if ch.attrs.get("title")), "")
         hint = (f" (a TTC .dat has only its title line: {title[:60]!r})" if title else "")
-        raise InputError(None, f"no tyre id: the files carry no 'tireid'{hint}; give --id",
-                         key="--id")
+        raise InputError(None, f"no tyre id: the files carry no 'tireid'{hint} and the --out "
+                               "folder's name makes none; give --id", key="--id")
     say("segment: condition levels and sweeps")
     table = pd.concat([f for _, _, f in kept], ignore_index=True)
     seg = segment_trailer(table)
