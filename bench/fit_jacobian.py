@@ -118,13 +118,13 @@ def main() -> None:
             Q.update(zip(NAMES, theta))
             return Q
 
-        def np_eval(theta=theta0):
+        def np_eval(theta=theta0, s=s):
             return lateral.fy0(with_theta(theta), s).fy0
 
-        def kern_eval(theta=theta0):
+        def kern_eval(theta=theta0, pts=pts):
             return evaluate_outputs(with_theta(theta), ("Fy",), **pts, mode=MODE)["Fy"]
 
-        def fd(fn):
+        def fd(fn, n=n):
             f0 = fn()
             jac = np.empty((n, k))
             for j in range(k):
@@ -147,8 +147,8 @@ def main() -> None:
             sj = {"dfz": jnp.asarray(s.dfz), "dpi": jnp.asarray(s.dpi), "fz": jnp.asarray(s.fz),
                   "gamma": jnp.asarray(s.gamma_star), "alpha": jnp.asarray(s.alpha_star),
                   "fz0p": s.fz0p}
-            f = jax.jit(lambda th: _fy0_jax(th, fixed, sj))
-            jac = jax.jit(jax.jacfwd(lambda th: _fy0_jax(th, fixed, sj)))
+            f = jax.jit(lambda th, fixed=fixed, sj=sj: _fy0_jax(th, fixed, sj))
+            jac = jax.jit(jax.jacfwd(lambda th, fixed=fixed, sj=sj: _fy0_jax(th, fixed, sj)))
             th = jnp.asarray(theta0)
             t0 = time.perf_counter()
             f(th).block_until_ready()
@@ -167,8 +167,8 @@ def main() -> None:
                 j_c[:, j] = (np_eval(tp) - np_eval(tm)) / (2 * h)
             scale = np.max(np.abs(j_c), axis=0) + 1e-30
             assert np.max(np.abs(j_jax - j_c) / scale) < 1e-5, np.max(np.abs(j_jax - j_c) / scale)
-            t_je = _best(lambda: f(th).block_until_ready(), args.repeats)
-            t_jj = _best(lambda: jac(th).block_until_ready(), args.repeats)
+            t_je = _best(lambda f=f, th=th: f(th).block_until_ready(), args.repeats)
+            t_jj = _best(lambda jac=jac, th=th: jac(th).block_until_ready(), args.repeats)
             line += f" {t_je * 1e3:>8.2f} {t_jj * 1e3:>8.2f} {t_compile:>13.1f}"
         else:
             line += "   (jax not installed: pip install jax)"
