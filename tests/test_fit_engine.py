@@ -630,6 +630,34 @@ def test_a_failed_polish_no_better_in_objective_nor_constraints_keeps_the_lsq_po
     assert _dominated(problem, nan, x_ls)
 
 
+def test_a_polish_that_fails_where_the_model_cannot_be_evaluated_keeps_the_lsq_point():
+    """optimize._polish with a real SLSQP failure: the constraint p2 <= 0.2 cannot be
+    evaluated below p2 = 0.29 (NaN there, as a validity margin outside its grid), SLSQP steps
+    there from the least-squares optimum (p2 = 0.3) and fails. Its end violates without limit
+    and has the higher objective, so the least-squares point is kept, not taken as the
+    stage's result."""
+    from identify.fit.optimize import _polish, _solve, _violation
+
+    truth = {"nom": 1.4e5, "p1": 0.17, "p2": 0.3, "p3": 0.47}
+
+    def margin(v):
+        return np.array([0.2 - v["p2"] if v["p2"] > 0.29 else np.nan])
+
+    problem = FitProblem("CFy", "quadratic_load",
+                         _params({"nom": 1.5e5, "p1": 0.1, "p2": 0.0, "p3": 0.4}), stiffness,
+                         stiffness(truth), PRESSURES, constraints=(Constraint("c", margin),))
+    lsq = _solve(problem, problem.x0(), None, engine.STRICT)
+    assert _violation(problem, lsq.x) == pytest.approx(0.1)
+    slsqp = engine.polish(problem.objective_value, lsq.x, problem.bounds(), engine.STRICT,
+                          constraints=problem.constraint_values)
+    assert not slsqp.success and _violation(problem, slsqp.x) == np.inf  # the failure
+    out = _polish(problem, lsq, engine.STRICT)
+    np.testing.assert_array_equal(out.x, lsq.x)
+    assert not out.ok and not out.polished
+    assert out.message.endswith("(the polish ended no better in the objective nor in the "
+                                "constraints: the least-squares point is kept)")
+
+
 def test_constraint_violation_of_non_finite_values():
     """optimize._violation, the one feasibility measure of the fit (the least-squares
     optimum's, the reported start's, the failed polish's): the most negative constraint
