@@ -12,6 +12,7 @@ every version, so ratios of different versions compare the fits, not the kernels
     python bench/fit_cost.py --trailer table.pkl --fnomin 4980 --nompres 256600 --r0 0.3255
     python bench/fit_cost.py --trailer table.pkl ... --bin     # dense sweeps binned first
     python bench/fit_cost.py --import-first      # JAX imported before the timer
+    python bench/fit_cost.py --trailer raw.pkl ... --bin --yardstick seg.pkl
 
 ``--trailer`` fits a pickled trailer table (pandas ``to_pickle`` of ``load_folder(...).trailer``,
 e.g. of a TTC session imported on a branch whose reader the measured checkout lacks) with the
@@ -220,6 +221,20 @@ crawl_ftol; Mz0 on the TTC session 1.00 -> 0.82 s), which left the golden tyre's
 (bench/ttc_truth.py --tir tests/data/tir/testA_61.tir, seed 0) at 17 % on Fy; a larger
 MERGE_CHI2 (9: no change); the dogleg on crawl detection before 50 evaluations (no change).
 
+Measured 2026-11-24 (session 9) at 0ce2daa, load average 0.9-1.2, one sitting, on the
+segmented session the issue names: the generated TTC session of seed 0 (135121 samples)
+segmented as ``mfid fit`` does but not binned (82094 points: identify.workflows.sweep_bins.mf_table
+with ``alpha_deg=kappa=None``, pickled once, ``--yardstick`` of every run below). ddb9f71
+(``PYTHONPATH=/tmp/before``, the archive above) fitting those 82094 points: ``cpu`` 717 (78.5 s
+CPU; Fx stopped at its evaluation limit), ``samp-cpu`` 2482. This code on the same 82094 points
+(``--trailer seg.pkl --passes 2``, JAX's import inside the timed fit): ``cpu`` 100 (11.4 s), 7.2x;
+``samp-cpu`` 365, 6.8x. This code as ``mfid fit`` runs it, segmenting and binning the 135121
+samples inside the timed fit (``--trailer raw.pkl --bin --passes 2 --yardstick seg.pkl``):
+``samp-cpu`` 113 (3.45 s), 22x. On the bundled sample (12074 points, no binning) the ratio
+stays 4.3x with the import (0.31 s of CPU, ~13 evaluations of its points) and 5.3x without:
+its fit is 1.6 s, where the fixed costs (import, stage builds, loading the stored
+executables) do not shrink with the data.
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
@@ -310,6 +325,9 @@ def main() -> None:
     ap.add_argument("--passes", type=int, default=None,
                     help="passes over the MF stages (default: fit_mf's, 1; mfid fit runs "
                          "FitSettings.mf_passes, 2 since f7d0963)")
+    ap.add_argument("--yardstick", type=Path,
+                    help="a pickled table: the samples lines divide by one evaluation of its "
+                         "points instead of the fitted table's")
     ap.add_argument("--label", default="", help="name of the code measured (default: git HEAD)")
     ap.add_argument("--bin", action="store_true",
                     help="segment logged runs and bin dense sweeps first, as mfid fit does")
@@ -407,9 +425,15 @@ def main() -> None:
     print(f"{'cpu':9} {sum(x['points'] for x in rows):7d} {total_cpu:8.2f} "
           f"{1e3 * cpu_eval:8.2f} {total_cpu / cpu_eval:9.0f}  (CPU times: MF stages / one "
           f"evaluation of their points)")
-    every = evaluation_seconds(mf.params, trailer)
-    print(f"{'samples':9} {len(trailer):7d} {total_fit:8.2f} {1e3 * every:8.2f} "
-          f"{total_fit / every:9.0f}  (MF wall time / one evaluation of every trailer sample)")
+    yard = trailer if args.yardstick is None else pd.read_pickle(args.yardstick)
+    what = "trailer sample" if args.yardstick is None else f"point of {args.yardstick.name}"
+    every = evaluation_seconds(mf.params, yard)
+    print(f"{'samples':9} {len(yard):7d} {total_fit:8.2f} {1e3 * every:8.2f} "
+          f"{total_fit / every:9.0f}  (MF wall time / one evaluation of every {what})")
+    every_cpu = evaluation_seconds(mf.params, yard, time.process_time)
+    print(f"{'samp-cpu':9} {len(yard):7d} {total_cpu:8.2f} {1e3 * every_cpu:8.2f} "
+          f"{total_cpu / every_cpu:9.0f}  (CPU times: MF stages / one evaluation of every "
+          f"{what})")
     if args.json:
         args.json.write_text(json.dumps({"folder": name, "commit": commit,
                                          "stages": rows, "total_fit_s": total_fit,
