@@ -91,6 +91,10 @@ def simulate_command(
     mat_version: MatVersionChoice = typer.Option(MatVersionChoice.v5, "--mat-version",
                                     help="--format ttc: MATLAB format of the .mat files, 5 "
                                          "or 7.3 (HDF5 inside)."),
+    relaxation: float = typer.Option(0.0, "--relaxation", metavar="METRES",
+                                     help="--format ttc: lateral relaxation length: the forces "
+                                          "lag the slip angle set over this rolling distance "
+                                          "(a real machine's up/down-sweep loop); 0: none."),
     transients: bool = typer.Option(True, "--transients/--no-transients",
                                     help="Start-up transients in stiffness runs."),
     stick_slip: bool = typer.Option(True, "--stick-slip/--no-stick-slip",
@@ -126,7 +130,8 @@ def simulate_command(
                                    ar1=0.7 if ar1 is None else ar1, units=units.value,
                                    implausible=parse_names(implausible),
                                    cornering_only=cornering_only, tireid=tireid,
-                                   mat_version=mat_version.value, overwrite=overwrite)
+                                   mat_version=mat_version.value, relaxation=relaxation,
+                                   overwrite=overwrite)
             runs = ", ".join(f"{r['stem']} ({r['test']}, {r['samples']} samples)"
                              for r in session.truth["runs"])
             out_console.print(f"wrote {session.path}: {runs}; .mat and .dat each, "

@@ -100,7 +100,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                  noise: float = 0.01, ar1: float = 0.7, units: str = "SI",
                  implausible: Sequence[str] = (), cornering_only: bool = False,
                  tireid: str = "mfid-sim 225/50 R17", mat_version: str = "5",
-                 overwrite: bool = False) -> TtcSession:
+                 relaxation: float = 0.0, overwrite: bool = False) -> TtcSession:
     """Write a simulated TTC session (``.mat`` and ``.dat`` per run, ``truth.json``).
 
     Parameters
@@ -127,6 +127,10 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
     mat_version : {"5", "7.3"}
         MATLAB format of the ``.mat`` files: v5 (what ``save -v7`` writes, uncompressed) or
         v7.3 (HDF5 inside, identify.io.mat73).
+    relaxation : float [m]
+        Lateral relaxation length: the model sees the slip angle through a first-order lag
+        of this rolling distance, the SA channel records the slip angle set
+        (identify.simulate.ttc_signals.lagged_slip); 0 (default): none.
     overwrite : bool
         Replace a non-empty ``outdir``.
 
@@ -147,6 +151,9 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                                f"{', '.join(IMPLAUSIBLE)})", key="--implausible")
     if not noise >= 0 or not -1 < ar1 < 1:
         raise InputError(None, f"noise must be >= 0 and ar1 in (-1, 1), got {noise}, {ar1}")
+    if not 0 <= relaxation < 10:
+        raise InputError(None, f"relaxation must be in [0, 10) m, not {relaxation}",
+                         key="--relaxation")
     params = _numeric_params(tir_params)
     model = TyreModel(params, DEFAULT_RELATIONS, DEFAULT_RIG)
     plan = session_plan(model.fz0, model.p0)
@@ -155,7 +162,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                "testid": TESTID, "tireid": tireid}
     truth = {"generator": "identify.simulate.ttc", "mfid_version": __version__,
              "seed": int(seed), "noise": noise, "ar1": ar1, "units": units,
-             "mat_version": mat_version,
+             "mat_version": mat_version, "relaxation_m": relaxation,
              "implausible": list(implausible), "axes": "SAE", "rate_Hz": RATE,
              "model_mode": TRAILER_MODE, "tir": params, "plan": plan.to_dict(),
              "strings": strings, "runs": []}
@@ -167,7 +174,8 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
             rng = run_rng(seed, f"ttc-{test}")
             prog = programme(plan, "cornering" if test == "cornering" else "drive_brake", rng)
             act = actual_conditions(prog, rng)
-            si = ttc_channels(model, act, number, rng=rng, noise=noise, ar1=ar1)
+            si = ttc_channels(model, act, number, rng=rng, noise=noise, ar1=ar1,
+                              relaxation=relaxation)
             in_sweep = act["kind"] == 4
             segments = _segments(prog, si["ET"])
             ch, unit_names = to_file_units(si, units)

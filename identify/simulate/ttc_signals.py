@@ -13,6 +13,12 @@ file's units and SAE axes:
 - the Magic Formula (identify.model through :class:`~identify.simulate.model.TyreModel`) at
   the actual conditions gives Fx, Fy, Mx, Mz, the wheel speed (omega = (1 + kappa) Vx / Re),
   the loaded radius;
+- relaxation (optional, ``relaxation`` [m], default 0: none): the tyre builds its lateral
+  force over a rolling distance, so the model sees the slip angle through a first-order lag
+  of that length (a time constant relaxation / Vx, Vx the run's median rolling speed) while
+  the SA channel records the slip angle set; a triangle sweep then draws the up- and
+  down-sweep branches of a real machine's force loop (~0.25 deg apart at 0.5 m, 40 kph and
+  the generator's ~5.6 deg/s). The slip ratio is not lagged;
 - noise: AR(1) of lag-one correlation ``ar1`` and a standard deviation of ``noise`` times each
   channel's RMS (forces, moments, slip, camber, speeds), at least 0.001 on the slip ratios SL
   and SR (so a cornering run's SL scatters about 0 as a real one does); fixed levels on
@@ -33,7 +39,7 @@ from identify.simulate.artefacts import ar1_unit
 from identify.simulate.model import TyreModel
 from identify.simulate.ttc_plan import KIND_CODES, RATE, Programme
 
-__all__ = ["AMBIENT_C", "actual_conditions", "to_file_units", "ttc_channels"]
+__all__ = ["AMBIENT_C", "actual_conditions", "lagged_slip", "to_file_units", "ttc_channels"]
 
 #: Ambient temperature [degC].
 AMBIENT_C = 25.0
@@ -84,15 +90,35 @@ def actual_conditions(prog: Programme, rng: np.random.Generator) -> dict[str, np
             "kind": sp["kind"]}
 
 
+def lagged_slip(alpha: np.ndarray, vx: np.ndarray, relaxation: float) -> np.ndarray:
+    """The slip angle the tyre sees [rad]: ``alpha`` [rad] through a first-order lag of
+    ``relaxation`` [m] rolling distance at the median of ``vx`` [m/s] over the rolling
+    samples (vx > 1 m/s; see module); ``alpha`` itself for a relaxation of 0."""
+    rolling = vx[vx > 1.0]
+    if relaxation <= 0 or rolling.size == 0:
+        return alpha
+    # exact for a slip angle linear between samples (first-order hold): a ramp lags by
+    # exactly relaxation / Vx, where the plain recursion y = a y + (1 - a) x lags half a
+    # sample less (0.04 s instead of 0.045 s at 0.5 m and 40 kph)
+    n_tau = relaxation / float(np.median(rolling)) * RATE  # the time constant in samples
+    a = float(np.exp(-1.0 / n_tau))
+    b0 = 1.0 - n_tau * (1.0 - a)
+    b1 = n_tau * (1.0 - a) - a
+    return lfilter([b0, b1], [1.0, -a], alpha, zi=[(1.0 - b0) * alpha[0]])[0]
+
+
 def ttc_channels(model: TyreModel, act: dict[str, np.ndarray], run_number: int, *,
-                 rng: np.random.Generator, noise: float, ar1: float) -> dict[str, np.ndarray]:
+                 rng: np.random.Generator, noise: float, ar1: float,
+                 relaxation: float = 0.0) -> dict[str, np.ndarray]:
     """The TTC channels in SI units and SAE axes (temperatures in degC), noise added.
 
     The eccentricity ripple multiplies the load before the model is evaluated, so the forces
-    carry it as a real wheel's would.
+    carry it as a real wheel's would; the model sees the slip angle through the
+    ``relaxation`` [m] lag (:func:`lagged_slip`), the SA channel the slip angle set.
     """
     vx = act["vx"]
-    args = {"alpha": act["alpha"], "gamma": act["gamma"], "kappa": act["kappa"],
+    args = {"alpha": lagged_slip(act["alpha"], vx, relaxation), "gamma": act["gamma"],
+            "kappa": act["kappa"],
             "vx": np.maximum(vx, 0.05), "mode": TRAILER_MODE}
     # the wheel's angle (from its speed without the ripple) gives the ripple's phase
     theta = np.cumsum(model.mf(np.maximum(act["fz"], 1.0), act["p"] / 1e5, **args)["omega"])
