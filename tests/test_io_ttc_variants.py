@@ -36,6 +36,13 @@ def _read(path):
     return run
 
 
+def _refused(path):
+    """The lines of a file read_ttc refuses (it returns None)."""
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    return [str(p) for p in problems.finish()]
+
+
 @pytest.mark.parametrize("names", [
     [n.lower() for n in _small_channels()],               # another case
     [n + "   " for n in _small_channels()],               # padded (a char matrix's rows)
@@ -84,10 +91,8 @@ def test_variables_that_are_not_channels_are_left_out(tmp_path):
 def test_a_listed_channel_of_another_length_is_still_one_line(tmp_path):
     ch = _small_channels()
     ch["FY"] = ch["FY"][:150]
-    problems = Problems()
     path = _mat(tmp_path / "B1run1.mat", ch)
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()] == [f"{path}: FY: 150 samples, but ET has 200"]
+    assert _refused(path) == [f"{path}: FY: 150 samples, but ET has 200"]
 
 
 def test_dat_names_in_another_case_or_padded(tmp_path):
@@ -169,9 +174,7 @@ def test_dat_with_a_bad_last_row_is_still_one_line(tmp_path, last, end):
     lines = _dat_lines()
     lines[-1] = last or lines[-1][:lines[-1].index("-") + 1]
     path = _write(tmp_path / "B1run1.dat", lines, last=end)
-    problems = Problems()
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()] == [
+    assert _refused(path) == [
         f"{path}:4: data below the header are not tab-separated numbers (could not convert "
         f"string to float: '{last or '-'}')"]
 
@@ -183,9 +186,7 @@ def test_dat_whose_rows_are_wider_than_its_header_is_one_line(tmp_path):
     lines = _dat_lines()
     lines[3:] = [line + "\t7" for line in lines[3:]]
     path = _write(tmp_path / "B1run1.dat", lines)
-    problems = Problems()
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()][0] == (
+    assert _refused(path)[0] == (
         f"{path}:4: ragged row: 13 fields, the header has 12")
 
 
@@ -193,9 +194,7 @@ def test_dat_short_row_inside_the_data_is_still_one_line(tmp_path):
     lines = _dat_lines()
     lines[50] = "\t".join(lines[50].split("\t")[:5])
     path = _write(tmp_path / "B1run1.dat", lines)
-    problems = Problems()
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()] == [
+    assert _refused(path) == [
         f"{path}:51: ragged row: 5 fields, the header has 12"]
 
 
@@ -206,9 +205,7 @@ def test_dat_with_cr_only_line_ends_and_a_ragged_row_is_one_line(tmp_path, row, 
     lines = _dat_lines()
     lines[row] = "\t".join(lines[row].split("\t")[:5]) if not extra else lines[row] + extra
     path = _write(tmp_path / "B1run1.dat", lines, end="\r")
-    problems = Problems()
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()][0] == (
+    assert _refused(path)[0] == (
         f"{path}:{row + 1}: ragged row: {13 if extra else 5} fields, the header has 12")
 
 
@@ -405,9 +402,7 @@ def test_dat_with_a_channel_named_twice_is_one_line(tmp_path):
     lines = _dat_lines()
     lines[1] = lines[1].replace("FY", "fx")
     path = _write(tmp_path / "B1run1.dat", lines)
-    problems = Problems()
-    assert read_ttc(path, problems) is None
-    assert [str(p) for p in problems.finish()] == [f"{path}:2: FX: channel named twice"]
+    assert _refused(path) == [f"{path}:2: FX: channel named twice"]
 
 
 def test_sr_offset_leaves_out_the_unloaded_samples_between_sweeps(tmp_path):
