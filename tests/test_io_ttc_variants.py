@@ -9,7 +9,9 @@ import gzip
 import numpy as np
 import pytest
 import scipy.io
+from typer.testing import CliRunner
 
+from identify.cli.app import app
 from identify.io.common import Problems
 from identify.io.trailer import channels_to_tidy, read_channels
 from identify.io.ttc import TTC_CHANNELS, read_ttc
@@ -368,6 +370,18 @@ def test_import_of_dat_files_without_id_into_a_folder_named_without_letters_is_o
     assert import_refused([path], tmp_path / "---") == [(
         "error: --id: no tyre id: the files carry no 'tireid' (a TTC .dat has only its title "
         "line: 'B1 run 1') and the --out folder's name makes none; give --id")]
+
+
+def test_an_id_that_makes_no_file_name_is_one_line_naming_the_option(tmp_path):
+    """Before: the error said the files and the --out folder's name made no id, and to give
+    --id, which the user had given."""
+    path = _write(tmp_path / "B1run1.dat", _dat_lines())
+    result = CliRunner().invoke(app, ["import", str(path), "--out", str(tmp_path / "out"),
+                                      "--id", "///"])
+    assert result.exit_code == 2 and not (tmp_path / "out").exists()
+    assert result.stderr.splitlines() == [
+        "error: --id: '///' makes no tyre id (a file name needs a letter, digit, '.', '_' or "
+        "'-')"]
 
 
 def test_two_tyres_are_not_imported_into_one_folder_without_id(tmp_path):

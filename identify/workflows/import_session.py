@@ -205,7 +205,10 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
                                                 "--id to import them as one tyre)")
         notes.append(f"tireids {', '.join(map(repr, tireids))} imported as one tyre (--id)")
     name = safe_id(tyre_id if tyre_id is not None else (tireids[0] if tireids else ""))
-    if not name and tyre_id is None:  # e.g. TTC .dat files: the folder's name, said so
+    if tyre_id is not None and not name:
+        raise InputError(None, f"{tyre_id!r} makes no tyre id (a file name needs a letter, "
+                               "digit, '.', '_' or '-')", key="--id")
+    if not name:  # e.g. TTC .dat files: the folder's name, said so
         name = safe_id(out.resolve().name)
         if name:
             notes.append(f"tyre id {name!r}: the --out folder's name (the files carry no "
