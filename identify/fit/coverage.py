@@ -178,10 +178,9 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
         One per stage, in order.
     """
     unavailable = dict(unavailable or {})
-    # the table as the stages fit it (identify.fit.mf_problem.stage_problem): a freely
-    # rolling run's kappa is the channel's noise, taken as 0
-    # the sweeps as the stages' selection finds them (1st to 99th percentile spans: a stray
-    # sample does not make a run a sweep), taken once; the same after rolling_kappa
+    # the table and its sweeps as the stages fit them (identify.fit.mf_problem.stage_problem):
+    # 1st to 99th percentile spans, so a stray sample does not make a run a sweep, and a
+    # freely rolling run's kappa, the channel's noise, taken as 0 (the same sweeps after it)
     sweeps = mf_data.run_sweeps(trailer)
     trailer = mf_data.rolling_kappa(trailer, sweeps)
     kappa_sweep, angle_sweep, _ = sweeps

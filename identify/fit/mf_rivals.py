@@ -20,7 +20,6 @@ from identify.fit.result import FitResult, Rival
 __all__ = ["MIRROR", "with_rivals"]
 
 
-
 def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],
                 label: str, progress: Progress | None, solved: Sequence[Solved] = ()
                 ) -> FitResult:
