@@ -25,6 +25,18 @@ def _table(kappa_noise: float, seed: int = 0) -> pd.DataFrame:
     return t.assign(gamma=0.0, Vx=16.0, p=2e5, Fz=4000.0, Fx=1.0, Fy=1.0, Mz=1.0, omega=50.0)
 
 
+def _held(t: pd.DataFrame) -> pd.DataFrame:
+    """The cornering run of ``t`` (:func:`_table`) as run "held": its alpha sweep at a held
+    slip ratio of 0.05 (plus a tenth of the cornering run's kappa noise)."""
+    corner = t[t["run"] == "corner"]
+    return corner.assign(run="held", kappa=0.05 + 0.1 * corner["kappa"])
+
+
+def _params() -> dict[str, float]:
+    """The numeric defaults of every .tir key."""
+    return {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+
+
 def test_a_noisy_kappa_in_a_cornering_run_is_rolling_not_slip():
     t = _table(kappa_noise=0.003)
     corner = (t["run"] == "corner").to_numpy()
@@ -60,7 +72,7 @@ def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
     times 0.003 is 6 % of Fz of Fx); the drive/brake run's sweep and an alpha sweep at a held
     slip ratio of 0.05 keep theirs, and the latter is combined slip, not pure lateral."""
     t = _table(kappa_noise=0.003)
-    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    held = _held(t)
     t = pd.concat([t, held], ignore_index=True)
     out = rolling_kappa(t)
     corner, drive, at_slip = (t["run"] == r for r in ("corner", "drive", "held"))
@@ -77,7 +89,7 @@ def test_the_run_sweeps_of_a_table_hold_for_it_with_rolling_kappa_taken_as_zero(
     selects its rows on the table with rolling kappa set to 0 with them: they must be that
     table's own (and rolling_kappa given them must not modify them)."""
     t = _table(kappa_noise=0.003)
-    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    held = _held(t)
     t = pd.concat([t, held], ignore_index=True)
     sweeps = run_sweeps(t)
     given = tuple(a.copy() for a in sweeps)
@@ -96,7 +108,7 @@ def test_a_stage_problem_built_again_on_the_raw_table_fits_what_fit_mf_fitted():
     caller holds, not on fit_mf's copy with the rolling runs' kappa at 0: the problem takes
     that 0 itself, or the Fy0 model at the cornering points is combined slip at the noise."""
     t = _table(kappa_noise=0.003)
-    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    params = _params()
     raw = stage_problem("Fy0", t, params)
     fitted = stage_problem("Fy0", rolling_kappa(t), params)
     np.testing.assert_array_equal(raw.rows, fitted.rows)
@@ -110,7 +122,7 @@ def test_the_coverage_table_counts_the_points_the_stages_fit():
     rolling run's kappa as 0 as the stages do (free rolling: every point of the cornering
     run; Fy0: kappa within the drive run's +-PURE_KAPPA, not the noise's +-0.01)."""
     t = _table(kappa_noise=0.004)
-    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    params = _params()
     stages = ("geometry", "Fx0", "Fy0", "Fx", "Fy")
     for c in mf_coverage(t, params["FNOMIN"], stages=stages):
         sp = stage_problem(c.stage, t, params, screen=False)
@@ -124,9 +136,9 @@ def test_the_coverage_table_counts_the_combined_points_of_a_held_slip_ratio():
     (select); the coverage table counted the combined points of the kappa sweeps only (990 of
     the 2940 the Fx stage fits)."""
     t = _table(kappa_noise=0.003)
-    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    held = _held(t)
     t = pd.concat([t, held], ignore_index=True)
-    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    params = _params()
     for c in mf_coverage(t, params["FNOMIN"], stages=("Fx0", "Fx", "Fy", "Mz0", "Mz")):
         assert not c.skipped, c
         assert c.points == stage_problem(c.stage, t, params, screen=False).rows.size, c.stage
@@ -138,7 +150,7 @@ def test_stray_slip_ratio_samples_do_not_make_a_held_slip_ratio_run_a_sweep_for_
     held at kappa 0.05 for a slip-ratio sweep, so with no kappa sweep in the session Fx0 was
     '0 point(s), 50 needed' and the combined Fy stage was fitted, not 'no slip-ratio sweep'."""
     t = _table(kappa_noise=0.003)
-    held = t[t["run"] == "corner"].assign(run="held", kappa=0.05 + t["kappa"][:2000] * 0.1)
+    held = _held(t)
     clean = pd.concat([t[t["run"] != "drive"], held], ignore_index=True)
     stray = clean.copy()
     stray.loc[np.flatnonzero(stray["run"] == "held")[[10, 20]], "kappa"] = [0.09, 0.01]
