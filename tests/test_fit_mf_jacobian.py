@@ -182,9 +182,9 @@ def test_search_keeps_one_of_two_mirror_images(truth, data, monkeypatch):
     of a start near it end at one candidate. Their ends' objectives agree to round-off here
     (1530 points converge tightly; on a TTC session's subsample they were 0.06 apart in
     chi^2): without the objective test only the mirror test finds them the same optimum.
-    The starts' stop test is off (on scipy >= 1.16 it would merge the second start first),
-    so that each start is solved to its own end and the candidates' mirror test is what
-    merges them."""
+    The starts' stop test is off (on scipy >= 1.16 it would merge the second start first, as
+    before 1.16 nothing did), so that each start is solved to its own end and the candidates'
+    mirror test is what merges them; starts_at_best counts the start at the mirror image."""
     monkeypatch.setattr(mf_search, "BEST_RTOL", 0.0)
 
     def record_only(self, x, cost):  # the path for later starts, never a stop
@@ -393,20 +393,3 @@ def test_a_start_on_an_earlier_path_stops_there(truth, data, exact):
     assert twice.starts_at_best == 2 and len(twice.candidates) == 1
     np.testing.assert_array_equal(twice.candidates[0], one.candidates[0])
     assert twice.nfev <= one.nfev + 3
-
-
-def test_starts_at_the_mirror_image_of_the_best_count_as_at_the_best(truth, data, monkeypatch):
-    """A start that ends at the mirror image of the best end (solved to its end: no stop in
-    scipy's callback, as before scipy 1.16) reached the best optimum: starts_at_best counts
-    it, as the candidates keep one of the two (the objective test off: the ends' objectives
-    agree only to the solver's tolerance on real data)."""
-    monkeypatch.setattr(mf_search, "BEST_RTOL", 0.0)
-    monkeypatch.setattr(engine, "_HAS_CALLBACK", False)
-    noisy = add_noise(data, 6)
-    p = stage_problem("Mz0", noisy, _perturb(truth, STAGES["Mz0"].coefficients, seed=3),
-                      screen=False).problem
-    x0 = p.x0()
-    near = mirrored(p.free, x0 * (1 + 0.05 * np.random.default_rng(0).standard_normal(x0.size)))
-    found = search(p, np.vstack([x0, near]))
-    assert len(found.candidates) == 1
-    assert found.starts_at_best == 2
