@@ -230,8 +230,10 @@ CPU; Fx stopped at its evaluation limit), ``samp-cpu`` 2482. This code on the sa
 (``--trailer seg.pkl --passes 2``, JAX's import inside the timed fit): ``cpu`` 100 (11.4 s), 7.2x;
 ``samp-cpu`` 365, 6.8x. This code as ``mfid fit`` runs it, segmenting and binning the 135121
 samples inside the timed fit (``--trailer raw.pkl --bin --passes 2 --yardstick seg.pkl``):
-``samp-cpu`` 113 (3.45 s), 22x. On the bundled sample (12074 points, no binning) the ratio
-stays 4.3x with the import (0.31 s of CPU, ~13 evaluations of its points) and 5.3x without:
+``samp-cpu`` 113 (3.45 s), 22x. On the bundled sample (12074 points, no binning), the same
+sitting (``PYTHONPATH=/tmp/before python bench/fit_cost.py --label ddb9f71``, then ``python
+bench/fit_cost.py --passes 2 [--import-first]``): ``cpu`` 356 -> 83 (4.3x) with the import
+(0.31 s of CPU, ~13 evaluations of its points), 69 (5.1x) without it (5.3x at de43ff4):
 its fit is 1.6 s, where the fixed costs (import, stage builds, loading the stored
 executables) do not shrink with the data.
 

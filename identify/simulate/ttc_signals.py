@@ -17,8 +17,8 @@ file's units and SAE axes:
   force over a rolling distance, so the model sees the slip angle through a first-order lag
   of that length (a time constant relaxation / Vx, Vx the run's median rolling speed) while
   the SA channel records the slip angle set; a triangle sweep then draws the up- and
-  down-sweep branches of a real machine's force loop (~0.25 deg apart at 0.5 m, 40 kph and
-  the generator's ~5.6 deg/s). The slip ratio is not lagged;
+  down-sweep branches of a real machine's force loop (each ~0.25 deg behind the angle set at
+  0.5 m, 40 kph and the generator's 5.1-6.3 deg/s). The slip ratio is not lagged;
 - noise: AR(1) of lag-one correlation ``ar1`` and a standard deviation of ``noise`` times each
   channel's RMS (forces, moments, slip, camber, speeds), at least 0.001 on the slip ratios SL
   and SR (so a cornering run's SL scatters about 0 as a real one does); fixed levels on
