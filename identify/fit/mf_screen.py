@@ -92,7 +92,9 @@ def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = N
     delta = np.ones(len(names)) if delta is None else np.asarray(delta, dtype=float)
     held: dict[str, str] = {}
     residual: dict[str, float] = {}
-    basis: list[np.ndarray] = []
+    # the accepted orthonormal columns, filled in order (classical Gram-Schmidt, twice: as
+    # accurate as the modified one re-orthogonalised, in two matrix products per pass)
+    basis = np.empty((J.shape[0], len(names)), order="F")
     accepted: list[str] = []
     for j, name in enumerate(names):
         col = J[:, j]
@@ -105,12 +107,12 @@ def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = N
             residual[name] = 0.0
             continue
         v = col / norm
-        coef = []
+        Q = basis[:, :len(accepted)]
+        coef = np.zeros(len(accepted))
         for _ in range(2):  # re-orthogonalise once for accuracy
-            c = [float(q @ v) for q in basis]
-            for q, cq in zip(basis, c):
-                v = v - cq * q
-            coef = c if not coef else [a + b for a, b in zip(coef, c)]
+            c = v @ Q
+            v = v - Q @ c
+            coef += c
         rel = float(np.linalg.norm(v))
         residual[name] = rel
         if rel < tol:
@@ -123,7 +125,7 @@ def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = N
             held[name] = (f"sensitivity: negligible effect ({effect:.1e} for a change of "
                           f"{delta[j]:.3g})")
             continue
-        basis.append(v / rel)
+        basis[:, len(accepted)] = v / rel
         accepted.append(name)
     return held, residual
 
