@@ -119,8 +119,8 @@ def _polish(problem: FitProblem, lsq: Estimate, tol: Tolerances) -> Outcome:
         if again.cost <= pol.cost:
             pol = again
     if not pol.success and problem.constraints and _dominated(problem, pol.x, lsq.x):
-        return Outcome(lsq.x, False, f"{pol.message} (the polish ended no better in the "
-                       "objective nor in the constraints: the least-squares point is kept)",
+        return Outcome(lsq.x, False, f"{pol.message} (the polish ended neither lower in the "
+                       "objective nor feasible: the least-squares point is kept)",
                        pol.status, lsq)
     if not problem.constraints and pol.cost > problem.objective_value(lsq.x):
         return Outcome(lsq.x, True, "least-squares pre-solve kept (SLSQP did not improve)",
@@ -158,9 +158,16 @@ def _violation(problem: FitProblem, x: np.ndarray) -> float:
 
 
 def _dominated(problem: FitProblem, x: np.ndarray, ref: np.ndarray) -> bool:
-    """Whether ``x`` is no better than ``ref`` in the objective and in the constraints."""
+    """Whether ``x`` (a failed polish's end) gains nothing over ``ref``: neither a lower
+    objective nor feasibility where ``ref`` violates. A point that still violates is no
+    gain for violating less: it holds no validity guarantee either, and a failed SLSQP
+    trades the objective for it without bound. On the golden tyre's TTC session (seed 0,
+    tests/data/tir/testA_61.tir) the Fy stage's polish failed ("Inequality constraints
+    incompatible") still violating, a little less, at RBY4 = 7e8 and an objective 1e10 times
+    the least-squares point's; the re-fit with RVY4..6 started there and the stage failed."""
     fx, fr = problem.objective_value(x), problem.objective_value(ref)
-    return (not fx < fr) and not _violation(problem, x) < _violation(problem, ref)
+    vx, vr = _violation(problem, x), _violation(problem, ref)
+    return (not fx < fr) and not (vx == 0.0 < vr)
 
 
 def _finish(problem: FitProblem, lsq: Estimate, cache: list, bound: float,
