@@ -237,6 +237,20 @@ bench/fit_cost.py --passes 2 [--import-first]``): ``cpu`` 356 -> 83 (4.3x) with 
 its fit is 1.6 s, where the fixed costs (import, stage builds, loading the stored
 executables) do not shrink with the data.
 
+Measured 2026-11-24 (session 10) at 42f5bf0, load average 1.0-1.4, one sitting: ddb9f71
+(``PYTHONPATH=/tmp/before python bench/fit_cost.py --label ddb9f71``, twice) ``cpu`` 336 and
+343; this code (``python bench/fit_cost.py --passes 2``, three times) 69, 71 and 75 with the
+JAX import in the timed fit (4.5-5.0x), 58 with ``--import-first`` (5.9x). What went: the MF
+solves stop at a Gauss-Newton decrement below the noise stop's bound
+(identify.fit.engine.Tolerances.decrement_stop: the sample's Fy0 193 -> 151 evaluations, Mz0
+92 -> 75; every coefficient within 0.0045 of its standard error of main's, ``mfid fit
+--no-report`` fit.json compared) and the screen's Gram-Schmidt in matrix products; a warm
+fit_mf (passes 1, JAX imported) 1.44 -> 1.21 s of CPU. Of the 1.7 s left: the JAX import
+0.28 s, loading seven stored executables 0.08 s, Fy0 0.43 s and Mz0 0.32 s (their searches'
+three starts on the subsample and the solves on all points). ``--ttc 0 --passes 2``: ``cpu``
+134 (143 at c35cff2 the same sitting with passes 1; ddb9f71 612-628 on its binned table in
+earlier rounds).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
