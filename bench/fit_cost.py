@@ -248,8 +248,8 @@ solves stop at a Gauss-Newton decrement below the noise stop's bound
 fit_mf (passes 1, JAX imported) 1.44 -> 1.21 s of CPU. Of the 1.7 s left: the JAX import
 0.28 s, loading seven stored executables 0.08 s, Fy0 0.43 s and Mz0 0.32 s (their searches'
 three starts on the subsample and the solves on all points). ``--ttc 0 --passes 2``: ``cpu``
-134 (143 at c35cff2 the same sitting with passes 1; ddb9f71 612-628 on its binned table in
-earlier rounds).
+134 (c35cff2 with passes 1, earlier this session: 143; ddb9f71 612-628 on its binned table
+in earlier rounds).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
