@@ -814,7 +814,8 @@ def test_the_gauss_newton_decrement_ends_a_noisy_solve_near_its_optimum_sooner()
     0.02 standard errors of the round-off optimum (a cost 1e-4 s^2 above it puts a coefficient
     at most sqrt(2e-4) = 0.014 standard errors away). The decrement is 0.5 ||J p||^2 of the
     least-squares step p; without an exact Jacobian there is none."""
-    from identify.fit.engine import MF_SOLVE, NOISE_STATUS, STRICT, _NoiseStop, least_squares
+    from identify.fit.engine import (MF_SOLVE, NOISE_STATUS, STRICT, KeptJacobian, _NoiseStop,
+                                     least_squares)
 
     residuals, jacobian, box = _magic_sine()
     x0 = np.array([5.0, 1.6, 0.8, 0.0])
@@ -832,7 +833,8 @@ def test_the_gauss_newton_decrement_ends_a_noisy_solve_near_its_optimum_sooner()
     assert fast.cost - exact.cost < 1e-4 * s2
     # the decrement by hand at the start
     stop = _NoiseStop(MF_SOLVE, 4)
-    stop.keeping(jacobian)(x0)
+    stop.kept = KeptJacobian(jacobian)
+    stop.kept(x0)
     r = residuals(x0)
     p, *_ = np.linalg.lstsq(jacobian(x0), r, rcond=None)
     Jp = jacobian(x0) @ p

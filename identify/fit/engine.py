@@ -33,18 +33,17 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy import optimize
-from scipy.linalg import lapack
 
 from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, interval_dof,
                                      jackknife_covariance, jackknife_defined, jackknife_dof,
                                      jackknife_steps, jackknife_with_dof, pseudo_solve,
                                      standard_errors, t_quantile)
 from identify.fit.problem import FitProblem
-from identify.fit.trf_svd import qr_svd
+from identify.fit.trf_svd import qr_svd, tall_svd
 
 __all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "DOGLEG_AFTER", "ESSENTIAL_RTOL",
            "FEASIBLE_TOL", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STOP_STATUS",
-           "STRICT", "CountingModel", "Estimate", "Tolerances",
+           "STRICT", "CountingModel", "Estimate", "KeptJacobian", "Tolerances",
            "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
            "jackknife_with_dof", "least_squares", "polish", "problem_covariance",
@@ -259,7 +258,7 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
     extra = {}
     noise = _NoiseStop(tol, x0.size) if tol.noise_ftol > 0 else None
     if noise is not None and jac is not None and tol.decrement_stop:
-        jac = noise.keeping(jac)
+        jac = noise.kept = jac if isinstance(jac, KeptJacobian) else KeptJacobian(jac)
     caller = _Stop(noise, stop)
     if (noise is not None or stop is not None) and _HAS_CALLBACK:
         extra["callback"] = caller
@@ -334,6 +333,28 @@ def residual_variance(cost: float, n_points: int, n_free: int) -> float:
     return 2.0 * cost / max(n_points - n_free, 1)
 
 
+class KeptJacobian:
+    """An exact Jacobian x -> J that keeps its last evaluation, for a solver callback that
+    needs J at the iterate it is told of (scipy's trf evaluates J at an accepted iterate just
+    before its callback): the noise stop's decrement, the MF search's merge test
+    (identify.fit.mf_search). One wrapper serves both (engine.least_squares keeps a given
+    one)."""
+
+    def __init__(self, jac: Callable[..., np.ndarray]):
+        self.jac = jac
+        self._x: np.ndarray | None = None
+        self._J: np.ndarray | None = None
+
+    def __call__(self, x: np.ndarray, *args) -> np.ndarray:
+        J = self.jac(x, *args)
+        self._x, self._J = np.array(x, dtype=float), J
+        return J
+
+    def at(self, x: np.ndarray) -> np.ndarray | None:
+        """The Jacobian last evaluated, if it was at ``x``; else None."""
+        return self._J if self._x is not None and np.array_equal(self._x, x) else None
+
+
 DECREMENT_GATE = 3.0
 """Tolerances.decrement_stop: the Gauss-Newton decrement is taken only at an iterate whose
 iteration lowered the cost by less than DECREMENT_GATE x noise_ftol x s^2. Converging
@@ -347,13 +368,13 @@ took 98 decompositions for the same stops, 3 the same stops in fewer, 1 stopped 
 class _NoiseStop:
     """scipy least_squares callback: StopIteration once the cost has fallen by less than
     noise_ftol x s^2 over the last noise_window iterations (see Tolerances.noise_ftol), or
-    (Tolerances.decrement_stop, with :meth:`keeping` wrapped round the exact Jacobian) once
-    the Gauss-Newton decrement is below that."""
+    (Tolerances.decrement_stop, the solver's exact Jacobian a :class:`KeptJacobian` in
+    ``kept``) once the Gauss-Newton decrement is below that."""
 
     def __init__(self, tol: Tolerances, n_free: int):
         self.tol, self.k, self.costs = tol, n_free, []
         self.fired: str | None = None  # "window" or "decrement" once it has stopped a solve
-        self.kept: tuple[np.ndarray | None, np.ndarray | None] | None = None  # keeping()
+        self.kept: KeptJacobian | None = None  # the exact Jacobian (decrement_stop)
         self.s2 = 0.0  # s^2 at the last iterate (costs[-1])
 
     def last_drop(self) -> float | None:
@@ -365,37 +386,18 @@ class _NoiseStop:
             return None
         return (self.costs[-1 - w] - self.costs[-1]) / self.s2
 
-    def keeping(self, jac: Callable[..., np.ndarray]) -> Callable[..., np.ndarray]:
-        """``jac`` that also keeps its last (x, Jacobian), for :meth:`decrement`."""
-        def kept(x, *args):
-            J = jac(x, *args)
-            self.kept = (np.array(x, dtype=float), J)
-            return J
-        self.kept = (None, None)
-        return kept
-
     def decrement(self, x: np.ndarray, r: np.ndarray) -> float | None:
         """The Gauss-Newton decrement 0.5 ||P_J r||^2 at ``x`` (residuals ``r``) from the
-        Jacobian kept at x (Householder QR of its columns scaled to unit norm, Q^T r by the
-        reflectors); None without a finite one at x."""
-        at, J = self.kept
-        if at is None or not np.array_equal(at, x):
-            return None
-        J = np.asarray(J, dtype=float)
-        if not np.isfinite(J).all():
+        Jacobian kept at x (its columns scaled to unit norm; U^T r of their thin SVD, by the
+        solver's own QR route, identify.fit.trf_svd); None without a finite one at x."""
+        J = None if self.kept is None else self.kept.at(x)
+        if J is None or not np.isfinite(J).all():
             return None
         norms = np.linalg.norm(J, axis=0)
         norms[norms == 0] = 1.0
-        k = J.shape[1]
-        geqrf, ormqr = lapack.get_lapack_funcs(("geqrf", "ormqr"), (J,))
-        qr, tau, _, info = geqrf(J / norms)
-        if info != 0:  # pragma: no cover - LAPACK argument errors only
-            return None
-        qtr, _, info = ormqr("L", "T", qr, tau, np.asarray(r, dtype=float)[:, None],
-                             max(1, 64 * k))
-        if info != 0:  # pragma: no cover
-            return None
-        return 0.5 * float(qtr[:k, 0] @ qtr[:k, 0])
+        U, _, _ = tall_svd(np.asarray(J, dtype=float) / norms, full_matrices=False)
+        ur = U.T.dot(np.asarray(r, dtype=float))
+        return 0.5 * float(ur @ ur)
 
     def __call__(self, intermediate_result) -> None:
         self.costs.append(float(intermediate_result.cost))

@@ -203,9 +203,9 @@ class Search:
 class _Reached:
     """engine.least_squares ``stop`` of one start: the message of a start that has reached an
     earlier start's end point or path (see MERGE_CHI2), recorded in ``into`` (that start's
-    index). Records the start's own path (``path``: iterates and costs); ``jac`` wraps the
-    exact Jacobian, so that the check has the Jacobian at the iterate (without one, end points
-    only, in their own solver's metric)."""
+    index). Records the start's own path (``path``: iterates and costs); ``jac`` keeps the
+    exact Jacobian (engine.KeptJacobian), so that the check has the Jacobian at the iterate
+    (without one, end points only, in their own solver's metric)."""
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
                  free: tuple[str, ...], jac=None):
@@ -218,13 +218,7 @@ class _Reached:
         self.paths = [(j, paths[j], s2) for j, _, _, _, s2 in self.ends]
         self.path: list[tuple[np.ndarray, float]] = []
         self.into: int | None = None
-        self._jac, self._at = jac, (None, None)
-        self.jac = None if jac is None else self._jacobian
-
-    def _jacobian(self, x: np.ndarray) -> np.ndarray:
-        J = self._jac(x)
-        self._at = (np.array(x, dtype=float), J)
-        return J
+        self.jac = None if jac is None else engine.KeptJacobian(jac)
 
     def __call__(self, x: np.ndarray, cost: float) -> str | None:
         self.path.append((np.array(x, dtype=float), cost))
@@ -237,8 +231,8 @@ class _Reached:
                                                           for y in alike):
                 self.into = j
                 return f"reached the end point of start {j + 1}"
-        at, J = self._at
-        if J is None or not np.array_equal(at, x):
+        J = None if self.jac is None else self.jac.at(x)
+        if J is None:
             return None
         for j, path, s2 in self.paths:
             for xt, ct in path:
