@@ -842,12 +842,13 @@ def test_the_gauss_newton_decrement_ends_a_noisy_solve_near_its_optimum_sooner()
     assert stop.decrement(x0 + 1e-3, r) is None  # not the kept point
 
 
-def test_the_refit_also_starts_from_the_least_squares_point_a_polish_left():
+def test_unpolished_is_the_least_squares_point_a_polish_left():
     """identify.fit.mf_stages._unpolished: the least-squares point of a fit whose optimum was
     polished away from it (its constraint violated there), as the fit's record has it, so
     that the MF stage's re-fit with more coefficients free starts there too (the golden
-    tyre's seed 4: the polish had left for a point 94 times higher in chi^2); none where the
-    optimum is its least-squares point."""
+    tyre's seed 4: the polish had left for a point 94 times higher in chi^2; that the re-fit
+    uses it is shown there, bench/ttc_truth.py --tir tests/data/tir/testA_61.tir --seeds 4);
+    none where the optimum is its least-squares point."""
     from identify.fit.mf_stages import _unpolished
     from identify.fit.optimize import Solved
 
