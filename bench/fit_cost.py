@@ -249,7 +249,10 @@ fit_mf (passes 1, JAX imported) 1.44 -> 1.21 s of CPU. Of the 1.7 s left: the JA
 0.28 s, loading seven stored executables 0.08 s, Fy0 0.43 s and Mz0 0.32 s (their searches'
 three starts on the subsample and the solves on all points). ``--ttc 0 --passes 2``: ``cpu``
 134 (c35cff2 with passes 1, earlier this session: 143; ddb9f71 612-628 on its binned table
-in earlier rounds).
+in earlier rounds). After the review (4117235: one kept Jacobian, the decrement by
+trf_svd.tall_svd; fit.json of the sample unchanged), the same commands in one sitting, load
+1.3-1.4: ddb9f71 339 and 336; this code 71, 71 and 72 (4.7-4.8x), 58 with ``--import-first``
+(5.8x).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
