@@ -10,7 +10,7 @@ predicts (0.56 s^2 left after one iteration, 13 more to bring it below 1e-4 s^2)
 Gauss-Newton steps in the coefficients scaled to unit Jacobian columns gained what the model
 predicted from the second step on: the same optimum (cost within 5e-5 s^2) in 5 and 6
 evaluations where trf took 16 and 15; Mz0's 11 -> 7 (one-off /tmp trace of fit_mf's solves,
-2026-11-25). The optima are interior: no step of these solves met a bound.
+2026-11-24). The optima are interior: no step of these solves met a bound.
 
 The phase (:func:`interior_steps`): at x, the Gauss-Newton step v of the column-scaled
 Jacobian (thin SVD by identify.fit.trf_svd.tall_svd, singular values below RCOND x the largest
