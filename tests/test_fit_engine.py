@@ -311,6 +311,30 @@ def test_jackknife_degrees_of_freedom_by_hand():
     assert engine.interval_dof(X).tolist() == [x.size - 2.0] * 2
 
 
+def test_the_jackknife_is_that_of_the_optimum_wherever_near_it_the_solver_stopped():
+    """engine.jackknife_steps at a point e off the optimum of a linear model (the gradient J^T
+    r = G e there, as where an MF solve's noise stop ends it) gives the optimum's steps: each
+    the difference of the refits without and with all clusters, not the refit without the
+    cluster less the point. Without the gradient terms every step would carry -(G - G_c)^+ G
+    e, here many times the steps' own size along the weakly determined quadratic term."""
+    rng = np.random.default_rng(8)
+    x = np.tile(np.linspace(-1, 1, 10), 12)
+    J = np.c_[np.ones(x.size), x, x ** 2 + 0.02 * rng.standard_normal(x.size)]
+    y = rng.standard_normal(x.size)
+    clusters = np.array_split(np.arange(x.size), 12)
+    r_opt = J @ np.linalg.lstsq(J, y, rcond=None)[0] - y
+    at_optimum = engine.jackknife_steps(J, r_opt, clusters)
+    # the refits by hand: least squares without each cluster, less that with all of them
+    full = np.linalg.lstsq(J, y, rcond=None)[0]
+    by_hand = np.array([np.linalg.lstsq(np.delete(J, i, 0), np.delete(y, i), rcond=None)[0]
+                        - full for i in clusters])
+    np.testing.assert_allclose(at_optimum, by_hand, rtol=1e-9, atol=1e-12)
+    e = np.array([0.01, -0.02, 0.05])  # a point off the optimum: r = r_opt + J e
+    off = engine.jackknife_steps(J, r_opt + J @ e, clusters)
+    np.testing.assert_allclose(off, at_optimum, rtol=1e-9, atol=1e-12)
+    assert np.abs(off - at_optimum).max() < 1e-3 * np.abs(at_optimum).max()
+
+
 def test_jackknife_with_dof_is_the_covariance_and_dof_of_per_cluster_solves():
     """engine.jackknife_with_dof (one stacked pseudo-inverse per cluster, shared): the
     jackknife covariance and degrees of freedom as written out with one pinv per left-out
@@ -319,6 +343,7 @@ def test_jackknife_with_dof_is_the_covariance_and_dof_of_per_cluster_solves():
     x = np.tile(np.linspace(-1, 1, 10), 12)
     J = np.c_[np.ones(x.size), x, x ** 2 * 1e3]
     r = rng.standard_normal(x.size)
+    r -= J @ np.linalg.lstsq(J, r, rcond=None)[0]  # the residuals at the optimum: J^T r = 0
     clusters = np.array_split(rng.permutation(x.size), 12)
     steps = []
     lam = []

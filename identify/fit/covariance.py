@@ -62,10 +62,17 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
                     parts: tuple[np.ndarray, ...] | None = None) -> np.ndarray:
     """The linearised change of each estimate when one cluster is left out, (C, k).
 
-    Row c is d_c = (G - G_c)^+ (s_c - (J^T K - J_c^T K_c) u_c), with G = J^T J, G_c = J_c^T J_c,
-    s_c = J_c^T r_c: the Gauss-Newton solution of the normal equations without cluster c
-    (exactly the refit's change for a linear model) when the coefficients an earlier fit fixed
-    move by u_c as that fit leaves the same cluster out. ``upstream`` = (K, U): K = d r / d
+    Row c is d_c = (G - G_c)^+ (s_c - g - (J^T K - J_c^T K_c) u_c) + G^+ g, with G = J^T J,
+    G_c = J_c^T J_c, s_c = J_c^T r_c, g = J^T r: the Gauss-Newton solution of the normal
+    equations without cluster c less that with every cluster (exactly the refit's change for a
+    linear model) when the coefficients an earlier fit fixed move by u_c as that fit leaves the
+    same cluster out. At the optimum g = 0; the MF solves stop a small fraction of a standard
+    error before it (identify.fit.engine.MF_SOLVE), and without g a cluster whose removal
+    leaves a direction weakly determined turned that remainder into a step of many standard
+    errors (a generated TTC session's Mz0, seed 9: the same optimum to 3e-7 in chi^2 as
+    another solve's, 25 coefficients reported correlated above 0.99 instead of 4). With g the
+    steps are those of the optimum, wherever near it the solver stopped (exactly so for a
+    linear model). ``upstream`` = (K, U): K = d r / d
     (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
     earlier call, clusters in the same order; a cluster with no point here is an empty index
     array and still moves the estimate through u_c). Computed on the column-scaled J.
@@ -73,14 +80,16 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     """
     Js, scale, _, A, _ = _left_out(jac, clusters) if parts is None else parts
     k = Js.shape[1]
-    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k)
+    g = Js.T @ fun
+    rhs = np.array([Js[i].T @ fun[i] for i in clusters]).reshape(len(clusters), k) - g
     if upstream is not None:
         K, U = (np.atleast_2d(np.asarray(a, dtype=float)) for a in upstream)
         JK = Js.T @ K
         rhs = rhs - np.array([(JK - Js[i].T @ K[i]) @ u for i, u in zip(clusters, U)]
                              ).reshape(rhs.shape)
-    steps = np.einsum("cij,cj->ci", A, rhs)
-    return steps.reshape(len(clusters), k) / scale
+    steps = np.einsum("cij,cj->ci", A, rhs).reshape(len(clusters), k)
+    steps += np.linalg.pinv(Js.T @ Js, hermitian=True) @ g  # pinv's default cutoff, as A's
+    return steps / scale
 
 
 ESSENTIAL_RTOL = 1e-8
