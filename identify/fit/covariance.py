@@ -66,13 +66,14 @@ def jackknife_steps(jac: np.ndarray, fun: np.ndarray, clusters: list[np.ndarray]
     G_c = J_c^T J_c, s_c = J_c^T r_c, g = J^T r: the Gauss-Newton solution of the normal
     equations without cluster c less that with every cluster (exactly the refit's change for a
     linear model) when the coefficients an earlier fit fixed move by u_c as that fit leaves the
-    same cluster out. At the optimum g = 0; the MF solves stop a small fraction of a standard
-    error before it (identify.fit.engine.MF_SOLVE), and without g a cluster whose removal
-    leaves a direction weakly determined turned that remainder into a step of many standard
-    errors (a generated TTC session's Mz0, seed 9: the same optimum to 3e-7 in chi^2 as
-    another solve's, 25 coefficients reported correlated above 0.99 instead of 4). With g the
-    steps are those of the optimum, wherever near it the solver stopped (exactly so for a
-    linear model). ``upstream`` = (K, U): K = d r / d
+    same cluster out. At the optimum g = 0; the MF solves stop short of it (by a small
+    fraction of a standard error at the noise stop, identify.fit.engine.MF_SOLVE, by more
+    where a solve crawling along a flat valley ends at its budget), and without g a cluster
+    whose removal leaves a direction weakly determined turns that remainder into a step
+    (G - G_c)^+ g that is no part of the estimate's variability. With g the steps are those
+    of the optimum, wherever near it the solver stopped (exactly so for a linear model; on
+    the ten generated TTC sessions of bench/ttc_truth.py the intervals came out the same to
+    the printed digits, their solves ending close enough). ``upstream`` = (K, U): K = d r / d
     (the earlier coefficients), (n, m); U = their own steps per cluster, (C, m) (the rows of an
     earlier call, clusters in the same order; a cluster with no point here is an empty index
     array and still moves the estimate through u_c). Computed on the column-scaled J.
