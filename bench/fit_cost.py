@@ -254,6 +254,17 @@ trf_svd.tall_svd; fit.json of the sample unchanged), the same commands in one si
 1.3-1.4: ddb9f71 339 and 336; this code 71, 71 and 72 (4.7-4.8x), 58 with ``--import-first``
 (5.8x).
 
+Measured 2026-11-24 (session 11) at c905ae6, load average 1.2-1.3, one sitting: ddb9f71
+(``PYTHONPATH=/tmp/before python bench/fit_cost.py --label ddb9f71``, twice) ``cpu`` 342 and
+345; this code (``python bench/fit_cost.py --passes 2``, three times) 67, 67 and 67 with the
+JAX import in the timed fit (5.1x), 51 with ``--import-first`` (6.7x); in an earlier sitting
+that day (load 0.4-0.5) 336 -> 64 and 62 (5.3-5.4x), 49 without the import. What went: the
+MF solves on all points start with full Gauss-Newton steps inside the bounds
+(identify.fit.gauss_newton: the sample's Fy0 151 -> 132 evaluations, Mz0 84 -> 78; its two
+Fy0 solves on all points 16 and 15 -> 5 and 6), a warm fit_mf 1.26 -> 1.06 s of CPU, every
+coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-report).
+``--ttc 0 --passes 2``: ``cpu`` 128 (134 at c8c26be).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
