@@ -38,9 +38,9 @@ from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, 
                                      jackknife_covariance, jackknife_defined, jackknife_dof,
                                      jackknife_steps, jackknife_with_dof, pseudo_solve,
                                      standard_errors, t_quantile)
-from identify.fit.gauss_newton import Steps, interior_steps
+from identify.fit.gauss_newton import Steps, gauss_newton_step, interior_steps
 from identify.fit.problem import FitProblem
-from identify.fit.trf_svd import qr_svd, tall_svd
+from identify.fit.trf_svd import qr_svd
 
 __all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "DOGLEG_AFTER", "ESSENTIAL_RTOL",
            "FEASIBLE_TOL", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STOP_STATUS",
@@ -302,9 +302,7 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
     if caller.message is not None:
         status, message = STOP_STATUS, caller.message
     elif noise is not None and noise.fired == "decrement":
-        status = NOISE_STATUS
-        message = (f"the Gauss-Newton step would lower the cost by less than "
-                   f"{tol.noise_ftol:g} x the residual variance")
+        status, message = NOISE_STATUS, _decrement_message(tol)
     elif noise is not None and noise.fired:
         status = NOISE_STATUS
         message = (f"the cost fell by less than {tol.noise_ftol:g} x the residual variance "
@@ -321,15 +319,20 @@ def least_squares(residuals: Callable[[np.ndarray], np.ndarray], x0: np.ndarray,
                     active_mask=np.asarray(res.active_mask, dtype=int))
 
 
+def _decrement_message(tol: Tolerances) -> str:
+    """The message of a solve ended by the Gauss-Newton decrement (the decrement stop or the
+    Gauss-Newton phase)."""
+    return (f"the Gauss-Newton step would lower the cost by less than {tol.noise_ftol:g} x "
+            "the residual variance")
+
+
 def _from_steps(steps: Steps, tol: Tolerances) -> Estimate:
     """The Estimate of a least-squares solve that the Gauss-Newton phase ended (converged by
     the decrement, or by the caller's ``stop``)."""
     if steps.stopped is not None:
         status, message = STOP_STATUS, steps.stopped
     else:
-        status = NOISE_STATUS
-        message = (f"the Gauss-Newton step would lower the cost by less than "
-                   f"{tol.noise_ftol:g} x the residual variance")
+        status, message = NOISE_STATUS, _decrement_message(tol)
     return Estimate(x=steps.x, cost=steps.cost, fun=steps.fun, jac=np.atleast_2d(steps.jac),
                     nfev=steps.nfev, njev=steps.njev, status=status, message=message,
                     success=status > 0, active_mask=np.zeros(steps.x.size, dtype=int))
@@ -422,16 +425,12 @@ class _NoiseStop:
 
     def decrement(self, x: np.ndarray, r: np.ndarray) -> float | None:
         """The Gauss-Newton decrement 0.5 ||P_J r||^2 at ``x`` (residuals ``r``) from the
-        Jacobian kept at x (its columns scaled to unit norm; U^T r of their thin SVD, by the
-        solver's own QR route, identify.fit.trf_svd); None without a finite one at x."""
+        Jacobian kept at x (identify.fit.gauss_newton.gauss_newton_step, the Gauss-Newton
+        phase's own); None without a finite, nonzero one at x."""
         J = None if self.kept is None else self.kept.at(x)
-        if J is None or not np.isfinite(J).all():
-            return None
-        norms = np.linalg.norm(J, axis=0)
-        norms[norms == 0] = 1.0
-        U, _, _ = tall_svd(np.asarray(J, dtype=float) / norms, full_matrices=False)
-        ur = U.T.dot(np.asarray(r, dtype=float))
-        return 0.5 * float(ur @ ur)
+        step = None if J is None else gauss_newton_step(np.asarray(J, dtype=float),
+                                                        np.asarray(r, dtype=float))
+        return None if step is None else step[1]
 
     def __call__(self, intermediate_result) -> None:
         self.costs.append(float(intermediate_result.cost))

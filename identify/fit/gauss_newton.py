@@ -32,7 +32,7 @@ import numpy as np
 
 from identify.fit.trf_svd import tall_svd
 
-__all__ = ["ARMIJO", "HALVINGS", "RCOND", "Steps", "interior_steps"]
+__all__ = ["ARMIJO", "HALVINGS", "RCOND", "Steps", "gauss_newton_step", "interior_steps"]
 
 ARMIJO = 1e-4
 """Fraction of the linear model's fall of the cost that a step must achieve (Armijo)."""
@@ -75,9 +75,10 @@ class Steps:
         return float(0.5 * self.fun @ self.fun)
 
 
-def _step(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float] | None:
+def gauss_newton_step(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float] | None:
     """(Gauss-Newton step, decrement 0.5 ||P_J r||^2) at a point with Jacobian ``J`` and
-    residuals ``r``; None when J is not finite or zero."""
+    residuals ``r``; None when J is not finite or zero. The phase's steps and the engine's
+    decrement stop (identify.fit.engine.Tolerances.decrement_stop)."""
     if not np.isfinite(J).all():
         return None
     norms = np.linalg.norm(J, axis=0)
@@ -120,7 +121,7 @@ def interior_steps(residuals: Callable[[np.ndarray], np.ndarray],
     n, k = J.shape
     while True:
         cost = 0.5 * float(r @ r)
-        step = _step(J, r)
+        step = gauss_newton_step(J, r)
         if step is None:
             return Steps(x, r, J, nfev, njev, False, None, "Jacobian not finite or zero")
         v, decrement = step
