@@ -261,7 +261,8 @@ JAX import in the timed fit (5.1x), 51 with ``--import-first`` (6.7x); in an ear
 that day (load 0.4-0.5) 336 -> 64 and 62 (5.3-5.4x), 49 without the import. What went: the
 MF solves on all points start with full Gauss-Newton steps inside the bounds
 (identify.fit.gauss_newton: the sample's Fy0 151 -> 132 evaluations, Mz0 84 -> 78; its two
-Fy0 solves on all points 16 and 15 -> 5 and 6), a warm fit_mf 1.26 -> 1.06 s of CPU, every
+Fy0 solves on all points 16 and 15 -> 5 and 6), a warm fit_mf 1.26 -> 1.06 s of CPU (passes
+2, three runs each in one process, a one-off /tmp script), every
 coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-report).
 ``--ttc 0 --passes 2``: ``cpu`` 128 (134 at c8c26be).
 

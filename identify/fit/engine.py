@@ -172,8 +172,10 @@ window and scipy's round-off tests took 28, its coefficients within 0.005 standa
 On a 93074-point TTC session the Mz0 solve from a candidate ran into its 100-evaluation
 budget with STRICT alone, its cost changing in the 8th digit. The solves start with the
 Gauss-Newton phase (gauss_newton; identify.fit.gauss_newton): the sample's Fy0 151 -> 132
-evaluations, Mz0 84 -> 78, a warm fit_mf 1.26 -> 1.06 s of CPU, every MF coefficient within
-0.0045 of its standard error (mfid fit --no-report before and after, 2026-11-24)."""
+evaluations, Mz0 84 -> 78 (bench/fit_cost.py's nfev column), a warm fit_mf 1.26 -> 1.06 s
+of CPU (passes 2, three runs each in one process, a one-off /tmp script), every MF
+coefficient within 0.0045 of its standard error (mfid fit --no-report before and after,
+2026-11-24)."""
 
 LAPLACE = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60)
 """The MCMC likelihood's maximum near the least-squares optimum (identify.fit.mcmc_laplace.
