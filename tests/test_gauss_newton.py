@@ -12,6 +12,7 @@ from test_fit_engine import _magic_sine
 
 from identify.fit.engine import MF_SOLVE, NOISE_STATUS, STRICT, least_squares
 from identify.fit.gauss_newton import interior_steps
+from identify.fit.problem import PENALTY, penalised
 
 TRF_ONLY = dataclasses.replace(MF_SOLVE, gauss_newton=False)
 
@@ -84,3 +85,35 @@ def test_without_noise_the_solve_still_reaches_the_truth():
     est = least_squares(exact, np.array([9.0, 1.35, 1.0, -0.4]), box, MF_SOLVE, jac=jacobian)
     assert est.success
     np.testing.assert_allclose(est.x, truth, rtol=1e-8)
+
+
+def test_a_point_where_the_model_is_not_finite_is_never_taken_for_converged():
+    """Points where the model is not finite get the residual PENALTY and a zero derivative
+    (identify.fit.problem.FitProblem.residuals / residual_jacobian), as a trial point outside
+    a model's domain does on a real file. The residual variance there is the penalty's: a
+    decrement or a five-iteration fall that is small against it says nothing about the noise.
+    From a start where a tenth of the points are so penalised (E above -0.45) the phase
+    stopped at once, "converged", at a cost of 2e13, and trf alone was ended by the decrement
+    stop at another penalised point. Now the phase steps out of the penalised region (the
+    clean points' Gauss-Newton step) and trf alone ends by scipy's own step test where it got
+    stuck (a local minimum of the penalised cost), not by a noise stop."""
+    residuals, jacobian, box = _magic_sine()
+    bad = np.arange(400) % 10 == 0
+
+    def penalised_residuals(p):
+        r = residuals(p)
+        return np.where(bad, PENALTY, r) if p[3] > -0.45 else r
+
+    def penalised_jacobian(p):
+        J = jacobian(p)
+        return np.where(bad[:, None], 0.0, J) if p[3] > -0.45 else J
+    x0 = np.array([9.0, 1.35, 1.0, -0.4])
+    assert penalised(penalised_residuals(x0))
+    steps = interior_steps(penalised_residuals, penalised_jacobian, x0, *box, noise_ftol=1e-4,
+                           max_nfev=100)
+    assert not steps.converged
+    est = least_squares(penalised_residuals, x0, box, MF_SOLVE, jac=penalised_jacobian)
+    assert est.success and not penalised(est.fun)
+    assert est.cost < 1e-12 * 0.5 * np.sum(penalised_residuals(x0) ** 2)
+    alone = least_squares(penalised_residuals, x0, box, TRF_ONLY, jac=penalised_jacobian)
+    assert alone.status != NOISE_STATUS

@@ -39,7 +39,7 @@ from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, 
                                      jackknife_steps, jackknife_with_dof, pseudo_solve,
                                      standard_errors, t_quantile)
 from identify.fit.gauss_newton import Steps, gauss_newton_step, interior_steps
-from identify.fit.problem import FitProblem
+from identify.fit.problem import FitProblem, penalised
 from identify.fit.trf_svd import qr_svd
 
 __all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "DOGLEG_AFTER", "ESSENTIAL_RTOL",
@@ -414,7 +414,7 @@ class _NoiseStop:
         self.tol, self.k, self.costs = tol, n_free, []
         self.fired: str | None = None  # "window" or "decrement" once it has stopped a solve
         self.kept: KeptJacobian | None = None  # the exact Jacobian (decrement_stop)
-        self.s2 = 0.0  # s^2 at the last iterate (costs[-1])
+        self.s2 = 0.0  # s^2 at the last iterate (costs[-1]); 0 where unknown (penalised)
 
     def last_drop(self) -> float | None:
         """The cost's fall over the last noise_window iterations in units of s^2 at the last
@@ -436,7 +436,10 @@ class _NoiseStop:
 
     def __call__(self, intermediate_result) -> None:
         self.costs.append(float(intermediate_result.cost))
-        self.s2 = residual_variance(self.costs[-1], intermediate_result.fun.size, self.k)
+        # s^2 is unknown where a residual is a non-finite model value's penalty: no noise test
+        # there (a penalised plateau changes by little relative to the penalty's s^2)
+        self.s2 = (0.0 if penalised(intermediate_result.fun)
+                   else residual_variance(self.costs[-1], intermediate_result.fun.size, self.k))
         drop = self.last_drop()
         if drop is not None and drop < self.tol.noise_ftol:
             self.fired = "window"

@@ -16,12 +16,14 @@ The phase (:func:`interior_steps`): at x, the Gauss-Newton step v of the column-
 Jacobian (thin SVD by identify.fit.trf_svd.tall_svd, singular values below RCOND x the largest
 dropped) and its decrement 0.5 ||P_J r||^2 (the fall of the cost the linearised model
 predicts). The phase ends converged when the decrement is below ``noise_ftol`` x s^2 (the
-engine's decrement stop, s^2 = r^T r / (n - k)); otherwise it takes x + t v for the first t
-of 1, 1/2, 1/4, 1/8 that lowers the cost by at least ARMIJO x t x 2 x the decrement (the
-Armijo condition: 2 x decrement is minus the cost's slope along v). It hands x over to the
-trust-region solver, which then goes on as before, when a full step would leave the bounds,
-none of the four steps lowers the cost enough (far from the optimum, or at round-off on data
-without noise), the Jacobian is not finite or zero, or after ``max_nfev`` evaluations.
+engine's decrement stop, s^2 = r^T r / (n - k); never where a residual is the penalty of a
+non-finite model value, identify.fit.problem.penalised, whose s^2 is not the noise's);
+otherwise it takes x + t v for the first t of 1, 1/2, 1/4, 1/8 that lowers the cost by at
+least ARMIJO x t x 2 x the decrement (the Armijo condition: 2 x decrement is minus the
+cost's slope along v). It hands x over to the trust-region solver, which then goes on as
+before, when a full step would leave the bounds, none of the four steps lowers the cost
+enough (far from the optimum, or at round-off on data without noise), the Jacobian is not
+finite or zero, or after ``max_nfev`` evaluations.
 """
 from __future__ import annotations
 
@@ -30,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from identify.fit.problem import penalised
 from identify.fit.trf_svd import tall_svd
 
 __all__ = ["ARMIJO", "HALVINGS", "RCOND", "Steps", "gauss_newton_step", "interior_steps"]
@@ -125,7 +128,7 @@ def interior_steps(residuals: Callable[[np.ndarray], np.ndarray],
         if step is None:
             return Steps(x, r, J, nfev, njev, False, None, "Jacobian not finite or zero")
         v, decrement = step
-        if decrement < noise_ftol * 2.0 * cost / max(n - k, 1):
+        if not penalised(r) and decrement < noise_ftol * 2.0 * cost / max(n - k, 1):
             return Steps(x, r, J, nfev, njev, True, None, "decrement")
         if not np.all((x + v >= lo) & (x + v <= hi)):
             return Steps(x, r, J, nfev, njev, False, None, "a full step leaves the bounds")

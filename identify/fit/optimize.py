@@ -20,7 +20,7 @@ from scipy.stats import qmc
 from identify.fit import engine
 from identify.fit.engine import STRICT, Estimate, Tolerances
 from identify.fit.metric import thesis_error_by_group
-from identify.fit.problem import FitProblem
+from identify.fit.problem import PENALTY, FitProblem
 from identify.fit.result import FitResult
 
 BEST_RTOL = 1e-6
@@ -361,7 +361,7 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
     pred = problem.predict(xb)
     with np.errstate(invalid="ignore"):
         r = (pred - problem.measured) * problem.weights()
-    r = np.where(np.isfinite(r), r, 1e6)  # as FitProblem.residuals, without evaluating again
+    r = np.where(np.isfinite(r), r, PENALTY)  # as FitProblem.residuals, without evaluating again
     by_p = thesis_error_by_group(pred, problem.measured, problem.pressure_bar)
     out = outcomes[best]
     return FitResult(

@@ -27,6 +27,18 @@ the residuals."""
 PRIOR_POINTS = 10.0
 """``noise="sweep-residual"``: the pooled residual variance counts as this many points of
 each sweep's own (a sweep of 1 point takes the pooled level, one of 130 nearly its own)."""
+PENALTY = 1e6
+"""The weighted residual of a point where the model is not finite (FitProblem.residuals; its
+derivative is 0). Weighted residuals are in units of the noise level: no measured point comes
+near it."""
+
+
+def penalised(r: np.ndarray) -> bool:
+    """Some residual of ``r`` is the PENALTY of a non-finite model value: the residual variance
+    there is the penalty's, not the noise's, and no test on it (the engine's noise stops, the
+    Gauss-Newton phase's convergence) may be read as closeness to an optimum."""
+    return bool(np.any(np.abs(r) >= PENALTY))
+
 
 ModelFn = Callable[[Mapping[str, float | np.ndarray]], np.ndarray]
 """model(values) -> predictions [unit of the data], one per data point; values maps every
@@ -263,7 +275,7 @@ class FitProblem:
     def residuals(self, x: np.ndarray | None = None) -> np.ndarray:
         """Weighted residuals w*(model - measured); non-finite model values are penalised."""
         r = (self.predict(x) - self.measured) * self.weights()
-        return r if np.isfinite(r).all() else np.where(np.isfinite(r), r, 1e6)
+        return r if np.isfinite(r).all() else np.where(np.isfinite(r), r, PENALTY)
 
     def model_jacobian(self, x: np.ndarray | None = None,
                        names: tuple[str, ...] | None = None) -> np.ndarray | None:
