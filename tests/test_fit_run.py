@@ -23,6 +23,8 @@ import pytest
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_float, json_safe, json_text
 from identify.core.tyre import TyreInfo
+from identify.fit import engine
+from identify.fit.identifiability import problems, unidentified
 from identify.fit.result import FitResult, MCMCSummary, Rival
 from identify.fit.run import SCHEMA, FitRun, FitSettings, Provenance
 from identify.io.fitdir import read_fit_dir, write_fit_dir
@@ -248,6 +250,21 @@ def test_covariance_and_unidentified_round_trip():
     # written before they were recorded: every standard error was iid
     old = {k: v for k, v in d.items() if k not in ("covariance", "clusters", "unidentified")}
     assert (FitResult.from_dict(old).covariance, FitResult.from_dict(old).clusters) == ("iid", 0)
+
+
+def test_a_coefficient_without_effect_at_the_optimum_is_not_identifiable():
+    """A free coefficient whose Jacobian column is 0 at the optimum (Mx's QSX6 run to 8e4 on a
+    generated TTC session of the golden tyre, atan((QSX6 Fz/Fz0)^2) = pi/2 at every point)
+    gets a standard error of 0 from the pseudo-inverse; that is no interval."""
+    rng = np.random.default_rng(3)
+    J = np.column_stack([rng.normal(size=50), np.zeros(50)])
+    cov = engine.covariance(J, rng.normal(size=50))
+    se, _ = engine.standard_errors(("A", "C"), cov)
+    assert se["C"] == 0.0 and se["A"] > 0
+    r = _result(parameters={"A": 1.5, "B": 2.0, "C": 8.4e4}, stderr=se, at_bound=())
+    assert unidentified(r) == {"C": "no effect on the data at the optimum"}
+    assert problems(r) == [
+        "C = 8.4e+04 has no effect on the data at the optimum (standard error 0)"]
 
 
 def test_degrees_of_freedom_round_trip_and_intervals():

@@ -7,7 +7,10 @@ converged fit is **poorly identified** when any of these holds (thresholds below
 - a free coefficient sits on a bound (the optimum is where the bound put it);
 - the 95 % interval of a coefficient (FitResult.interval: value +/- t(0.975, dof) standard
   errors) is wider than its bounds,
-  or it has no finite standard error (the covariance is singular in that direction);
+  or it has no finite standard error (the covariance is singular in that direction), or a
+  standard error of 0 (the prediction does not change with it at the optimum: a Jacobian
+  column of 0, which the pseudo-inverse gives no variance, e.g. Mx's QSX6 run to 8e4, where
+  atan((QSX6 Fz/Fz0)^2) is pi/2 at every point);
 - two coefficients are correlated beyond :data:`MAX_CORRELATION` (only a combination of them
   is determined);
 - another minimum of the objective as good as the reported one, within :data:`RIVAL_CHI2` on
@@ -67,6 +70,10 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
         lo, hi = r.bounds.get(n, (-math.inf, math.inf))
         if not math.isfinite(se):
             out.append((n, "no finite standard error", f"{n} has no finite standard error"))
+        elif se <= 0:  # its Jacobian column is 0: the pseudo-inverse gives it no variance
+            out.append((n, "no effect on the data at the optimum",
+                        f"{n} = {r.parameters[n]:.4g} has no effect on the data at the optimum "
+                        "(standard error 0)"))
         elif math.isfinite(lo) and math.isfinite(hi) and 2 * r.quantile(n) * se > hi - lo:
             v = r.parameters[n]
             a, b = r.interval(n)
