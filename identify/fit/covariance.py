@@ -12,7 +12,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.special import stdtrit
 
-__all__ = ["CLUSTER_KINDS", "ESSENTIAL_RTOL", "covariance", "interval_dof",
+__all__ = ["CLUSTER_KINDS", "ESSENTIAL_RTOL", "column_scaled", "covariance", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
            "jackknife_with_dof", "pseudo_solve", "standard_errors", "t_quantile"]
 
@@ -27,7 +27,7 @@ CLUSTER_KINDS = ("CR1", "jackknife")
 """Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
 
 
-def _column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """``jac`` (n, k) with columns of unit norm, and the norms they were divided by (1 for a
     zero column): the jackknife's k x k solves on comparable columns."""
     J = np.atleast_2d(np.asarray(jac, dtype=float))
@@ -49,7 +49,7 @@ def _left_out(jac: np.ndarray, clusters: list[np.ndarray]) -> tuple[np.ndarray, 
     symmetric G - G_c gives both the eigenvalues and the pseudo-inverse, V diag(1/w) V^T over
     |w| > 1e-15 max |w| (numpy's pinv(hermitian=True), its default cutoff), where pinv's SVD
     and eigvalsh took one decomposition each per cluster."""
-    Js, scale = _column_scaled(jac)
+    Js, scale = column_scaled(jac)
     Gc = _cluster_grams(Js, clusters)
     w, V = np.linalg.eigh(Js.T @ Js - Gc)
     big = np.abs(w) > 1e-15 * np.abs(w).max(axis=-1, initial=0.0, keepdims=True)

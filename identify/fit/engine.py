@@ -34,10 +34,10 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
-from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, covariance, interval_dof,
-                                     jackknife_covariance, jackknife_defined, jackknife_dof,
-                                     jackknife_steps, jackknife_with_dof, pseudo_solve,
-                                     standard_errors, t_quantile)
+from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, column_scaled, covariance,
+                                     interval_dof, jackknife_covariance, jackknife_defined,
+                                     jackknife_dof, jackknife_steps, jackknife_with_dof,
+                                     pseudo_solve, standard_errors, t_quantile)
 from identify.fit.gauss_newton import Steps, gauss_newton_step, interior_steps
 from identify.fit.problem import FitProblem, penalised
 from identify.fit.trf_svd import qr_svd
@@ -45,7 +45,8 @@ from identify.fit.trf_svd import qr_svd
 __all__ = ["CLUSTER_KINDS", "CRAWL_STATUS", "DISCOVERY", "DOGLEG_AFTER", "ESSENTIAL_RTOL",
            "FEASIBLE_TOL", "LAPLACE", "MF_SOLVE", "NOISE_STATUS", "SEARCH", "STOP_STATUS",
            "STRICT", "CountingModel", "Estimate", "KeptJacobian", "Tolerances",
-           "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps", "interval_dof",
+           "column_scaled", "counted", "covariance", "covariance_of", "fd_jacobian", "fd_steps",
+           "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
            "jackknife_with_dof", "least_squares", "polish", "problem_covariance",
            "pseudo_solve", "residual_jacobian", "residual_variance", "standard_errors",

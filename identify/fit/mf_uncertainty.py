@@ -94,6 +94,39 @@ def _central_differences(sp: StageProblem, values: Mapping[str, float],
     return np.where(np.isfinite(cols), cols, 0.0)
 
 
+UNDETERMINED_RCOND = 1e-10
+"""A direction of a stage's coefficients is undetermined by its data when its squared singular
+value of the column-scaled Jacobian is below this fraction of the largest (a standard error
+along it 1e5 times the best-determined direction's, see :func:`_determined`). On generated TTC
+sessions the smallest of every stage lie at 7e-7 to 3e-5 of the largest, except Fx0's where
+the fit ends with PKX2 at 0 (seeds 1, 4, 7, 8, 9 of bench/ttc_truth.py): there the PKX2 and
+PKX3 columns are proportional, d Kx / d PKX3 = PKX1 x d Kx / d PKX2, and the direction's
+value is 1e-14, that of rounding (seed 9, 2026-11-24)."""
+
+
+def _determined(jac: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """``steps`` (C, k) less their components along the directions that ``jac`` (n, k) leaves
+    undetermined (UNDETERMINED_RCOND), in column-scaled coefficients: what a stage's jackknife
+    steps carry into the later stages.
+
+    Along such a direction the linearised step of a left-out sweep divides that sweep's
+    score by a singular value at the rounding level; it is no estimate of how the coefficient
+    varies, and the stage's own covariance says so (no finite standard error, or a pair
+    correlated above 0.99: identify.fit.identifiability). Carried downstream through the
+    stage's effect on the later stages' points, such steps swamped their jackknife: on a
+    generated TTC session (seed 9) one Fx0 step of 3e5 in PKX2 made 23 of Mz0's 29
+    coefficients correlated above 0.99 (5 of 29 otherwise). The later stages' intervals
+    are then conditional on the value the fit left along the undetermined direction, as
+    they are on a held coefficient's."""
+    Js, scale = engine.column_scaled(jac)
+    _, sv, Vt = np.linalg.svd(Js, full_matrices=False)
+    null = Vt[sv ** 2 < UNDETERMINED_RCOND * sv[0] ** 2] if sv.size else Vt[:0]
+    if not null.size:
+        return steps
+    z = steps * scale
+    return (z - (z @ null.T) @ null) / scale
+
+
 def _with_covariance(r: FitResult, free: tuple[str, ...], cov: np.ndarray,
                      clusters: int, dof: np.ndarray) -> FitResult:
     stderr, corr = engine.standard_errors(free, cov)
@@ -148,8 +181,10 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
         own = np.zeros((n_sweeps, len(problem.free)))
         own[used] = engine.jackknife_steps(J, fun, sub, up)
         cov = engine.jackknife_covariance(own[used])
+        # downstream, only what the stage's data determine moves (see _determined)
+        carried = _determined(J, own)
         for j, n in enumerate(problem.free):
-            steps[n] = own[:, j]
+            steps[n] = carried[:, j]
         # degrees of freedom from the stage's own sweeps (engine.jackknife_dof; a sweep that
         # moves the stage only through what it holds adds no term of its own)
         dof = engine.jackknife_dof(J, [c for c in sub if c.size])
