@@ -163,19 +163,25 @@ def _rivals(problem: FitProblem, result: FitResult,
 
 def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
             params: Mapping[str, float], free, others: Sequence[Mapping[str, float]] = (),
-            progress: Progress | None = None, solved: Sequence[Solved] = ()
+            progress: Progress | None = None, solved: Sequence[Solved] = (), *,
+            n_lhs: int = N_LHS, seed: int = 0
             ) -> tuple[FitResult, StageProblem, Sequence[Mapping[str, float]],
                        Sequence[Solved]]:
     """Rule 3 of identify.fit.mf_screen after the global fit: free the coefficients that the
     significant moves have given an effect, and re-fit from the optimum and from the global
     search's other candidates ``others`` (:func:`_global_fit`) within CHI2_GAP of it on all
-    points (:func:`_rivals`; the new ones start at their carried-forward values; on the
-    search's subsample first, then on all points, as the global fit; a re-fit that does not
-    lower the objective is not taken). Two basins that the search found within a fraction of
-    a per cent of each other can swap order once the added coefficients are free: on a
-    generated TTC session's Fx0 (seed 2) the higher one, PCX1 = 1.83, PEX1 = 0.69, was the
-    lower with PEX4 held at 0, and its re-fit with PEX4 ended 8.7 in chi^2 above the re-fit
-    of the other (PCX1 = 1.49, PEX1 = 0.13, truth 1.6, 0.3). At most
+    points (:func:`_rivals`; the new ones start at their carried-forward values), and from
+    the defaults and ``n_lhs`` Latin-hypercube points around the optimum as the global search
+    does (start_points, ``seed``); on the search's subsample first, then on all points, as the
+    global fit; a re-fit that does not lower the objective is not taken. The added
+    coefficients can open basins that a start at their carried-forward values does not
+    reach: on generated TTC sessions (seeds 1 and 4) Mz0's re-fit with QEZ4 and QEZ5 from
+    (0, 0) alone ended at QEZ5 = -1.6 (truth 0), 1.5 and 2.6 % above the minimum near the
+    truth (QEZ5 = 0.13 and 0.51), which the Latin-hypercube starts reach. Two basins that the
+    search found within a fraction of a per cent of each other can swap order once the added
+    coefficients are free: on a generated TTC session's Fx0 (seed 2) the higher one, PCX1 =
+    1.83, PEX1 = 0.69, was the lower with PEX4 held at 0, and its re-fit with PEX4 ended 8.7
+    in chi^2 above the re-fit of the other (PCX1 = 1.49, PEX1 = 0.13, truth 1.6, 0.3). At most
     MAX_ROUNDS times. Returns the result, its problem, the candidates of its global fit
     and their solves there (``solved``: :func:`_global_fit`'s). The FitResult keeps the
     global search's n_starts and starts_at_best, adds
@@ -201,9 +207,13 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         # and from the least-squares point a polish left for the optimum (a constrained
         # stage): with the added coefficients free it may hold the constraints itself
         unpolished = _unpolished(result, solved)
-        starts = np.vstack([trial.problem.x0()] + [
+        # and from the defaults and Latin-hypercube points around the optimum, as the global
+        # search (start_points): the added coefficients can open basins that a start at
+        # their carried-forward values does not reach
+        around = start_points(trial.problem, n_lhs, seed)
+        starts = np.vstack([around[:1]] + [
             [c.get(n, float(values[n])) for n in trial.problem.free]
-            for c in unpolished + rivals])
+            for c in unpolished + rivals] + [around[1:]])
         refit, candidates, trial_solved = _global_fit(trial, starts, None, give_up=True)
         refit = _continue_refit(refit, result, trial, len(added), progress)
         spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
@@ -436,7 +446,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                     sp, start_points(sp.problem, n_lhs, seed + i), progress)
                 if screen:
                     result, sp, others, solved = _refine(result, sp, stage, trailer, params,
-                                                         free, others, progress, solved)
+                                                         free, others, progress, solved,
+                                                         n_lhs=n_lhs, seed=seed + i)
                 result, branch = with_other_branch(result, sp, label, progress)
                 result = with_rivals(result, sp, branch + list(others), label, progress,
                                      solved)
