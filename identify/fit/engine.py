@@ -154,14 +154,20 @@ the reported optimum is the optimum (the thesis acceptance compares it with the 
 differential-evolution runs to 0.5 %, and noise-free recovery to 1e-6 relative)."""
 
 SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60, noise_ftol=1e-2,
-                    qr_svd=True, dogleg_after=DOGLEG_AFTER, decrement_stop=True)
+                    qr_svd=True, dogleg_after=DOGLEG_AFTER, decrement_stop=True,
+                    gauss_newton=True)
 """The MF stages' global search on a subsample (identify.fit.mf_search.search): each start only
 has to reach its basin (1e-8 relative, or a cost that changes by less than 1e-2 s^2 over 5
 iterations, chi^2 by < 0.02, or a Gauss-Newton decrement below 1e-2 s^2: decrement_stop);
 the candidates are then solved on all points with MF_SOLVE
 (1e-3 before: the same stage errors to 4 digits on the sample and a generated TTC session, with
 10-25 % fewer evaluations in Fy0, Mz0 and Fy: a one-off comparison, 2026-11-24; the nfev
-column of bench/fit_cost.py shows them)."""
+column of bench/fit_cost.py shows them). Each start begins with full Gauss-Newton steps
+(gauss_newton, as MF_SOLVE): the sample's MF stages 74 -> 67 evaluations of their points in
+CPU time (bench/fit_cost.py --passes 2), which pays for the re-fits' Latin-hypercube starts
+(identify.fit.mf_stages._refine). Left out once because on a generated TTC session (seed 9)
+it ended Fx0 at PKX2 = 0, where the staged jackknife then carried rounding into Mz0; it now
+carries only what a stage's data determine (identify.fit.mf_uncertainty._determined)."""
 
 MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4, qr_svd=True, dogleg_after=DOGLEG_AFTER,
                                decrement_stop=True, gauss_newton=True)
