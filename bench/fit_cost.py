@@ -266,6 +266,13 @@ Fy0 solves on all points 16 and 15 -> 5 and 6), a warm fit_mf 1.26 -> 1.06 s of 
 coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-report).
 ``--ttc 0 --passes 2``: ``cpu`` 128 (134 at c8c26be).
 
+Measured 2026-11-24 (session 12) at 8be0da9, load average 1.0-1.2, one sitting: ddb9f71 358
+and 354; this code 68 and 68 (5.2-5.3x), 52 with ``--import-first`` (6.8x). The re-fits with
+coefficients freed after the global fit now also start from Latin-hypercube points
+(identify.fit.mf_stages._refine; 74 with them alone), and the search's starts begin with
+Gauss-Newton steps (identify.fit.engine.SEARCH), which pays for them on the sample. Not on
+the TTC session: ``--ttc 0 --passes 2`` ``cpu`` 144 (128 before; ddb9f71 612-628, 4.3x).
+
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
 paths), on one BLAS thread.
 """
