@@ -216,7 +216,9 @@ def test_search_stops_a_start_at_the_mirror_image_of_an_end(truth, data):
     one = search(p, p.x0()[None, :])
     two = search(p, np.vstack([p.x0(), mirrored(p.free, p.x0())]))
     assert len(two.candidates) == 1 and two.starts_at_best == 2
-    assert one.nfev > 6 and two.nfev - one.nfev <= 3
+    # the second start costs at most 3 evaluations, under the 6 of solving it (the first
+    # start's, measured with the search's Gauss-Newton steps; 7 and more before them)
+    assert two.nfev - one.nfev <= 3 < one.nfev
 
 
 def test_subsample_is_evenly_spaced():
