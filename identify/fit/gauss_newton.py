@@ -32,6 +32,7 @@ from typing import Callable
 
 import numpy as np
 
+from identify.fit.covariance import column_scaled
 from identify.fit.problem import penalised
 from identify.fit.trf_svd import tall_svd
 
@@ -84,11 +85,10 @@ def gauss_newton_step(J: np.ndarray, r: np.ndarray) -> tuple[np.ndarray, float] 
     decrement stop (identify.fit.engine.Tolerances.decrement_stop)."""
     if not np.isfinite(J).all():
         return None
-    norms = np.linalg.norm(J, axis=0)
-    if not norms.any():
+    Js, norms = column_scaled(J)
+    if not Js.any():
         return None
-    norms[norms == 0] = 1.0
-    U, s, vt = tall_svd(J / norms, full_matrices=False)
+    U, s, vt = tall_svd(Js, full_matrices=False)
     keep = s > RCOND * s[0]
     ur = U.T.dot(r)[keep]
     p = -(vt[keep].T @ (ur / s[keep]))
