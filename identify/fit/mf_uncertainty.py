@@ -30,6 +30,7 @@ from identify.fit.mf_result import MFFit
 from identify.fit.mf_stage_defs import names_read, stage_model
 from identify.fit.mf_stages import StageProblem, stage_problem
 from identify.fit.result import FitResult
+from identify.fit.trf_svd import tall_svd
 
 __all__ = ["STAGED", "propagate"]
 
@@ -97,11 +98,11 @@ def _central_differences(sp: StageProblem, values: Mapping[str, float],
 UNDETERMINED_RCOND = 1e-10
 """A direction of a stage's coefficients is undetermined by its data when its squared singular
 value of the column-scaled Jacobian is below this fraction of the largest (a standard error
-along it 1e5 times the best-determined direction's, see :func:`_determined`). On generated TTC
-sessions the smallest of every stage lie at 7e-7 to 3e-5 of the largest, except Fx0's where
-the fit ends with PKX2 at 0 (seeds 1, 4, 7, 8, 9 of bench/ttc_truth.py): there the PKX2 and
-PKX3 columns are proportional, d Kx / d PKX3 = PKX1 x d Kx / d PKX2, and the direction's
-value is 1e-14, that of rounding (seed 9, 2026-11-24)."""
+along it 1e5 times the best-determined direction's, see :func:`_determined`). On a generated
+TTC session (seed 9 of bench/ttc_truth.py, 2026-11-24) the smallest of the other stages lie at
+7e-7 (Fy0) to 1e-2 (Mz) of the largest, Fx0's at 1e-14, that of rounding: its fit ends with
+PKX2 at 0 (so in seeds 1, 4, 7, 8 and 9), where the PKX2 and PKX3 columns are proportional,
+d Kx / d PKX3 = PKX1 x d Kx / d PKX2."""
 
 
 def _determined(jac: np.ndarray, steps: np.ndarray) -> np.ndarray:
@@ -114,12 +115,13 @@ def _determined(jac: np.ndarray, steps: np.ndarray) -> np.ndarray:
     varies, and the stage's own covariance says so (no finite standard error, or a pair
     correlated above 0.99: identify.fit.identifiability). Carried downstream through the
     stage's effect on the later stages' points, such steps swamped their jackknife: on a
-    generated TTC session (seed 9) one Fx0 step of 3e5 in PKX2 made 23 of Mz0's 29
-    coefficients correlated above 0.99 (5 of 29 otherwise). The later stages' intervals
-    are then conditional on the value the fit left along the undetermined direction, as
-    they are on a held coefficient's."""
+    generated TTC session (seed 9, Fx0 ending at PKX2 = -5e-5) Fx0's largest step in
+    column-scaled coefficients was 549 (Fy0's 0.06; Mz0's, which took Fx0's in, 1.5), and
+    23 of Mz0's 29 coefficients came out not identifiable (4 of 29 at PKX2 = 4e-4, where the
+    step was smaller). The later stages' intervals are then conditional on the value the fit left
+    along the undetermined direction, as they are on a held coefficient's."""
     Js, scale = engine.column_scaled(jac)
-    _, sv, Vt = np.linalg.svd(Js, full_matrices=False)
+    _, sv, Vt = tall_svd(Js, full_matrices=False)  # the thin SVD without forming U
     null = Vt[sv ** 2 < UNDETERMINED_RCOND * sv[0] ** 2] if sv.size else Vt[:0]
     if not null.size:
         return steps
