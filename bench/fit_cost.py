@@ -267,7 +267,7 @@ coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-repo
 ``--ttc 0 --passes 2``: ``cpu`` 128 (134 at c8c26be).
 
 Measured 2026-11-24 (session 12) at 8be0da9, load average 1.0-1.2, one sitting: ddb9f71 358
-and 354; this code 68 and 68 (5.2-5.3x), 52 with ``--import-first`` (6.8x). The re-fits with
+and 354; this code 68 and 68 (5.2-5.3x), 52 with ``--import-first`` (6.8-6.9x). The re-fits with
 coefficients freed after the global fit now also start from Latin-hypercube points
 (identify.fit.mf_stages._refine; 74 with them alone), and the search's starts begin with
 Gauss-Newton steps (identify.fit.engine.SEARCH), which pays for them on the sample. Not on

@@ -163,9 +163,10 @@ the candidates are then solved on all points with MF_SOLVE
 (1e-3 before: the same stage errors to 4 digits on the sample and a generated TTC session, with
 10-25 % fewer evaluations in Fy0, Mz0 and Fy: a one-off comparison, 2026-11-24; the nfev
 column of bench/fit_cost.py shows them). Each start begins with full Gauss-Newton steps
-(gauss_newton, as MF_SOLVE): the sample's MF stages 74 -> 67 evaluations of their points in
-CPU time (bench/fit_cost.py --passes 2), which pays for the re-fits' Latin-hypercube starts
-(identify.fit.mf_stages._refine). Left out once because on a generated TTC session (seed 9)
+(gauss_newton, as MF_SOLVE): the sample's MF stages 74 -> 67-68 evaluations of their points
+in CPU time (bench/fit_cost.py --passes 2), which pays for the re-fits' Latin-hypercube starts
+(identify.fit.mf_stages._refine) on the sample, not on a generated TTC session (--ttc 0: 128
+at 3f9ce5c, 144 with both). Left out once because on a generated TTC session (seed 9)
 it ended Fx0 at PKX2 = 0, where the staged jackknife then carried rounding into Mz0; it now
 carries only what a stage's data determine (identify.fit.mf_uncertainty._determined)."""
 
