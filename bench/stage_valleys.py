@@ -34,6 +34,7 @@ import numpy as np
 
 from identify.fit import engine
 from identify.fit.engine import MF_SOLVE
+from identify.fit.limits import table_limits
 from identify.fit.mf_search import start_points
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
@@ -42,9 +43,7 @@ from identify.fit.run import FitSettings
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.segment import SegmentSettings
-from identify.workflows.fit import _base_tir  # the start .tir exactly as mfid fit builds it
 from identify.workflows.fit import _mf_trailer  # the table exactly as mfid fit builds it
-from identify.workflows.tir_assembly import LIMIT_COLUMNS
 from identify.workflows.trailer_prep import prepare_trailer
 
 
@@ -72,12 +71,11 @@ def main() -> None:
     trailer = _mf_trailer(td, float(mset.manifest.tyre.nominal_load_N), settings, None)
     fit_dir = next((base / "fits").iterdir())
     fitted = _numbers(read_tir(next(fit_dir.glob("*.tir"))).values)
-    # the validity limits the stages' constraints had: the written .tir has the data's ranges
-    # (identify.workflows.tir_assembly.apply_limits, after the fit), the stages had the start
-    # .tir's (kappa, alpha to +/-1.5, Fz 100-10000 N): with the data's, a point the fit's
-    # validity constraints excluded can look like a missed lower minimum
-    start_tir = _numbers(_base_tir(mset, int(fitted.get("FITTYP", 61))))
-    fitted.update({k: start_tir[k] for pair in LIMIT_COLUMNS for k in pair if k in start_tir})
+    # the validity limits the stages' constraints had: the table's ranges
+    # (identify.fit.limits.table_limits, as identify.fit.mf_stages.fit_mf sets them); the
+    # written .tir has those of the points the fits kept, which can differ slightly, and a
+    # point the fit's validity constraints excluded would look like a missed lower minimum
+    fitted.update(table_limits(trailer))
     truth = _numbers(json.loads((base / "ttc" / "truth.json").read_text())["tir"])
     reported = next(f for f in json.loads((fit_dir / "fit.json").read_text())["fits"]
                     if f.get("relation") == "MF" and f.get("form") == args.stage)

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from identify.fit.limits import table_limits
 from identify.fit.mf_constraints import validity_grid
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
@@ -325,12 +326,15 @@ def test_written_tir_reproduces_the_fitted_predictions_exactly(chained, tmp_path
 
 
 def test_validity_constraint_active(truth):
-    """Ex = (PEX1 + PEX2 dfz)(1 - PEX4 sgn(kappa)) stays below 1 over the measured loads but
-    reaches 1.28 at FZMAX: the unconstrained optimum (the truth) violates Ex <= 1 on the
-    check grid, the constrained fit respects it and says so."""
-    P = dict(truth, PEX1=0.5, PEX2=0.3, PEX3=0.0, PEX4=0.6)
+    """Ex = (PEX1 + PEX2 dfz)(1 - PEX4 sgn(kappa)) reaches 1.15 at the highest measured load
+    (7 kN, kappa < 0): the unconstrained optimum (the truth) violates Ex <= 1 on the check grid
+    over the data's ranges (the limits the written .tir states), the constrained fit respects
+    it and says so. (With PEX1 = 0.5, Ex <= 1 holds over the measured loads and breaks only
+    beyond them, at FZMAX = 10 kN: no constraint is active then.)"""
+    P = dict(truth, PEX1=0.6, PEX2=0.3, PEX3=0.0, PEX4=0.6)
     data = _simulate(P, _sweeps())
-    assert np.min(stage_problem("Fx0", data, P).problem.constraint_values(None)) < -0.2
+    assert np.min(stage_problem("Fx0", data, {**P, **table_limits(data)}
+                                ).problem.constraint_values(None)) < -0.15
     mf = fit_mf(data, P, stages=("Fx0",))
     r = mf.result("Fx0")
     assert r.active_constraints == ("Ex <= 1",)
@@ -339,6 +343,18 @@ def test_validity_constraint_active(truth):
     assert min(margins.values()) >= -1e-8
     assert margins["Ex <= 1"] < 1e-6
     assert r.converged and r.error_total_pct > 1e-3  # the data cannot be met exactly
+
+
+def test_validity_beyond_the_data_does_not_bind(truth):
+    """Ex <= 1 broken only beyond the measured loads (PEX1 = 0.5: Ex 1.28 at FZMAX = 10 kN,
+    at most 0.99 up to 7 kN): the fit holds the conditions where the written .tir claims
+    validity, so it returns the truth, which it could not while the grid reached FZMAX."""
+    P = dict(truth, PEX1=0.5, PEX2=0.3, PEX3=0.0, PEX4=0.6)
+    data = _simulate(P, _sweeps())
+    assert np.min(stage_problem("Fx0", data, P).problem.constraint_values(None)) < -0.2
+    r = fit_mf(data, P, stages=("Fx0",)).result("Fx0")
+    assert r.active_constraints == () and r.converged
+    assert r.error_total_pct < 1e-6
 
 
 def test_validity_grid_follows_the_tir_limits(truth):

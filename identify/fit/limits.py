@@ -13,7 +13,7 @@ import math
 import numpy as np
 import pandas as pd
 
-__all__ = ["measured_limits", "LIMIT_COLUMNS"]
+__all__ = ["LIMIT_COLUMNS", "TABLE_LIMIT_COLUMNS", "measured_limits", "table_limits"]
 
 LIMIT_COLUMNS: dict[tuple[str, str], tuple[str, float]] = {
     ("FZMIN", "FZMAX"): ("Fz_N", 1.0),
@@ -23,6 +23,27 @@ LIMIT_COLUMNS: dict[tuple[str, str], tuple[str, float]] = {
     ("CAMMIN", "CAMMAX"): ("gamma_deg", math.pi / 180.0),
 }
 """(.tir min key, max key) -> (points column, factor to SI)."""
+
+TABLE_LIMIT_COLUMNS: dict[tuple[str, str], str] = {
+    ("FZMIN", "FZMAX"): "Fz",
+    ("KPUMIN", "KPUMAX"): "kappa",
+    ("ALPMIN", "ALPMAX"): "alpha",
+    ("CAMMIN", "CAMMAX"): "gamma",
+}
+"""(.tir min key, max key) -> column of a trailer table in SI (Fz [N], kappa [-], alpha [rad],
+gamma [rad]): the axes of the MF validity grid (identify.fit.mf_constraints.validity_grid, which
+takes the data's pressures themselves)."""
+
+
+def _span(v: np.ndarray, load: bool) -> tuple[float, float] | None:
+    """(min, max) of the finite values of ``v`` (of the positive ones for a ``load``), or None
+    when they hold fewer than two distinct values."""
+    v = v[np.isfinite(v)]
+    if load:
+        v = v[v > 0]
+    if v.size < 2 or v.min() == v.max():
+        return None
+    return float(v.min()), float(v.max())
 
 
 def measured_limits(points: pd.DataFrame) -> dict[str, float]:
@@ -45,11 +66,29 @@ def measured_limits(points: pd.DataFrame) -> dict[str, float]:
     for (lo_key, hi_key), (column, factor) in LIMIT_COLUMNS.items():
         if column not in points:
             continue
-        v = pd.to_numeric(points[column], errors="coerce").to_numpy(float)
-        v = v[np.isfinite(v)]
-        if column == "Fz_N":
-            v = v[v > 0]
-        if v.size < 2 or v.min() == v.max():
+        span = _span(pd.to_numeric(points[column], errors="coerce").to_numpy(float),
+                     load=column == "Fz_N")
+        if span is not None:
+            out[lo_key], out[hi_key] = span[0] * factor, span[1] * factor
+    return out
+
+
+def table_limits(table: pd.DataFrame) -> dict[str, float]:
+    """The .tir validity limits [SI] spanned by a trailer table (columns of
+    :data:`TABLE_LIMIT_COLUMNS`), by the rule of :func:`measured_limits`: a pair whose column
+    is absent or holds fewer than two distinct finite values (loads: positive ones) is left
+    out.
+
+    The MF stages take them as the limits of their validity grid
+    (identify.fit.mf_stages.fit_mf): the written .tir states the fitted points' ranges, and the
+    validity conditions are then enforced where the file claims validity.
+    """
+    out: dict[str, float] = {}
+    for (lo_key, hi_key), column in TABLE_LIMIT_COLUMNS.items():
+        if column not in table:
             continue
-        out[lo_key], out[hi_key] = float(v.min() * factor), float(v.max() * factor)
+        span = _span(pd.to_numeric(table[column], errors="coerce").to_numpy(float),
+                     load=column == "Fz")
+        if span is not None:
+            out[lo_key], out[hi_key] = span
     return out

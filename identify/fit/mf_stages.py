@@ -16,7 +16,10 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   freed and the stage re-fitted from the optimum and from the search's other candidates near
   it, whose basin can become the lower one), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
-* enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints);
+* enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints)
+  between the limits the written .tir states: the table's ranges of load, slip ratio, slip
+  angle and camber (identify.fit.limits.table_limits), not the start .tir's (see
+  :func:`fit_mf`);
 * evaluates the model with useMode 211 (docs/model.md, section 2).
 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
@@ -55,6 +58,7 @@ from threadpoolctl import threadpool_limits
 from identify.core.progress import Progress
 from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE, residual_jacobian, residual_variance
+from identify.fit.limits import table_limits
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
@@ -330,6 +334,17 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
     Returns
     -------
     MFFit
+        Its ``params`` carry the table's ranges as FZMIN/FZMAX, KPUMIN/KPUMAX, ALPMIN/ALPMAX,
+        CAMMIN/CAMMAX where the table spans one (identify.fit.limits.table_limits): the
+        validity grid the stages were held to, and the limits the written .tir states
+        (identify.workflows.tir_assembly.apply_limits). The start .tir's limits, MFeval's
+        defaults of +-1.5 in slip ratio and slip angle, reach far beyond any trailer sweep;
+        held there, Gx_alpha > 0 and Gy_kappa > 0 bound the combined-slip shape factors RCX1
+        and RCY1 near 1, which the bundled tyre (1.05 each) breaks at slip angles beyond its
+        sessions' +-12 deg: its generated TTC sessions at noise 1e-4 (seeds 0 and 3) were
+        fitted at RCX1 1.024, RCY1 1.035, REX1 -0.59, REY1 -0.155 (truth -0.4, -0.1), about 1
+        standard error of a 1 % session each; with the data's limits (seed 0) at 1.048,
+        1.049, -0.42, -0.103 (docs/intervals.md).
     """
     # one BLAS thread: the solver's SVDs are small, and on a busy machine a second thread
     # made each of them 30-100x slower (measured: 12087 x 15, 0.49 s with 2 threads, 0.014 s
@@ -414,6 +429,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)
+    params.update(table_limits(trailer))  # the validity grid: where the .tir claims validity
     spent: dict[str, tuple[float, int]] = {}  # seconds and evaluations of earlier passes
     # per stage: its result, problem and the values of every name its prediction read when
     # it was fitted; a later pass solves only a stage some of whose inputs changed since
