@@ -204,7 +204,10 @@ def coverage_tables(records: list[dict]) -> dict:
                 n[1] += _inside(c)
             else:
                 reason = c.get("why") or ("at a bound" if c["at_bound"] else "no standard error")
-                reason = re.sub(r"[+-]\d\.\d+ ", "", reason)  # "correlated with PEX1"
+                # one line per kind of reason: "correlated with PEX1" without the
+                # correlation, "another minimum within the 95 % region" without where
+                reason = re.sub(r" at \w+ = \S+ \(chi\^2 .*\)$", "", reason)
+                reason = re.sub(r"[+-]\d\.\d+ ", "", reason)
                 why.setdefault(key, {})
                 why[key][reason] = why[key].get(reason, 0) + 1
     failing = {k: v for k, v in per.items() if v[0] and v[1] < 0.9 * v[0]}
