@@ -14,7 +14,8 @@ from scipy.special import stdtrit
 
 __all__ = ["CLUSTER_KINDS", "ESSENTIAL_RTOL", "column_scaled", "covariance", "interval_dof",
            "jackknife_covariance", "jackknife_defined", "jackknife_dof", "jackknife_steps",
-           "jackknife_with_dof", "pseudo_solve", "standard_errors", "t_quantile"]
+           "jackknife_with_dof", "pseudo_solve", "residual_variance", "standard_errors",
+           "t_quantile"]
 
 
 def pseudo_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -25,6 +26,11 @@ def pseudo_solve(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 CLUSTER_KINDS = ("CR1", "jackknife")
 """Small-sample forms of the cluster-robust covariance (see :func:`covariance`)."""
+
+
+def residual_variance(cost: float, n_points: int, n_free: int) -> float:
+    """s^2 = r^T r / (n - k) from a least-squares cost 0.5 r^T r (n - k at least 1)."""
+    return 2.0 * cost / max(n_points - n_free, 1)
 
 
 def column_scaled(jac: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -37,7 +37,8 @@ from scipy import optimize
 from identify.fit.covariance import (CLUSTER_KINDS, ESSENTIAL_RTOL, column_scaled, covariance,
                                      interval_dof, jackknife_covariance, jackknife_defined,
                                      jackknife_dof, jackknife_steps, jackknife_with_dof,
-                                     pseudo_solve, standard_errors, t_quantile)
+                                     pseudo_solve, residual_variance, standard_errors,
+                                     t_quantile)
 from identify.fit.gauss_newton import Steps, gauss_newton_step, interior_steps
 from identify.fit.problem import FitProblem, penalised
 from identify.fit.trf_svd import qr_svd
@@ -372,11 +373,6 @@ class _Stop:
                 raise StopIteration
         if self.noise is not None:
             self.noise(intermediate_result)
-
-
-def residual_variance(cost: float, n_points: int, n_free: int) -> float:
-    """s^2 = r^T r / (n - k) from a least-squares cost 0.5 r^T r (n - k at least 1)."""
-    return 2.0 * cost / max(n_points - n_free, 1)
 
 
 class KeptJacobian:

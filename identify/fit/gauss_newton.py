@@ -32,7 +32,7 @@ from typing import Callable
 
 import numpy as np
 
-from identify.fit.covariance import column_scaled
+from identify.fit.covariance import column_scaled, residual_variance
 from identify.fit.problem import penalised
 from identify.fit.trf_svd import tall_svd
 
@@ -128,7 +128,7 @@ def interior_steps(residuals: Callable[[np.ndarray], np.ndarray],
         if step is None:
             return Steps(x, r, J, nfev, njev, False, None, "Jacobian not finite or zero")
         v, decrement = step
-        if not penalised(r) and decrement < noise_ftol * 2.0 * cost / max(n - k, 1):
+        if not penalised(r) and decrement < noise_ftol * residual_variance(cost, n, k):
             return Steps(x, r, J, nfev, njev, True, None, "decrement")
         if not np.all((x + v >= lo) & (x + v <= hi)):
             return Steps(x, r, J, nfev, njev, False, None, "a full step leaves the bounds")
