@@ -80,8 +80,13 @@ def table_limits(table: pd.DataFrame) -> dict[str, float]:
     out.
 
     The MF stages take them as the limits of their validity grid
-    (identify.fit.mf_stages.fit_mf): the written .tir states the fitted points' ranges, and the
-    validity conditions are then enforced where the file claims validity.
+    (identify.fit.mf_stages.fit_mf). The written .tir states the ranges of every fitted point
+    (:func:`measured_limits`): the same where the trailer data are all of them, so the
+    validity conditions hold where the file claims validity. Where other relations' points
+    reach further, the written limits are wider than the grid and the conditions are not held
+    over the difference: on the bundled sample (Flatplank characteristics besides the trailer
+    sweeps) FZMIN 1000 N for the trailer's 3000 N, CAMMIN/CAMMAX +-15 deg for +-8 deg
+    (`mfid fit measurements/sample-225-50R17`, 2026-11-24).
     """
     out: dict[str, float] = {}
     for (lo_key, hi_key), column in TABLE_LIMIT_COLUMNS.items():

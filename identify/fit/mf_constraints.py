@@ -22,11 +22,11 @@ so E is never hidden by the E <= 1 clip). A constraint returns, for each of the 
 the minimum over the other grid axes of its margin (so an optimiser sees 11 values per
 condition instead of thousands).
 
-The conditions hold over whatever limits ``base`` carries. The MF stages give them the data's
-ranges (identify.fit.mf_stages.fit_mf, identify.fit.limits.table_limits), the limits the
-written .tir states: over MFeval's defaults (ALPMIN/ALPMAX = -/+1.5 rad, KPUMIN/KPUMAX = -/+1.5),
-far beyond any sweep, Gx_alpha > 0 and Gy_kappa > 0 bind RCX1 and RCY1 near 1, below the 1.05 of
-tyres that meet them over every slip a sweep reaches.
+The conditions hold over whatever limits ``base`` carries. The MF stages give them the trailer
+data's ranges (identify.fit.mf_stages.fit_mf, identify.fit.limits.table_limits), the limits the
+written .tir states when those data are all its fitted points: over MFeval's defaults (ALPMIN/ALPMAX
+= -/+1.5 rad, KPUMIN/KPUMAX = -/+1.5), far beyond any sweep, Gx_alpha > 0 and Gy_kappa > 0 bind RCX1
+and RCY1 near 1, below the 1.05 of tyres that meet them over every slip a sweep reaches.
 """
 from __future__ import annotations
 

@@ -17,9 +17,9 @@ points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. 
   it, whose basin can become the lower one), and holds every other value at what the earlier
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints)
-  between the limits the written .tir states: the table's ranges of load, slip ratio, slip
-  angle and camber (identify.fit.limits.table_limits), not the start .tir's (see
-  :func:`fit_mf`);
+  between the table's ranges of load, slip ratio, slip angle and camber
+  (identify.fit.limits.table_limits; the written .tir's limits when the trailer data are all
+  its fitted points), not the start .tir's (see :func:`fit_mf`);
 * evaluates the model with useMode 211 (docs/model.md, section 2).
 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has
@@ -335,16 +335,16 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
     -------
     MFFit
         Its ``params`` carry the table's ranges as FZMIN/FZMAX, KPUMIN/KPUMAX, ALPMIN/ALPMAX,
-        CAMMIN/CAMMAX where the table spans one (identify.fit.limits.table_limits): the
-        validity grid the stages were held to, and the limits the written .tir states
-        (identify.workflows.tir_assembly.apply_limits). The start .tir's limits, MFeval's
-        defaults of +-1.5 in slip ratio and slip angle, reach far beyond any trailer sweep;
-        held there, Gx_alpha > 0 and Gy_kappa > 0 bound the combined-slip shape factors RCX1
-        and RCY1 near 1, which the bundled tyre (1.05 each) breaks at slip angles beyond its
-        sessions' +-12 deg: its generated TTC sessions at noise 1e-4 (seeds 0 and 3) were
-        fitted at RCX1 1.024, RCY1 1.035, REX1 -0.59, REY1 -0.155 (truth -0.4, -0.1), about 1
-        standard error of a 1 % session each; with the data's limits (seed 0) at 1.048,
-        1.049, -0.42, -0.103 (docs/intervals.md).
+        CAMMIN/CAMMAX where the table spans one (identify.fit.limits.table_limits): the validity
+        grid the stages were held to, and the limits the written .tir states where the trailer data
+        are all its fitted points (identify.workflows.tir_assembly.apply_limits; other relations'
+        points can widen them, table_limits). The start .tir's limits, MFeval's defaults of +-1.5 in
+        slip ratio and slip angle, reach far beyond any trailer sweep; held there, Gx_alpha > 0 and
+        Gy_kappa > 0 bound the combined-slip shape factors RCX1 and RCY1 near 1, which the bundled
+        tyre (1.05 each) breaks at slip angles beyond its sessions' +-12 deg: its generated TTC
+        sessions at noise 1e-4 (seeds 0 and 3) were fitted at RCX1 1.024, RCY1 1.035, REX1 -0.59,
+        REY1 -0.155 (truth -0.4, -0.1), about 1 standard error of a 1 % session each; with the
+        data's limits (seed 0) at 1.048, 1.049, -0.42, -0.103 (docs/intervals.md).
     """
     # one BLAS thread: the solver's SVDs are small, and on a busy machine a second thread
     # made each of them 30-100x slower (measured: 12087 x 15, 0.49 s with 2 threads, 0.014 s
