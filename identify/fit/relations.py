@@ -101,7 +101,8 @@ def cfz(chars: pd.DataFrame, ctx: Context, form: str = "mf") -> FitProblem | Non
             return rel.cfz_qfz_at_load(fz, dp, v["QFZ1"], v["QFZ2"], v["QFZ3"])
     elif form == "mf":
         _add(P, "VERTICAL_STIFFNESS", c_nom, lo=0.0, hi=10 * max(abs(c_nom), 1.0))
-        _add(P, "Q_FZ2", 1.0, lo=0.0, hi=100.0)
+        # 1e-4, not 0: at Q_FZ2 = 0 MF 6.1's deflection is 0/0, rho = 0 (docs/relations.md)
+        _add(P, "Q_FZ2", 1.0, lo=1e-4, hi=100.0)
         _add(P, "PFZ1", 0.5)
         r0, fz0 = ctx.r0, ctx.fz0
 
