@@ -75,16 +75,19 @@ def _sweeps(pressures=(1.9, 2.5, 3.0), loads=(3000.0, 5000.0, 7000.0),
 
 
 def _simulate(P, points: pd.DataFrame) -> pd.DataFrame:
-    """The model's forces and moments, and the wheel speed omega of the fixed point
+    """The model's forces and moments, the wheel speed omega of the fixed point
     omega = (1 + kappa) Vx / Re(omega) solved to round-off (evaluate's stops at 1e-9 m), so
-    that Vx/omega at kappa = 0 is Re(omega) to ~1e-16 relative."""
+    that Vx/omega at kappa = 0 is Re(omega) to ~1e-16 relative, and the loaded radius rl at
+    that omega."""
     cols = [points[c].to_numpy() for c in ("Fz", "kappa", "alpha", "gamma", "Vx")]
     out = evaluate(P, *cols, p=points["p"].to_numpy(), mode=211)
     omega = out["omega"]
     for _ in range(4):
         re = evaluate(P, *cols, p=points["p"].to_numpy(), omega=omega, mode=211)["Re"]
         omega = (1 + cols[1]) * cols[4] / re
-    return points.assign(omega=omega, **{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
+    rl = evaluate(P, *cols, p=points["p"].to_numpy(), omega=omega, mode=211)["Rl"]
+    return points.assign(omega=omega, rl=rl,
+                         **{q: out[q] for q in ("Fx", "Fy", "Mz", "Mx", "My")})
 
 
 @pytest.fixture(scope="module")
@@ -142,9 +145,12 @@ def test_stage_definitions_on_the_recovery_design(free_sets):
     # QSX4 = QSX7 = QSX8 = QSX10 = 0: the sine and atan terms of Mx vanish, their
     # coefficients have no effect and are held
     assert not {"QSX4", "QSX5", "QSX6", "QSX7", "QSX8", "QSX9", "QSX10", "QSX11"} & set(f["Mx"])
-    # no stage frees another stage's coefficients
+    # no stage frees another stage's coefficients, except the free radius and its speed
+    # term, which the vertical and the geometry stage both read: the stages in sequence fit
+    # them once, in the vertical stage (fit_mf, test_geometry_holds_what_the_vertical_fitted)
     all_free = [n for st in DEFAULT_STAGES for n in f[st]]
-    assert len(all_free) == len(set(all_free))
+    assert {n for n in all_free if all_free.count(n) > 1} == {"Q_RE0", "Q_V1"}
+    assert {"Q_RE0", "Q_V1", "Q_V2"} <= set(f["vertical"])  # this design has three speeds
 
 
 def test_coefficients_the_data_cannot_identify_are_held(truth):
@@ -296,6 +302,16 @@ def chained(truth, data, free_sets):
     return fit_mf(data, start, passes=3, seed=3)
 
 
+def test_geometry_holds_what_the_vertical_fitted(chained):
+    """In sequence the free radius and its speed term are fitted once, from the loaded
+    radius; the geometry stage holds them at those values and says why."""
+    vertical, geometry = chained.result("vertical"), chained.result("geometry")
+    assert {"Q_RE0", "Q_V1"} <= set(vertical.free) and not {"Q_RE0", "Q_V1"} & set(geometry.free)
+    assert chained.held["geometry"]["Q_V1"] == "fitted in the vertical stage"
+    assert "Q_RE0" not in geometry.parameters  # not a parameter of its problem at all
+    assert chained.params["Q_RE0"] == vertical.parameters["Q_RE0"]
+
+
 def test_all_stages_in_sequence_recover_every_coefficient(chained, truth):
     assert [r.form for r in chained.results] == list(DEFAULT_STAGES)
     for r in chained.results:
@@ -315,8 +331,9 @@ def test_written_tir_reproduces_the_fitted_predictions_exactly(chained, tmp_path
         out = evaluate(back, pts["Fz"].to_numpy(), pts["kappa"].to_numpy(),
                        pts["alpha"].to_numpy(), pts["gamma"].to_numpy(), pts["Vx"].to_numpy(),
                        p=pts["p"].to_numpy(), mode=211)
-        quantity = {"Fx0": "Fx", "Fy0": "Fy", "Mz0": "Mz", "geometry": "Re"}.get(r.form, r.form)
-        if r.form == "geometry":  # Re at the measured wheel speed
+        quantity = {"Fx0": "Fx", "Fy0": "Fy", "Mz0": "Mz", "geometry": "Re",
+                    "vertical": "Rl"}.get(r.form, r.form)
+        if r.form in ("geometry", "vertical"):  # Re and Rl at the measured wheel speed
             out = evaluate(back, pts["Fz"].to_numpy(), pts["kappa"].to_numpy(),
                            pts["alpha"].to_numpy(), pts["gamma"].to_numpy(),
                            pts["Vx"].to_numpy(), p=pts["p"].to_numpy(),

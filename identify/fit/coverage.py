@@ -11,7 +11,8 @@ A stage is skipped when
 
 - a channel it needs is absent or was dropped as implausible while loading (``unavailable``
   names those channels and why): the fitted quantity (Fx, Fy, Mz, Mx, My), the wheel speed
-  omega for the geometry stage, and kappa for every stage (the model takes it, and the
+  omega for the geometry stage, the loaded radius rl and omega for the vertical stage, and
+  kappa for every stage (the model takes it, and the
   pure-slip points are told apart by it);
 - the sweep it needs is not in the data: a slip-ratio sweep (a run whose kappa spans more than
   ``mf_data.SWEEP_KAPPA``) at zero slip angle for Fx0, at a non-zero slip angle for the
@@ -45,7 +46,8 @@ MIN_POINTS = 50
 UPSTREAM = {"Fx": ("Fx0",), "Fy": ("Fy0",), "Mz": ("Mz0", "Fx0")}
 """Stages each combined stage builds on (skipped with them)."""
 
-_CHANNEL_NAMES = {"omega": "wheel speed (omega)", "kappa": "slip ratio (kappa)"}
+_CHANNEL_NAMES = {"omega": "wheel speed (omega)", "kappa": "slip ratio (kappa)",
+                  "rl": "loaded radius (rl)"}
 
 
 @dataclass(frozen=True)
@@ -131,7 +133,7 @@ def _channel_reason(stage: str, trailer: pd.DataFrame,
                     unavailable: Mapping[str, str]) -> str:
     sd = STAGES[stage]
     # every stage's model and selection take kappa (pure-slip points are |kappa| ~ 0)
-    needed = ["omega" if sd.quantity == "Re" else sd.quantity, "kappa"]
+    needed = {"Re": ["omega"], "Rl": ["rl", "omega"]}.get(sd.quantity, [sd.quantity]) + ["kappa"]
     for col in needed:
         name = _CHANNEL_NAMES.get(col, col)
         if col in unavailable and unavailable[col] != "absent":

@@ -11,6 +11,12 @@ QSX6 = 22.8, QSX7 = 0.71; the defaults 5, 10, 0) the Mx stage reported QSX7 = 0.
 (docs/intervals.md; one-off, seed 0). QSX3, 12 standard errors off there, it does not: QSX3
 trades with QSX9, which the screen held as having no effect at all, not AFTER_FIT.
 
+A speed term held because the data hold one speed (ONE_SPEED) is checked the same way: its
+variable is never 0 on trailer data, so it trades with the constant terms, and the generated
+TTC sessions (one speed) were fitted at VERTICAL_STIFFNESS 1 % above the truth, 8.8 standard
+errors, with Q_V2 held at 0 for the truth's 0.02 (seed 1, identify.fit.mf_stage_defs stage
+``vertical``): the stiffness measured is the one at the test speed.
+
 Their intervals are right only if the held values are exact. This module measures how much
 they rest on them: the variance of each free coefficient with the held ones free as well,
 over its variance with them held (a variance inflation factor from J^T J at the optimum, noise
@@ -36,6 +42,14 @@ __all__ = ["AFTER_FIT", "VIF_LIMIT", "conditional_on_held", "inflation", "with_c
 AFTER_FIT = "effective only after the fit"
 """Marker in a held coefficient's reason (identify.fit.mf_stages._refine) that it took effect
 at the fitted values but its re-fit was not taken."""
+ONE_SPEED = ("data: one speed", "speed(s), 3 needed")
+"""Coverage reasons (identify.fit.mf_data.Coverage.missing) of a speed term held because the
+data hold too few speeds. Such a term never vanishes on trailer data (its variable, |omega|
+R0/V0 or Vx/V0, is the test speed's, not 0), so at one speed it trades with the constant
+terms: Q_V2 (1 + Q_V2 |omega| R0/V0) scales the load law as VERTICAL_STIFFNESS does, and the
+vertical stage measures only their product, the stiffness at the test speed. Other coverage
+holds (one load, pressure or camber level) usually sit where their term is 0 (FNOMIN, NOMPRES,
+no camber) and are not checked."""
 VIF_LIMIT = 4.0
 """Variance ratio (a standard error twice as large) above which a free coefficient counts as
 resting on the held ones."""
@@ -73,7 +87,8 @@ def inflation(J: np.ndarray, k: int) -> np.ndarray:
 def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
                         trailer: pd.DataFrame, params: Mapping[str, float]) -> dict[str, str]:
     """Free coefficients of ``result`` whose values rest on the stage's coefficients held with
-    the AFTER_FIT reason -> why (empty when none is so held, or the fit did not converge).
+    the AFTER_FIT reason, or held as speed terms at too few speeds (ONE_SPEED) -> why (empty
+    when none is so held, or the fit did not converge).
 
     Parameters
     ----------
@@ -83,7 +98,8 @@ def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
     trailer : DataFrame      the trailer table the stage was fitted on
     params : mapping         every .tir value (the held ones at their held values)
     """
-    held = [n for n, why in sp.held.items() if AFTER_FIT in why]
+    held = [n for n, why in sp.held.items()
+            if AFTER_FIT in why or any(why.startswith(r) or r in why for r in ONE_SPEED)]
     if not held or not result.converged or not result.free:
         return {}
     free: Sequence[str] = list(result.free)
@@ -95,11 +111,13 @@ def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
     J = residual_jacobian(full.problem, full.problem.x0())
     vif = inflation(np.asarray(J, dtype=float), len(free))
     names = ", ".join(f"{n} = {values[n]:.4g}" for n in held)
+    why = "; ".join(sorted({AFTER_FIT if AFTER_FIT in sp.held[n] else sp.held[n]
+                            for n in held}))
     out = {}
     for n, v in zip(free, vif):
         if v > VIF_LIMIT:  # nan (undetermined already) is another rule's
             grow = "undetermined" if np.isinf(v) else f"{np.sqrt(v):.1f}x its standard error"
-            out[n] = f"rests on {names}, held ({AFTER_FIT}; freeing them: {grow})"
+            out[n] = f"rests on {names}, held ({why}; freeing them: {grow})"
     return out
 
 

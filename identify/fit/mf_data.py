@@ -47,25 +47,34 @@ CAMBER_SPREAD = np.deg2rad(0.5)
 """[rad] the data cover camber when gamma spans more than this."""
 
 
+DERIVED = ("Re", "Rl")
+"""Stage quantities that are not a column of their own name: Re from Vx and omega, Rl the
+``rl`` channel (a stage without them is skipped, not an error)."""
+
+
 def check_columns(frame: pd.DataFrame, quantities: tuple[str, ...]) -> None:
     """Raise ValueError when a column the MF stages need is missing (``"Re"`` is derived from
-    Vx and omega; without omega the geometry stage is skipped, not an error)."""
-    missing = [c for c in REQUIRED + quantities if c != "Re" and c not in frame.columns]
+    Vx and omega, ``"Rl"`` is the ``rl`` channel; without them the geometry and vertical
+    stages are skipped, not an error)."""
+    missing = [c for c in REQUIRED + quantities if c not in DERIVED and c not in frame.columns]
     if missing:
         raise ValueError("trailer table lacks column(s) " + ", ".join(missing))
 
 
 def quantity_values(frame: pd.DataFrame, quantity: str) -> np.ndarray:
-    """The measured values of a stage's quantity: the channel itself, or for ``"Re"`` the
-    effective rolling radius Vx/omega [m] (NaN where omega is missing or not positive)."""
-    if quantity != "Re":
+    """The measured values of a stage's quantity: the channel itself, for ``"Re"`` the
+    effective rolling radius Vx/omega [m], for ``"Rl"`` the loaded radius channel ``rl`` [m]
+    (both NaN where omega is missing or not positive: the loaded radius's model reads the
+    free radius at the wheel speed)."""
+    if quantity not in DERIVED:
         return frame[quantity].to_numpy(float)
-    if "omega" not in frame.columns:
+    if "omega" not in frame.columns or (quantity == "Rl" and "rl" not in frame.columns):
         return np.full(len(frame), np.nan)
     vx = frame["Vx"].to_numpy(float)
     omega = frame["omega"].to_numpy(float)
+    value = vx if quantity == "Re" else frame["rl"].to_numpy(float) * omega
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(omega > 0, vx / omega, np.nan)
+        return np.where(omega > 0, value / omega, np.nan)
 
 
 def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -129,7 +138,7 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
         or ``"all"``
         (see StageDef).
     quantity : str
-        The fitted channel (``"Re"``: Vx/omega, see quantity_values).
+        The fitted channel (``"Re"``: Vx/omega, ``"Rl"``: rl; see quantity_values).
     sweeps : Sweeps, optional
         :func:`run_sweeps` of ``frame``, when the caller has them.
     """

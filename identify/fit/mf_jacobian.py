@@ -44,7 +44,7 @@ from identify.fit.mf_stage_defs import (
 from identify.model.lateral import CombinedLateral, PureLateral
 from identify.model.state import OperatingState
 
-__all__ = ["CHUNK", "ENV", "MIN_WORK", "available", "use_exact", "stage_jacobian"]
+__all__ = ["CHUNK", "ENV", "MIN_WORK", "NUMPY_ONLY", "available", "use_exact", "stage_jacobian"]
 
 CHUNK = 2048
 """Points per compiled Jacobian call (the MF search's subsample, identify.fit.mf_search.SUBSAMPLE,
@@ -53,6 +53,9 @@ is one chunk). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 
 a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
 (a one-off /tmp scratch script, 2026-11-24, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 /
 3.6 / 3.8 ms, Fy (4549 x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
+NUMPY_ONLY = ("vertical",)
+"""Stages whose equations are numpy only: finite differences always (the MF 6.2 loaded radius
+is a secant solve with a data-dependent number of steps; the stage has five coefficients)."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
@@ -234,6 +237,8 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
     """
     coefficients = STAGES[stage].coefficients
     n = int(s.fz.size)
+    if stage in NUMPY_ONLY:
+        return None
     if exact is None:
         exact = use_exact(n, len(coefficients))
     if not exact or not available():

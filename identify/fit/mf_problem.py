@@ -24,7 +24,7 @@ from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, spec
 from identify.model.state import OperatingState, prepare
 
-__all__ = ["StagePoints", "StageProblem", "stage_problem", "subproblem"]
+__all__ = ["StagePoints", "StageProblem", "candidates", "stage_problem", "subproblem"]
 
 
 @dataclass(frozen=True)
@@ -89,14 +89,16 @@ def _stage_points(sd: StageDef, trailer: pd.DataFrame, rows: np.ndarray,
     # the validity grid at the data's pressure levels (a continuously measured pressure
     # channel has as many distinct values as samples)
     return StagePoints(
-        rows, pts, col, pts["omega"].to_numpy(float) if sd.quantity == "Re" else None,
+        rows, pts, col, pts["omega"].to_numpy(float) if sd.quantity in mf_data.DERIVED else None,
         mf_data.quantity_values(pts, sd.quantity),
         {"quantity": sd.quantity, **point_columns(pts)}, mf_data.pressure_groups(pts),
         mf_data.sweep_ids(pts, fnomin),
         mf_data.level_values(col["p"], mf_data.PRESSURE_RESOLUTION), fnomin)
 
 
-def _candidates(sd: StageDef, free) -> list[str]:
+def candidates(sd: StageDef, free) -> list[str]:
+    """The coefficients of stage ``sd`` that a fit may free (the parameter table's
+    ``fit_default_vary`` ones), limited by ``free`` (see :func:`stage_problem`)."""
     names = [n for n in sd.coefficients if spec(n).fit_default_vary]
     if free is None:
         return names
@@ -163,7 +165,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     model = stage_model(stage, params, s, omega)
     jacobian = stage_jacobian(stage, params, s, omega)
     held: dict[str, str] = {}
-    names = _candidates(sd, free)
+    names = candidates(sd, free)
     if hold is not None:
         held = {n: why for n, why in hold.items() if n in names}
     elif screen:

@@ -34,8 +34,9 @@ class StageDef:
     Attributes
     ----------
     name : str             stage name (FitResult.form)
-    quantity : str         fitted channel of the trailer table (Fx, Fy, Mz, Mx, My), or Re,
-                           the effective rolling radius Vx/omega derived from the wheel speed
+    quantity : str         fitted channel of the trailer table (Fx, Fy, Mz, Mx, My), Rl, the
+                           loaded radius (the ``rl`` channel), or Re, the effective rolling
+                           radius Vx/omega derived from the wheel speed
                            (identify.fit.mf_data.quantity_values)
     unit : str             its unit
     selection : str        ``"free_rolling"`` (runs without a kappa sweep, |kappa| <= FREE_KAPPA,
@@ -68,6 +69,12 @@ def _names(text: str) -> tuple[str, ...]:
 
 
 STAGES: dict[str, StageDef] = {s.name: s for s in (
+    # Rl = R0 (Q_RE0 + Q_V1 (omega R0/V0)^2) - rho, the deflection rho from the MF load law
+    # Fz = (1 + Q_V2 ...)(1 + PFZ1 dpi) Fz0 (Q_FZ1 rho/R0 + Q_FZ2 (rho/R0)^2), Q_FZ1 from
+    # VERTICAL_STIFFNESS (docs/model.md, section 10.3); the geometry stage holds the Q_RE0 and
+    # Q_V1 it fits (identify.fit.mf_stages._untaken)
+    StageDef("vertical", "Rl", "m", "free_rolling",
+             _names("Q_RE0 VERTICAL_STIFFNESS PFZ1 Q_FZ2 Q_V1 Q_V2")),
     # Re = R0 (Q_RE0 + Q_V1 (omega R0/V0)^2) - Fz0/Cz' (DREFF atan(BREFF Fz/Fz0) + FREFF Fz/Fz0)
     # with Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi) held (CFz relation of the Flatplank data)
     StageDef("geometry", "Re", "m", "free_rolling", _names("Q_RE0 Q_V1 DREFF FREFF BREFF")),
@@ -89,9 +96,13 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
     StageDef("My", "My", "N m", "all", _names("QSY1 QSY2 QSY3 QSY4 QSY5 QSY6 QSY7 QSY8")),
 )}
 
-DEFAULT_STAGES = ("geometry", "Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
+DEFAULT_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My", "vertical", "geometry")
+"""The stages in fit order. The vertical and geometry stages come last: no force or moment
+stage reads their coefficients (useMode 211 takes kappa as given), while the loaded radius
+reads the model's forces (Q_FCX, Q_FCY), which are then the fitted ones, not the start .tir's."""
 
 _NEEDS_TEXT = """
+VERTICAL_STIFFNESS load:0; PFZ1 pressure; Q_FZ2 load2:0; Q_V2 speed;
 Q_V1 speed; DREFF load:0; FREFF load2:0; BREFF load2:0;
 PDX2 load; PDX3 camber:2; PEX2 load; PEX3 load2:2; PEX4 kappa_sign; PKX2 load; PKX3 load3;
 PHX2 load; PVX2 load; PPX1 pressure; PPX2 pressure2:2; PPX3 pressure; PPX4 pressure2:2;
@@ -175,13 +186,20 @@ def stage_inputs(stage: str, base: Values, s: OperatingState,
     Raises
     ------
     ValueError
-        An unknown stage, or the geometry stage without ``omega``.
+        An unknown stage, or the geometry or vertical stage without ``omega``.
     """
-    if stage == "geometry":
+    if stage in ("geometry", "vertical"):
         if omega is None:
-            raise ValueError("the geometry stage needs the measured wheel speed omega")
+            raise ValueError(f"the {stage} stage needs the measured wheel speed omega")
         # exactly what evaluate(..., omega=omega) does: Re(omega + eps) (docs/model.md, 10.1)
-        return {"omega": np.asarray(omega, dtype=float) + np.finfo(float).eps}
+        omega = np.asarray(omega, dtype=float) + np.finfo(float).eps
+        if stage == "geometry":
+            return {"omega": omega}
+        # the loaded radius reads the model's forces (Q_FCX, Q_FCY: the load law's force
+        # terms); this stage holds them, so the forces are computed once at ``base``
+        fx = longitudinal.gx_alpha(base, s) * longitudinal.fx0(base, s).fx0
+        return {"omega": omega, "fx": fx,
+                "fy": lateral.fy_combined(base, s, lateral.fy0(base, s)).fy}
     if stage == "Fx0":
         return {"gxa": longitudinal.gx_alpha(base, s)}
     if stage == "Fx":
@@ -232,6 +250,10 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
     """
     if stage == "geometry":
         return vertical._effective_radius(P, s, inputs["omega"], xp)
+    if stage == "vertical":  # numpy only (the MF 6.2 solve iterates; no exact Jacobian)
+        deflection = (vertical.deflection_62 if int(P["FITTYP"]) == 62
+                      else vertical.deflection_61)
+        return deflection(P, s, inputs["fx"], inputs["fy"], inputs["omega"]).rl
     if stage == "Fx0":
         return inputs["gxa"] * longitudinal.fx0(P, s, xp).fx0
     if stage == "Fx":
@@ -275,7 +297,8 @@ def stage_model(stage: str, base: Values, s: OperatingState,
     s : OperatingState
         The stage's points, prepared with useMode 211.
     omega : ndarray [rad/s], optional
-        The measured wheel speed at the points (stage ``geometry`` only, required there).
+        The measured wheel speed at the points (stages ``geometry`` and ``vertical`` only,
+        required there).
 
     Returns
     -------

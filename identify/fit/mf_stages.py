@@ -1,10 +1,14 @@
 """Fit the Magic Formula slip coefficients to trailer data in stages (issue 5).
 
-Stages, in order (identify.fit.mf_stage_defs.STAGES): geometry (the effective rolling radius
-Re = Vx/omega on free-rolling points: Q_RE0, Q_V1, DREFF, FREFF, BREFF, with the vertical
-stiffness VERTICAL_STIFFNESS, PFZ1 held at the start values, i.e. the Flatplank CFz relation's
-when the pipeline has it; skipped without a wheel-speed channel), Fx0, Fy0, Mz0 on pure-slip
-points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point. Each stage
+Stages, in order (identify.fit.mf_stage_defs.DEFAULT_STAGES): Fx0, Fy0, Mz0 on pure-slip
+points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point, then vertical
+(the loaded radius Rl, a trailer's RL channel, on free-rolling points, with the fitted forces:
+Q_RE0, VERTICAL_STIFFNESS, PFZ1, Q_FZ2, Q_V1, Q_V2; skipped without a loaded radius or a wheel
+speed, and by the workflow when the Flatplank CFz relation supplies the stiffness) and geometry
+(the effective rolling radius Re = Vx/omega on free-rolling points: Q_RE0, Q_V1, DREFF, FREFF,
+BREFF, with the vertical stiffness VERTICAL_STIFFNESS, PFZ1 held at the carried-forward values,
+and Q_RE0, Q_V1 held where the vertical stage fitted them: a coefficient two stages list is
+fitted by the first that frees it; skipped without a wheel-speed channel). Each stage
 
 * selects its points and fits one channel (weighted least squares, each pressure weighted by
   1/sqrt(sum of the squared measurements), so the objective is the sum over pressures of the
@@ -84,7 +88,7 @@ from identify.fit.mf_stage_defs import (
     STAGES,
     names_read,
 )
-from identify.fit.mf_problem import StageProblem, stage_problem, subproblem
+from identify.fit.mf_problem import StageProblem, candidates, stage_problem, subproblem
 from identify.fit.mf_rivals import with_rivals
 from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
@@ -283,12 +287,18 @@ def _continue_refit(refit: FitResult | int, result: FitResult, trial: StageProbl
 
 def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
     """Why ``stage`` has no points in ``trailer``."""
-    if STAGES[stage].quantity != "Re":
+    quantity = STAGES[stage].quantity
+    if quantity not in mf_data.DERIVED:
         return "no points in the trailer table for this stage"
+    if quantity == "Rl" and "rl" not in trailer.columns:
+        return "no loaded-radius (rl) channel in the trailer data"
     if "omega" not in trailer.columns:
         return ("no wheel-speed (omega) channel in the trailer data: the effective rolling "
-                "radius Re = Vx/omega cannot be measured")
-    return ("no free-rolling points with a wheel speed (runs without a kappa sweep, "
+                "radius Re = Vx/omega cannot be measured" if quantity == "Re" else
+                "no wheel-speed (omega) channel in the trailer data: the loaded radius's "
+                "free radius needs it")
+    radius = " and a loaded radius" if quantity == "Rl" else ""
+    return (f"no free-rolling points with a wheel speed{radius} (runs without a kappa sweep, "
             f"|kappa| <= {mf_data.FREE_KAPPA:g}, omega > 0, Vx >= {mf_data.FREE_MIN_SPEED:g} "
             "m/s)")
 
@@ -309,7 +319,8 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         Start values of every .tir key (``read_tir(path).params()``); missing keys take the
         parameter table's defaults. Not modified.
     stages : sequence of str
-        Stages to fit, in order (default geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My).
+        Stages to fit, in order (default Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My, vertical,
+        geometry).
     seed : int
         Seed of the Latin-hypercube starts (stage i uses seed + i).
     fittyp : int
@@ -408,7 +419,20 @@ def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.Dat
     already took them (StageProblem.points)."""
     rows = sp.points.pts if sp.points is not None else trailer.iloc[sp.rows]
     return rows[["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
-                + (["omega"] if STAGES[stage].quantity == "Re" else [])]
+                + (["omega"] if STAGES[stage].quantity in mf_data.DERIVED else [])]
+
+
+def _untaken(stage: str, free, taken: Mapping[str, str]) -> tuple[object, dict[str, str]]:
+    """``free`` for ``stage`` without the coefficients an earlier stage of the pass fitted
+    (``taken``: name -> that stage), and those names -> why the stage holds them. A
+    coefficient two stages list is fitted once, by the first that frees it (Q_RE0: the
+    vertical stage's loaded radius, before the geometry stage's effective radius)."""
+    owned = {n: f"fitted in the {taken[n]} stage" for n in STAGES[stage].coefficients
+             if n in taken}
+    if not owned:
+        return free, {}
+    names = [n for n in candidates(STAGES[stage], free) if n not in owned]
+    return {**(free if isinstance(free, Mapping) else {}), stage: names}, owned
 
 
 def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
@@ -436,15 +460,18 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     done: dict[str, tuple[FitResult, StageProblem, dict[str, float]]] = {}
     for pass_no in range(passes):
         results, held, skipped, points, problems = [], {}, {}, {}, []
+        taken: dict[str, str] = {}  # coefficient -> the stage of this pass that fitted it
         for i, stage in enumerate(stages):
             t_stage = time.perf_counter()
+            stage_free, owned = _untaken(stage, free, taken)
             label = f"MF {stage}" + (f" (pass {pass_no + 1})" if passes > 1 else "")
             if stage in done and all(params.get(n) == v for n, v in done[stage][2].items()):
                 result, sp, _ = done[stage]
                 _say(progress, f"{label}: unchanged (nothing it reads has moved)")
                 results.append(result)
                 problems.append(sp)
-                held[stage] = dict(sp.held)
+                held[stage] = {**owned, **sp.held}
+                taken.update({n: stage for n in result.free})
                 points[stage] = _stage_points(trailer, sp, stage)
                 continue
             if stage in done:  # a later pass: the free set and holds of the pass before
@@ -452,7 +479,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                                                    label, pass_no, progress)
             else:
                 _say(progress, f"{label}: points and identifiability screen")
-                sp = stage_problem(stage, trailer, params, free=free, screen=screen,
+                sp = stage_problem(stage, trailer, params, free=stage_free, screen=screen,
                                    sweeps=sweeps)
                 if sp is None:
                     skipped[stage] = _skip_reason(stage, trailer)
@@ -462,7 +489,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                     sp, start_points(sp.problem, n_lhs, seed + i), progress)
                 if screen:
                     result, sp, others, solved = _refine(result, sp, stage, trailer, params,
-                                                         free, others, progress, solved,
+                                                         stage_free, others, progress, solved,
                                                          n_lhs=n_lhs, seed=seed + i)
                 result, branch = with_other_branch(result, sp, label, progress)
                 result = with_rivals(result, sp, branch + list(others), label, progress,
@@ -484,7 +511,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
             done[stage] = (result, sp, {n: params[n] for n in read if n in params})
             results.append(result)
             problems.append(sp)
-            held[stage] = dict(sp.held)
+            held[stage] = {**owned, **sp.held}
+            taken.update({n: stage for n in result.free})
             points[stage] = _stage_points(trailer, sp, stage)
             _say(progress, f"{label}: {time.perf_counter() - t_stage:.1f} s, "
                            f"{result.n_points} points, {len(result.free)} free, "

@@ -59,7 +59,7 @@ def _mf_x(rows: pd.DataFrame) -> str:
         v = v[np.isfinite(v)]
         spread[col] = float(np.ptp(v)) / scale if v.size else 0.0
     prefer = ["kappa"] if q <= {"Fx"} else ["gamma_deg"] if q <= {"Mx"} else \
-        ["Fz_N"] if q <= {"Fz", "My", "Re"} else ["alpha_rad"]
+        ["Fz_N"] if q <= {"Fz", "My", "Re", "Rl"} else ["alpha_rad"]
     for col in prefer + sorted(spread, key=spread.get, reverse=True):
         if spread.get(col, 0) > 1:
             return "alpha_deg" if col == "alpha_rad" else col

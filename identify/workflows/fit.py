@@ -207,6 +207,20 @@ def _characteristics(mset, progress) -> tuple[pd.DataFrame, tuple, dict | None]:
     return chars, flags, extraction
 
 
+VERTICAL_FROM_FLATPLANK = ("the vertical stiffness comes from the Flatplank CFz relation "
+                           "(measured at standstill)")
+"""Why the MF vertical stage (the loaded radius of the trailer data) is skipped when the
+Flatplank data gave the CFz relation: that is the stiffness VERTICAL_STIFFNESS, Q_FZ2, PFZ1
+define, measured directly, and the geometry stage held it already."""
+
+
+def _stiffness_measured(coverage: tuple) -> tuple:
+    """``coverage`` with the MF vertical stage skipped (VERTICAL_FROM_FLATPLANK)."""
+    return tuple(dataclasses.replace(c, skipped=VERTICAL_FROM_FLATPLANK, identifiable=(),
+                                     not_identifiable={})
+                 if c.stage == "vertical" and not c.skipped else c for c in coverage)
+
+
 def _skipped_sources(coverage) -> dict[str, KeySource]:
     """The coefficients of every skipped MF stage: kept at their start value, and why."""
     out = {}
@@ -312,6 +326,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
         quality["trailer"] = td.to_dict()
         trailer = _mf_trailer(td, float(tyre.nominal_load_N), settings, progress)
         coverage = mf_coverage(trailer, float(tyre.nominal_load_N), unavailable=td.unavailable)
+        if any(ef.result.converged for ef in prefit.values()):
+            coverage = _stiffness_measured(coverage)
         for line in coverage_text(coverage):
             _say(progress, f"coverage: {line}")
         key_sources.update(_skipped_sources(coverage))

@@ -256,14 +256,18 @@ def _write_keys(relation: str, form: str, ef: EntryFit, tir: dict,
 
 def mf_sources(results: Sequence[FitResult], held: Mapping[str, Mapping[str, str]]
                ) -> dict[str, KeySource]:
-    """Sources of the MF stages' keys: fitted (with standard error) or held (why)."""
+    """Sources of the MF stages' keys: fitted (with standard error) or held (why). A fitted
+    key whose value rests on held ones (FitResult.conditional) says so in its .tir comment:
+    ``fitted MF/vertical (trailer; rests on Q_V2 = 0, held) +/- 284``."""
     out: dict[str, KeySource] = {}
     for stage, names in held.items():
         for n, why in names.items():
             out[n] = KeySource(DEFAULT, f"held in MF/{stage}: {why}")
     for r in results:
         for k in r.free:
-            out[k] = KeySource.fitted(f"MF/{r.form} (trailer)", r.stderr.get(k, math.nan))
+            rests = r.conditional.get(k, "").split(" (", 1)[0]
+            out[k] = KeySource.fitted(f"MF/{r.form} (trailer{'; ' + rests if rests else ''})",
+                                      r.stderr.get(k, math.nan))
     return out
 
 

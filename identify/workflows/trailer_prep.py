@@ -32,7 +32,7 @@ SEGMENTED_SUFFIXES = (".mat", ".dat")
 #: implausible-warning detail (identify.io.quirk_checks) -> the tidy column it dropped
 _IMPLAUSIBLE = (("wheel speed", "omega"), ("slip ratio pinned", "kappa"),
                 ("effective rolling radius", "re"), ("loaded radius", "rl"))
-_USED = ("omega", "kappa", "Fx", "Fy", "Mz", "Mx", "My")
+_USED = ("omega", "kappa", "rl", "Fx", "Fy", "Mz", "Mx", "My")
 
 
 @dataclass(frozen=True, eq=False)
