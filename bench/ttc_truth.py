@@ -205,9 +205,11 @@ def coverage_tables(records: list[dict]) -> dict:
             else:
                 reason = c.get("why") or ("at a bound" if c["at_bound"] else "no standard error")
                 # one line per kind of reason: "correlated with PEX1" without the
-                # correlation, "another minimum within the 95 % region" without where
+                # correlation, "another minimum within the 95 % region" without where,
+                # "rests on Q_V2 = 0, held (...)" without how far freeing them moves it
                 reason = re.sub(r" at \w+ = \S+ \(chi\^2 .*\)$", "", reason)
                 reason = re.sub(r"[+-]\d\.\d+ ", "", reason)
+                reason = re.sub(r"; freeing them: [^)]*\)$", ")", reason)
                 why.setdefault(key, {})
                 why[key][reason] = why[key].get(reason, 0) + 1
     failing = {k: v for k, v in per.items() if v[0] and v[1] < 0.9 * v[0]}
