@@ -99,7 +99,7 @@ def conditional_on_held(result: FitResult, sp: StageProblem, stage: str,
     params : mapping         every .tir value (the held ones at their held values)
     """
     held = [n for n, why in sp.held.items()
-            if AFTER_FIT in why or any(why.startswith(r) or r in why for r in ONE_SPEED)]
+            if AFTER_FIT in why or any(r in why for r in ONE_SPEED)]
     if not held or not result.converged or not result.free:
         return {}
     free: Sequence[str] = list(result.free)

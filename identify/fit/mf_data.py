@@ -70,11 +70,11 @@ def quantity_values(frame: pd.DataFrame, quantity: str) -> np.ndarray:
         return frame[quantity].to_numpy(float)
     if "omega" not in frame.columns or (quantity == "Rl" and "rl" not in frame.columns):
         return np.full(len(frame), np.nan)
-    vx = frame["Vx"].to_numpy(float)
     omega = frame["omega"].to_numpy(float)
-    value = vx if quantity == "Re" else frame["rl"].to_numpy(float) * omega
+    if quantity == "Rl":
+        return np.where(omega > 0, frame["rl"].to_numpy(float), np.nan)
     with np.errstate(divide="ignore", invalid="ignore"):
-        return np.where(omega > 0, value / omega, np.nan)
+        return np.where(omega > 0, frame["Vx"].to_numpy(float) / omega, np.nan)
 
 
 def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
