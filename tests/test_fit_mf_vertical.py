@@ -10,7 +10,6 @@ the fitted values must be the truth's to the solver's tolerance.
 """
 from __future__ import annotations
 
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -19,7 +18,7 @@ import pytest
 
 from identify.fit.coverage import mf_coverage
 from identify.fit.identifiability import unidentified
-from identify.fit.mf_stage_defs import STAGES, stage_model
+from identify.fit.mf_stage_defs import stage_model
 from identify.fit.mf_stages import fit_mf
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
@@ -116,8 +115,11 @@ def test_one_speed_makes_the_stiffness_rest_on_the_held_speed_term(recovered):
     start.update(Q_V2=0.05, VERTICAL_STIFFNESS=200000.0)
     vertical = fit_mf(table, start, stages=("vertical",), seed=0).result("vertical")
     assert vertical.parameters["Q_V2"] == 0.05  # held: one speed
-    factor = (1 + 0.05 * 11.1 / truth["LONGVL"]) / (1 + truth["Q_V2"] * 11.1 / truth["LONGVL"])
-    assert vertical.parameters["VERTICAL_STIFFNESS"] < truth["VERTICAL_STIFFNESS"] / factor**0.5
+    # the product the data see, at the mean |omega| R0/V0 (0.658-0.665 over the points): the
+    # stiffness takes the held term's error to 0.5 % (measured 0.24 %; the rest goes to Q_FZ2)
+    w = float(np.mean(table["omega"])) * truth["UNLOADED_RADIUS"] / truth["LONGVL"]
+    product = truth["VERTICAL_STIFFNESS"] * (1 + truth["Q_V2"] * w) / (1 + 0.05 * w)
+    assert vertical.parameters["VERTICAL_STIFFNESS"] == pytest.approx(product, rel=5e-3)
     assert "Q_V2 = 0.05" in vertical.conditional["VERTICAL_STIFFNESS"]
     assert "one speed" in vertical.conditional["VERTICAL_STIFFNESS"]
     assert "VERTICAL_STIFFNESS" in unidentified(vertical)
@@ -146,5 +148,5 @@ def test_a_flatplank_stiffness_skips_the_stage(recovered):
     after = {c.stage: c for c in _stiffness_measured(cov)}
     assert after["vertical"].skipped == VERTICAL_FROM_FLATPLANK
     assert after["geometry"] == {c.stage: c for c in cov}["geometry"]
-    assert STAGES["vertical"].quantity == "Rl"
-    assert dataclasses.replace(after["vertical"], skipped="").identifiable == ()
+    assert cov[[c.stage for c in cov].index("vertical")].identifiable  # it had its data
+    assert after["vertical"].identifiable == () and not after["vertical"].not_identifiable
