@@ -13,9 +13,10 @@ trades with QSX9, which the screen held as having no effect at all, not AFTER_FI
 
 A speed term held because the data hold one speed (ONE_SPEED) is checked the same way: its
 variable is never 0 on trailer data, so it trades with the constant terms, and the generated
-TTC sessions (one speed) were fitted at VERTICAL_STIFFNESS 1 % above the truth, 8.8 standard
-errors, with Q_V2 held at 0 for the truth's 0.02 (seed 1, identify.fit.mf_stage_defs stage
-``vertical``): the stiffness measured is the one at the test speed.
+TTC sessions (one speed) were fitted at VERTICAL_STIFFNESS 1.0-1.3 % above the truth, 8.8-18
+standard errors (10 seeds), with Q_V2 held at 0 for the truth's 0.02
+(identify.fit.mf_stage_defs stage ``vertical``): the stiffness measured is the one at the test
+speed.
 
 Their intervals are right only if the held values are exact. This module measures how much
 they rest on them: the variance of each free coefficient with the held ones free as well,
