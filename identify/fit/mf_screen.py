@@ -66,6 +66,12 @@ REFERENCE = {"gamma": 0.1, "dfz": 0.5, "dpi": 0.25}
 that the plausible change of a coefficient does not grow without bound when the data's
 variable barely varies: PEY5 (on gamma^2) on data within +-0.3 deg moves Ey by
 DELTA_FLOOR (0.3 deg / 5.7 deg)^2 = 3e-5 and stays negligible, as on data without camber."""
+MONOMIALS = {"Q_FZ2": 0.01}
+"""The magnitude m of a monomial that is not a state variable (term_magnitudes): Q_FZ2
+multiplies (rho/R0)^2 in the load law, about 0.01 at 1.5 Fz0 (rho/R0 ~ 0.06 at Fz0 for the
+bundled tyre and the golden test tyre), so its plausible change is 1 (a tenth of Q_FZ1 ~ 15).
+With the zero-order 0.01 the screen held it at its floor 1e-4 on the golden MF 6.2 tyre's
+loaded radius (effect 6.7e-7, tests/test_fit_mf_vertical.py)."""
 STEP = 1e-6
 """Relative step of the central differences (identify.fit.engine.fd_jacobian) when the problem
 has no exact Jacobian: of max(|value|, STEP_FLOOR)."""
@@ -133,8 +139,8 @@ def dependence(J: np.ndarray, names: Sequence[str], delta: np.ndarray | None = N
 def term_magnitudes(names: Sequence[str], s: OperatingState) -> np.ndarray:
     """The magnitude m of the monomial each coefficient multiplies (identify.fit.mf_stage_defs
     TERMS: gamma^2 for PEY5, dfz gamma for PKY7, dpi for PPY1, ...): its largest |value| over
-    the points ``s``, or at the REFERENCE extent if that is larger; 1 for a zero-order
-    coefficient.
+    the points ``s``, or at the REFERENCE extent if that is larger; MONOMIALS' value for the
+    load law's Q_FZ2; 1 for a zero-order coefficient.
 
     Parameters
     ----------
@@ -147,6 +153,9 @@ def term_magnitudes(names: Sequence[str], s: OperatingState) -> np.ndarray:
     """
     out = np.ones(len(names))
     for j, name in enumerate(names):
+        if name in MONOMIALS:
+            out[j] = MONOMIALS[name]
+            continue
         powers = TERMS.get(name)
         if not powers:
             continue
