@@ -10,6 +10,7 @@ the fitted values must be the truth's to the solver's tolerance.
 """
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -18,6 +19,7 @@ import pytest
 
 from identify.fit.coverage import mf_coverage
 from identify.fit.identifiability import unidentified
+from identify.fit.mf_even import canonical_even
 from identify.fit.mf_stage_defs import stage_model
 from identify.fit.mf_stages import fit_mf
 from identify.io.tir import read_tir
@@ -150,3 +152,78 @@ def test_a_flatplank_stiffness_skips_the_stage(recovered):
     assert after["geometry"] == {c.stage: c for c in cov}["geometry"]
     assert cov[[c.stage for c in cov].index("vertical")].identifiable  # it had its data
     assert after["vertical"].identifiable == () and not after["vertical"].not_identifiable
+
+
+@pytest.mark.parametrize("tir", ["testA_61.tir", "testA_62.tir"])
+def test_the_side_force_term_is_fitted_from_zero(tir):
+    """The golden test tyres' Q_FCY = 0.2 (lateral force softens the load law by
+    (Q_FCY Fy/Fz0)^2, 4 % at Fy = Fz0) comes back from a start at 0, where the model has no
+    gradient in it (identify.fit.mf_stage_defs.EVEN_START), with the stiffness, PFZ1 and
+    Q_FZ2 to 1e-10 relative (measured: at most 5e-14). Held at 0, VERTICAL_STIFFNESS came
+    out 6 % low and Q_FZ2 at its floor on generated TTC sessions of this tyre."""
+    truth = read_tir(DATA / "tir" / tir).params()
+    start = {k: float(v) for k, v in truth.items() if not isinstance(v, str)}
+    start.update(Q_RE0=1.0, VERTICAL_STIFFNESS=200000.0, PFZ1=0.0, Q_FZ2=1e-4, Q_FCY=0.0)
+    mf = fit_mf(_free_rolling(truth), start, stages=("vertical",), seed=0,
+                fittyp=int(truth["FITTYP"]))
+    vertical = mf.result("vertical")
+    assert "Q_FCY" in vertical.free
+    for n in VERTICAL + ("Q_FCY",):
+        assert vertical.parameters[n] == pytest.approx(truth[n], rel=1e-10), n
+
+
+def _noisy(table: pd.DataFrame, seed: int, sigma: float = 5e-4) -> pd.DataFrame:
+    """``table`` with white noise of ``sigma`` [m] on the loaded radius (the TTC generator's
+    0.5 mm)."""
+    rng = np.random.default_rng(seed)
+    return table.assign(rl=table["rl"] + sigma * rng.standard_normal(len(table)))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_a_tyre_without_the_side_force_term_holds_it_at_zero(seed):
+    """The bundled tyre has Q_FCY = 0. From the fit's start at 0.1 the noisy radius takes it
+    to ~0, where its linearised interval is wrong (the data determine Q_FCY^2; identify.fit.
+    mf_even): kept, it excluded 0 in 3 of 10 generated sessions. It is held at 0, with the
+    reason, and the stiffness is what the truth gives to 1 % (measured at most 0.48 %)."""
+    truth = read_tir(default_tir_path()).params()
+    table = _noisy(_free_rolling(truth), seed)
+    mf = fit_mf(table, truth, stages=("vertical",), seed=0)
+    vertical = mf.result("vertical")
+    assert "Q_FCY" not in vertical.free and mf.params["Q_FCY"] == 0.0
+    assert mf.held["vertical"]["Q_FCY"].startswith("not significant: fitted |Q_FCY| = ")
+    assert "Q_FCY held at 0 after the fit" in vertical.message
+    assert vertical.parameters["VERTICAL_STIFFNESS"] == pytest.approx(
+        truth["VERTICAL_STIFFNESS"], rel=1e-2)
+
+
+def test_the_golden_tyres_side_force_term_stands_out_of_the_noise():
+    """The same noise on the golden tyre's radius: Q_FCY = 0.2 is kept, within 2 % (measured
+    0.92 %), 22 standard errors from 0 (asserted 10; the gate holds it below 4)."""
+    truth = read_tir(DATA / "tir" / "testA_61.tir").params()
+    start = {**truth, "Q_FCY": 0.0}
+    vertical = fit_mf(_noisy(_free_rolling(truth), 0), start, stages=("vertical",),
+                      seed=0).result("vertical")
+    q, se = vertical.parameters["Q_FCY"], vertical.stderr["Q_FCY"]
+    assert q == pytest.approx(0.2, rel=2e-2)
+    assert q > 10 * se
+
+
+def test_the_side_force_terms_sign_is_immaterial(recovered):
+    """-(Q_FCY Fy/Fz0)^2: -q predicts as q bit for bit, so the fit reports |q|
+    (identify.fit.mf_even.canonical_even), with its correlations' signs flipped."""
+    truth = read_tir(DATA / "tir" / "testA_61.tir").params()
+    t = _free_rolling(truth)
+    col = {c: t[c].to_numpy(float) for c in t.columns if c != "run"}
+    s = prepare(truth, col["Fz"], col["kappa"], col["alpha"], col["gamma"], col["Vx"],
+                p=col["p"], mode=FIT_MODE)
+    model = stage_model("vertical", truth, s, col["omega"])
+    np.testing.assert_array_equal(model({"Q_FCY": -0.2}), model({"Q_FCY": 0.2}))
+    _, _, mf = recovered
+    vertical = mf.result("vertical")
+    pair = next(k for k in vertical.correlations if "Q_FCY" in k.split("|"))
+    other = next(k for k in vertical.correlations if "Q_FCY" not in k.split("|"))
+    flipped = dataclasses.replace(vertical, parameters={**vertical.parameters, "Q_FCY": -0.1})
+    back = canonical_even(flipped)
+    assert back.parameters["Q_FCY"] == 0.1
+    assert back.correlations[pair] == -vertical.correlations[pair]
+    assert back.correlations[other] == vertical.correlations[other]

@@ -18,7 +18,14 @@ from identify.fit.mf_constraints import stage_constraints
 from identify.fit.mf_jacobian import stage_jacobian
 from identify.fit.mf_result import point_columns
 from identify.fit.mf_screen import screen as sensitivity_screen, term_magnitudes
-from identify.fit.mf_stage_defs import NEEDS, STAGES, StageDef, stage_model, subset_state
+from identify.fit.mf_stage_defs import (
+    EVEN_START,
+    NEEDS,
+    STAGES,
+    StageDef,
+    stage_model,
+    subset_state,
+)
 from identify.fit.problem import FitProblem
 from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, spec
@@ -181,7 +188,8 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         P = lmfit.Parameters()
         for n in names:
             v = float(params[n])
-            if n in vary:  # free: start inside the table's bounds
+            if n in vary:  # free: start inside the table's bounds, an even term off 0
+                v = EVEN_START.get(n, v) if v == 0 else v
                 lo, hi = bounds(n, v)
                 P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
             else:  # held: exactly the carried-forward value

@@ -3,7 +3,8 @@
 Stages, in order (identify.fit.mf_stage_defs.DEFAULT_STAGES): Fx0, Fy0, Mz0 on pure-slip
 points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point, then vertical
 (the loaded radius Rl, a trailer's RL channel, on free-rolling points, with the fitted forces:
-Q_RE0, VERTICAL_STIFFNESS, PFZ1, Q_FZ2, Q_V1, Q_V2; skipped without a loaded radius or a wheel
+Q_RE0, VERTICAL_STIFFNESS, PFZ1, Q_FZ2, Q_V1, Q_V2, Q_FCY, the last held at 0 when not
+significant, identify.fit.mf_even; skipped without a loaded radius or a wheel
 speed, and by the workflow when the Flatplank CFz relation supplies the stiffness) and geometry
 (the effective rolling radius Re = Vx/omega on free-rolling points: Q_RE0, Q_V1, DREFF, FREFF,
 BREFF, with the vertical stiffness VERTICAL_STIFFNESS, PFZ1 held at the carried-forward values,
@@ -81,6 +82,7 @@ from identify.fit.mf_search import (
     subsample,
 )
 from identify.fit.mf_branches import with_other_branch
+from identify.fit.mf_even import canonical_even, even_gate
 from identify.fit.mf_conditional import AFTER_FIT, with_conditional
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_stage_defs import (
@@ -491,12 +493,15 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                     result, sp, others, solved = _refine(result, sp, stage, trailer, params,
                                                          stage_free, others, progress, solved,
                                                          n_lhs=n_lhs, seed=seed + i)
+                    result, sp = even_gate(result, sp, stage, trailer, params, stage_free,
+                                           progress)
                 result, branch = with_other_branch(result, sp, label, progress)
                 result = with_rivals(result, sp, branch + list(others), label, progress,
                                      solved)
                 new_nfev = result.nfev
             if stage == "Mz0":
                 result = canonical_br(result, params)
+            result = canonical_even(result)
             if screen:  # what rests on coefficients held since the re-fit with them failed
                 result = with_conditional(result, sp, stage, trailer, params)
             # the stage's whole wall time: screen (and the Jacobian's compile), search, solves,
