@@ -55,7 +55,7 @@ a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core
 3.6 / 3.8 ms, Fy (4549 x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
 NUMPY_ONLY = ("vertical",)
 """Stages whose equations are numpy only: finite differences always (the MF 6.2 loaded radius
-is a secant solve with a data-dependent number of steps; the stage has five coefficients)."""
+is a secant solve with a data-dependent number of steps; the stage has seven coefficients)."""
 ENV = "MFID_JACOBIAN"
 """Environment variable: ``fd`` forces finite differences even where JAX is installed, ``jax``
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""

@@ -70,10 +70,9 @@ def _names(text: str) -> tuple[str, ...]:
 
 STAGES: dict[str, StageDef] = {s.name: s for s in (
     # Rl = R0 (Q_RE0 + Q_V1 (omega R0/V0)^2) - rho, the deflection rho from the MF load law
-    # Fz = (1 + Q_V2 ... - (Q_FCY Fy/Fz0)^2)(1 + PFZ1 dpi) Fz0 (Q_FZ1 rho/R0
-    # + Q_FZ2 (rho/R0)^2), Q_FZ1 from
-    # VERTICAL_STIFFNESS (docs/model.md, section 10.3); the geometry stage holds the Q_RE0 and
-    # Q_V1 it fits (identify.fit.mf_stages._untaken)
+    # Fz = (1 + Q_V2 ... - (Q_FCY Fy/Fz0)^2)(1 + PFZ1 dpi) Fz0 (Q_FZ1 rho/R0 + Q_FZ2 (rho/R0)^2),
+    # Q_FZ1 from VERTICAL_STIFFNESS (docs/model.md, section 10.3); the geometry stage holds the
+    # Q_RE0 and Q_V1 it fits (identify.fit.mf_stages._untaken)
     StageDef("vertical", "Rl", "m", "free_rolling",
              _names("Q_RE0 VERTICAL_STIFFNESS PFZ1 Q_FZ2 Q_V1 Q_V2 Q_FCY")),
     # Re = R0 (Q_RE0 + Q_V1 (omega R0/V0)^2) - Fz0/Cz' (DREFF atan(BREFF Fz/Fz0) + FREFF Fz/Fz0)
@@ -104,8 +103,9 @@ would hold it there ("no effect") and a solver could not move it, and the stiffn
 Q_FZ2 would absorb its effect (the golden test tyre's Q_FCY = 0.2 lowers the load at a
 deflection by 4 % at Fy = Fz0; fitted without it, VERTICAL_STIFFNESS came out 6 % low and
 Q_FZ2 at its floor, truth 15). At 0.1 it reduces the load by 1 % at Fy = Fz0; the fit takes
-it from there, down to ~0 for a tyre without the term (the interval then holds 0). The sign is
-immaterial (the fitted value is reported as |Q_FCY|). Q_FCX, the same for the
+it from there, down to ~0 for a tyre without the term, where identify.fit.mf_even holds it at
+0 (its square not significant). The sign is immaterial (the fitted value is reported as
+|Q_FCY|). Q_FCX, the same for the
 longitudinal force, is not fitted: the vertical stage's free-rolling points have no Fx."""
 
 DEFAULT_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My", "vertical", "geometry")
