@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from identify.fit.limits import measured_limits
+from identify.fit.limits import measured_limits, union_limits
 
 
 def test_limits_are_the_ranges_of_the_fitted_points():
@@ -25,3 +25,16 @@ def test_limits_are_the_ranges_of_the_fitted_points():
 
 def test_a_single_level_is_no_range():
     assert measured_limits(pd.DataFrame({"pi_bar": [2.5, 2.5], "Fz_N": [4000, 4000]})) == {}
+
+
+def test_the_union_of_spans_contains_each():
+    trailer = {"FZMIN": 3000.0, "FZMAX": 7000.0, "CAMMIN": -0.14, "CAMMAX": 0.14,
+               "ALPMIN": -0.2, "ALPMAX": 0.2}
+    flatplank = {"FZMIN": 1000.0, "FZMAX": 6000.0, "CAMMIN": -0.26, "CAMMAX": 0.26,
+                 "PRESMIN": 1.9e5, "PRESMAX": 3e5}
+    assert union_limits(trailer, flatplank) == {
+        "FZMIN": 1000.0, "FZMAX": 7000.0, "CAMMIN": -0.26, "CAMMAX": 0.26,
+        "ALPMIN": -0.2, "ALPMAX": 0.2, "PRESMIN": 1.9e5, "PRESMAX": 3e5}
+    assert union_limits(trailer, {}) == trailer and union_limits() == {}
+    # half a pair is no span
+    assert union_limits({"FZMIN": 10.0}, trailer)["FZMIN"] == 3000.0

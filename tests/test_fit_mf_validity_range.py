@@ -15,6 +15,7 @@ import pandas as pd
 import pytest
 
 from identify.fit.limits import TABLE_LIMIT_COLUMNS, table_limits
+from identify.fit.mf_constraints import stage_constraints, violations
 from identify.fit.mf_stages import fit_mf
 from identify.io.tir import read_tir
 from identify.model.evaluate import evaluate
@@ -77,3 +78,68 @@ def test_the_combined_coefficients_are_the_truths(case, stage):
     for name in r.free:
         assert r.parameters[name] == pytest.approx(float(truth[name]), rel=1e-8, abs=1e-10), \
             name
+
+
+# ----- a grid as wide as the written limits ------------------------------------------------------
+# The written .tir states the ranges of every fitted point, the characteristics' too
+# (identify.workflows.tir_assembly.relation_reach): a Flatplank session reaching lower loads than
+# the trailer's widens FZMIN, and the MF stages must hold their conditions down to it.
+
+def _cornering(truth: dict[str, float]) -> pd.DataFrame:
+    """Noise-free slip-angle sweeps (-12..12 deg) at 0.6, 1.0, 1.4 FNOMIN, camber 0, with Fy [N]
+    of ``truth`` (useMode 211)."""
+    alpha = np.deg2rad(np.linspace(-12.0, 12.0, 97))
+    rows = [pd.DataFrame({"run": f"c{lf}", "Fz": lf * truth["FNOMIN"], "p": truth["NOMPRES"],
+                          "Vx": 11.1, "kappa": 0.0, "alpha": alpha, "gamma": 0.0})
+            for lf in (0.6, 1.0, 1.4)]
+    t = pd.concat(rows, ignore_index=True)
+    out = evaluate(truth, *(t[c].to_numpy() for c in ("Fz", "kappa", "alpha", "gamma", "Vx")),
+                   p=t["p"].to_numpy(), mode=FIT_MODE)
+    return t.assign(Fy=np.asarray(out["Fy"]))
+
+
+@pytest.fixture(scope="module")
+def steep():
+    """The bundled tyre with Ey = (0.7 - 0.3 dfz)(1 + 0.1) at negative slip: 0.90 at the
+    table's least load (dfz = -0.4), 1.03 at 0.2 FNOMIN (dfz = -0.8), beyond its reach."""
+    truth = read_tir(default_tir_path()).params()
+    truth.update(PEY1=0.7, PEY2=-0.3)
+    start = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    start.update({k: float(v) for k, v in truth.items()
+                  if not isinstance(v, str) and k not in LIMITS})
+    # no slip-ratio range in the table: a realistic one (at MFeval's +-1.5, Gy_kappa > 0 fails
+    # with the tyre's RCY1 = 1.05; module doc)
+    start.update(KPUMIN=-0.15, KPUMAX=0.15)
+    reach = {"FZMIN": 0.2 * truth["FNOMIN"], "FZMAX": truth["FNOMIN"]}
+    return truth, _cornering(truth), start, reach
+
+
+def test_the_truth_breaks_ey_below_the_tables_loads(steep):
+    """The premise: over the table's loads the truth is valid, over the reach it is not."""
+    truth, table, start, reach = steep
+    params = {**{k: float(v) for k, v in truth.items() if not isinstance(v, str)},
+              "KPUMIN": start["KPUMIN"], "KPUMAX": start["KPUMAX"]}
+    assert violations({**params, **table_limits(table)}, [truth["NOMPRES"]]) == ()
+    broken = violations({**params, **table_limits(table), **reach}, [truth["NOMPRES"]])
+    assert len(broken) == 1 and broken[0].startswith("Fy0: Ey <= 1 fails at Fz = 1000 N")
+
+
+def test_the_grid_spans_the_reach_and_the_fit_meets_it(steep):
+    """Without ``reach`` the noise-free fit returns the truth (PEY1, PEY2 to 1e-6), which the
+    wider limits then break; with it, Ey <= 1 is active and the fitted values meet every
+    condition over the union of the ranges (FZMIN 1000 N, FZMAX the table's 7000 N)."""
+    truth, table, start, reach = steep
+    alone = fit_mf(table, start, stages=("Fy0",), seed=0).result("Fy0")
+    assert alone.converged and alone.active_constraints == ()
+    for name in ("PEY1", "PEY2"):
+        assert alone.parameters[name] == pytest.approx(truth[name], abs=1e-6), name
+    wide = fit_mf(table, start, stages=("Fy0",), seed=0, reach=reach)
+    assert wide.params["FZMIN"] == 1000.0 and wide.params["FZMAX"] == table.Fz.max()
+    r = wide.result("Fy0")
+    assert r.converged and any("Ey" in c for c in r.active_constraints)
+    assert violations(wide.params, [truth["NOMPRES"]]) == ()
+    # held at the edge, not off by a wide berth: the Ey margin is ~0 at 1000 N
+    ey = {c.name: c for c in stage_constraints("Fy0", wide.params, lambda v: wide.params,
+                                               [truth["NOMPRES"]])}["Ey <= 1"]
+    margin = ey.fun({})
+    assert int(np.argmin(margin)) == 0 and 0 <= margin[0] < 1e-6

@@ -27,14 +27,17 @@ from typer.testing import CliRunner
 from identify.cli.app import app
 from identify.core.errors import InputError
 from identify.core.tyre_size import parse_tyre_size
-from identify.fit.limits import LIMIT_COLUMNS
+from identify.fit.limits import LIMIT_COLUMNS, measured_limits
+from identify.fit.relations import Context
 from identify.fit.run import FitRun
 from identify.fit.sources import KINDS, KeySource
+from identify.io.folder import load_folder
 from identify.io.tir import format_tir, read_tir, write_tir
 from identify.model.parameters import PARAMETERS
 from identify.simulate.default_tyre import default_tir_path, write_default_tir
-from identify.workflows.fit import FitSettings, fit_folder
-from identify.workflows.tir_assembly import form_overrides, hold_names
+from identify.workflows.fit import (FitSettings, _base_tir, _broken_validity, _characteristics,
+                                    _numeric, fit_folder)
+from identify.workflows.tir_assembly import form_overrides, hold_names, relation_reach
 from tests.naive_tir import naive_read
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -107,6 +110,37 @@ def test_thesis_limits_are_the_measured_ranges_and_dimensions_the_size(thesis):
     assert thesis.key_sources["WIDTH"] == KeySource("tyre.toml", "size 225/50 R17")
     assert tir["UNLOADED_RADIUS"] == 0.3284
     assert thesis.key_sources["UNLOADED_RADIUS"].detail == "unloaded_radius_m"
+
+
+
+def test_the_reach_announced_to_the_mf_stages_is_what_the_file_states(thesis):
+    """relation_reach, computed before the MF stages from the characteristics, gives the limits
+    apply_limits then writes from the relations' fitted points (fit_mf widens its validity
+    grid to it)."""
+    mset = load_folder(THESIS)
+    chars, _, _ = _characteristics(mset, None)
+    tyre = mset.manifest.tyre
+    ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
+                  tir=_numeric(_base_tir(mset, 61)))
+    reach = relation_reach(chars, ctx, lambda relation: True)
+    assert reach == measured_limits(pd.read_csv(thesis.csv_path))
+    assert reach["FZMIN"] == 2000.0 and reach["FZMAX"] == 7000.0
+    assert relation_reach(chars, ctx, lambda relation: False) == {}
+
+
+def test_a_written_file_that_breaks_a_validity_condition_is_a_failure():
+    """After the limits are written, the .tir is checked over them (MFeval's coefficientCheck):
+    a broken condition goes to run.failed (exit 1), naming the stage, condition and load."""
+    tir = {k: v for k, v in read_tir(default_tir_path()).params().items()
+           if not isinstance(v, str)}
+    points = pd.DataFrame({"pi_bar": [2.5, 2.5], "Fz_N": [1000.0, 7000.0]})
+    tir.update(FZMIN=1000.0, FZMAX=7000.0, KPUMIN=-0.15, KPUMAX=0.15, ALPMIN=-0.2, ALPMAX=0.2,
+               CAMMIN=-0.1, CAMMAX=0.1)
+    assert _broken_validity(tir, points) == ()
+    tir.update(PEY1=0.7, PEY2=-0.3)  # Ey = (0.7 + 0.3 * 0.8) * 1.1 > 1 at 1000 N
+    (line,) = _broken_validity(tir, points)
+    assert line.startswith("tir[validity]: Fy0: Ey <= 1 fails at Fz = 1000 N (margin -")
+    assert line.endswith("within the written limits")
 
 
 def test_thesis_forms_and_the_poorly_identified_relaxation(thesis):

@@ -9,11 +9,13 @@ no fitted point varied keeps its default, and the caller marks it so.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
 
-__all__ = ["LIMIT_COLUMNS", "TABLE_LIMIT_COLUMNS", "measured_limits", "table_limits"]
+__all__ = ["LIMIT_COLUMNS", "TABLE_LIMIT_COLUMNS", "measured_limits", "table_limits",
+           "union_limits"]
 
 LIMIT_COLUMNS: dict[tuple[str, str], tuple[str, float]] = {
     ("FZMIN", "FZMAX"): ("Fz_N", 1.0),
@@ -81,12 +83,10 @@ def table_limits(table: pd.DataFrame) -> dict[str, float]:
 
     The MF stages take them as the limits of their validity grid
     (identify.fit.mf_stages.fit_mf). The written .tir states the ranges of every fitted point
-    (:func:`measured_limits`): the same where the trailer data are all of them, so the
-    validity conditions hold where the file claims validity. Where other relations' points
-    reach further, the written limits are wider than the grid and the conditions are not held
-    over the difference: on the bundled sample (Flatplank characteristics besides the trailer
-    sweeps) FZMIN 1000 N for the trailer's 3000 N, CAMMIN/CAMMAX +-15 deg for +-8 deg
-    (`mfid fit measurements/sample-225-50R17`, 2026-11-24).
+    (:func:`measured_limits`): where other relations' points reach further (the bundled
+    sample's Flatplank characteristics: FZMIN 1000 N for the trailer's 3000 N, CAMMIN/CAMMAX
+    +-15 deg for +-8 deg), ``mfid fit`` widens the grid to the :func:`union_limits` of both, so
+    that the validity conditions hold wherever the file claims validity.
     """
     out: dict[str, float] = {}
     for (lo_key, hi_key), column in TABLE_LIMIT_COLUMNS.items():
@@ -96,4 +96,17 @@ def table_limits(table: pd.DataFrame) -> dict[str, float]:
                      load=column == "Fz")
         if span is not None:
             out[lo_key], out[hi_key] = span
+    return out
+
+
+def union_limits(*spans: Mapping[str, float]) -> dict[str, float]:
+    """The smallest limits [SI] that contain every one of ``spans`` (dicts as returned by
+    :func:`table_limits` and :func:`measured_limits`): per (min, max) pair the least minimum
+    and the largest maximum over the spans that hold the pair; a pair none holds is left out."""
+    out: dict[str, float] = {}
+    for lo_key, hi_key in LIMIT_COLUMNS:
+        held = [s for s in spans if lo_key in s and hi_key in s]
+        if held:
+            out[lo_key] = min(float(s[lo_key]) for s in held)
+            out[hi_key] = max(float(s[hi_key]) for s in held)
     return out

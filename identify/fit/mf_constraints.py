@@ -248,3 +248,23 @@ def stage_constraints(stage: str, base: Mapping[str, float], merge: Merge,
         return (_make(b_name, merge, sb, b), _make(e_name, merge, fz_only, e),
                 _make(g_name, merge, sg, g))
     return ()
+
+
+def violations(P: Mapping[str, float], pressures: Sequence[float]) -> tuple[str, ...]:
+    """The validity conditions a complete parameter set ``P`` breaks within its own limits.
+
+    Every stage's conditions (:func:`stage_constraints`) evaluated at ``P`` on the grid of
+    P's limits and the ``pressures`` [Pa]: MFeval's ``coefficientCheck`` of a written .tir.
+    Returns one line per broken condition, "Fy0: Ey <= 1 fails at Fz = 1000 N (margin -0.12)",
+    the load being the grid load of the least margin; empty when all hold.
+    """
+    grid = validity_grid(P, pressures)
+    out = []
+    for stage in ("Fx0", "Fy0", "Mz0", "Fx", "Fy"):
+        for c in stage_constraints(stage, P, lambda values: P, pressures):
+            margin = c.fun({})
+            worst = int(np.nanargmin(margin)) if np.isfinite(margin).any() else 0
+            if not np.all(margin >= 0):  # NaN breaks it too
+                out.append(f"{stage}: {c.name} fails at Fz = {grid.fz[worst]:.0f} N "
+                           f"(margin {margin[worst]:.3g})")
+    return tuple(out)

@@ -63,7 +63,7 @@ from threadpoolctl import threadpool_limits
 from identify.core.progress import Progress
 from identify.fit import mf_data
 from identify.fit.engine import MF_SOLVE, residual_jacobian, residual_variance
-from identify.fit.limits import table_limits
+from identify.fit.limits import table_limits, union_limits
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
@@ -309,6 +309,7 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
            stages: Sequence[str] = DEFAULT_STAGES, seed: int = 0, fittyp: int = 61,
            free: Mapping[str, Sequence[str]] | Collection[str] | None = None,
            n_lhs: int = N_LHS, screen: bool = True, passes: int = 1,
+           reach: Mapping[str, float] | None = None,
            progress: Progress | None = None) -> MFFit:
     """Fit the MF slip coefficients stage by stage.
 
@@ -340,6 +341,12 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
         previous pass (carried-forward values only: the global search is pass 1's) and
         converges the blocks together. The results are the last pass's; their ``seconds``
         and ``nfev`` count every pass. ``mfid fit`` runs 2 (FitSettings.mf_passes).
+    reach : mapping, optional
+        Validity limits [SI] (FZMIN ... CAMMAX) that the written .tir will also state: the
+        ranges of the other relations' fitted points (identify.workflows.tir_assembly.
+        relation_reach). The validity grid then spans their union with the table's
+        (identify.fit.limits.union_limits), so that the conditions hold wherever the file
+        claims validity.
     progress : callable, optional
         progress(text) per stage and sub-step, and a line with each stage's time (see
         module).
@@ -347,24 +354,26 @@ def fit_mf(trailer: pd.DataFrame, base: Mapping[str, float], *,
     Returns
     -------
     MFFit
-        Its ``params`` carry the table's ranges as FZMIN/FZMAX, KPUMIN/KPUMAX, ALPMIN/ALPMAX,
-        CAMMIN/CAMMAX where the table spans one (identify.fit.limits.table_limits): the validity
-        grid the stages were held to, and the limits the written .tir states where the trailer data
-        are all its fitted points (identify.workflows.tir_assembly.apply_limits; other relations'
-        points can widen them, table_limits). The start .tir's limits, MFeval's defaults of +-1.5 in
-        slip ratio and slip angle, reach far beyond any trailer sweep; held there, Gx_alpha > 0 and
-        Gy_kappa > 0 bound the combined-slip shape factors RCX1 and RCY1 near 1, which the bundled
-        tyre (1.05 each) breaks at slip angles beyond its sessions' +-12 deg: its generated TTC
-        sessions at noise 1e-4 (seeds 0 and 3) were fitted at RCX1 1.024, RCY1 1.035, REX1 -0.59,
-        REY1 -0.155 (truth -0.4, -0.1), about 1 standard error of a 1 % session each; with the
-        data's limits (seed 0) at 1.048, 1.049, -0.42, -0.103 (docs/intervals.md).
+        Its ``params`` carry the table's ranges as FZMIN/FZMAX, KPUMIN/KPUMAX,
+        ALPMIN/ALPMAX, CAMMIN/CAMMAX where the table spans one
+        (identify.fit.limits.table_limits), widened to ``reach``: the validity grid the
+        stages were held to, and the limits the written .tir states
+        (identify.workflows.tir_assembly.apply_limits). The start .tir's limits, MFeval's
+        defaults of +-1.5 in slip ratio and slip angle, reach far beyond any trailer sweep;
+        held there, Gx_alpha > 0 and Gy_kappa > 0 bound the combined-slip shape factors RCX1
+        and RCY1 near 1, which the bundled tyre (1.05 each) breaks at slip angles beyond its
+        sessions' +-12 deg: its generated TTC sessions at noise 1e-4 (seeds 0 and 3) were
+        fitted at RCX1 1.024, RCY1 1.035, REX1 -0.59, REY1 -0.155 (truth -0.4, -0.1), about
+        1 standard error of a 1 % session each; with the data's limits (seed 0) at 1.048,
+        1.049, -0.42, -0.103 (docs/intervals.md).
     """
     # one BLAS thread: the solver's SVDs are small, and on a busy machine a second thread
     # made each of them 30-100x slower (measured: 12087 x 15, 0.49 s with 2 threads, 0.014 s
     # with 1, on the 2-core machine under load)
     with threadpool_limits(limits=1, user_api="blas"):
         return _fit_mf(trailer, base, stages=stages, seed=seed, fittyp=fittyp, free=free,
-                       n_lhs=n_lhs, screen=screen, passes=passes, progress=progress)
+                       n_lhs=n_lhs, screen=screen, passes=passes, reach=reach or {},
+                       progress=progress)
 
 
 PASS_GAIN = 0.1
@@ -437,7 +446,7 @@ def _untaken(stage: str, free, taken: Mapping[str, str]) -> tuple[object, dict[s
     return {**(free if isinstance(free, Mapping) else {}), stage: names}, owned
 
 
-def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
+def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes, reach,
             progress) -> MFFit:
     t0 = time.perf_counter()
     unknown = [s for s in stages if s not in STAGES]
@@ -455,7 +464,8 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)
-    params.update(table_limits(trailer))  # the validity grid: where the .tir claims validity
+    # the validity grid: where the .tir claims validity
+    params.update(union_limits(table_limits(trailer), reach))
     spent: dict[str, tuple[float, int]] = {}  # seconds and evaluations of earlier passes
     # per stage: its result, problem and the values of every name its prediction read when
     # it was fitted; a later pass solves only a stage some of whose inputs changed since

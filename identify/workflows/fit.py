@@ -27,6 +27,7 @@ from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
 from identify.fit.mcmc import ChainSession, run_mcmc
 from identify.fit.mcmc_steps import ChainProgress
+from identify.fit.mf_constraints import violations
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_uncertainty import propagate
@@ -314,6 +315,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                             if k in ef.result.parameters})
 
     coverage: tuple = ()
+    fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
         td = prepare_trailer(mset, SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg,
@@ -334,11 +336,18 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
         stages = [c.stage for c in coverage if c.fitted]
         if stages:
             _say(progress, "fit: Magic Formula stages on trailer data")
+            # the written limits span the characteristics' points too: hold the MF validity
+            # conditions over those ranges as well
+            reach = TA.relation_reach(chars, Context(
+                fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
+                tir=_numeric(tir)), wanted)
             mf = fit_mf(trailer, _numeric(tir), seed=settings.seed, fittyp=settings.fittyp,
-                        stages=stages, passes=settings.mf_passes, progress=progress)
+                        stages=stages, passes=settings.mf_passes, reach=reach,
+                        progress=progress)
             _say(progress, "MF standard errors: delete-one-sweep jackknife, the earlier "
                            "stages' uncertainty included")
             mf = propagate(trailer, mf)
+            fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:
                     chains.queue(len(results), f"MF_{r.form}", f"mcmc: MF [{r.form}]", r,
@@ -385,6 +394,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     chains.run_all(results, progress)  # after every fit: the budget is shared between them
     points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     TA.apply_limits(tir, key_sources, points)
+    broken = _broken_validity(tir, points) if fitted_mf else ()
     run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,
                                                      settings=settings,
                                                      checksums=mset.checksums,
@@ -392,11 +402,23 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                  results=tuple(results),
                  key_sources=TA.complete(key_sources, settings.fittyp),
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
-                 flags=tuple(dict(f) for f in flags), failed=failures(results),
+                 flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
                  data_quality=quality)
     _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
+
+
+def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:
+    """``tir[validity]: ...`` for every MF validity condition the written values break within
+    the written limits, at the pressures of the fitted points (identify.fit.mf_constraints.
+    violations): the stages hold them over the same ranges, so a line here means a stage
+    whose constraints could not be met."""
+    pressures = np.unique(pd.to_numeric(points["pi_bar"], errors="coerce").dropna()) * 1e5
+    params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
+    params.update(_numeric(tir))
+    return tuple(f"tir[validity]: {line} within the written limits"
+                 for line in violations(params, pressures))
 
 
 def only_names(values: Sequence[str]) -> tuple[str, ...]:

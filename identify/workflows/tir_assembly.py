@@ -19,10 +19,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import warnings
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import lmfit
+import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
@@ -41,7 +42,7 @@ from identify.model.parameters import PARAMETERS, spec
 
 __all__ = ["FORMAT_SECTIONS", "HOLD_TOLERANCE", "EntryFit", "apply_limits", "apply_tyre",
            "complete", "fit_entry", "form_overrides", "hold_names", "mf_sources",
-           "write_relation"]
+           "relation_reach", "write_relation"]
 
 FORMAT_SECTIONS = ("MDI_HEADER", "UNITS")
 """Sections whose keys describe the file, not the tyre."""
@@ -272,6 +273,29 @@ def mf_sources(results: Sequence[FitResult], held: Mapping[str, Mapping[str, str
 
 
 # ----- limits and the rest -----------------------------------------------------------------------
+
+def relation_reach(chars: pd.DataFrame, ctx, wanted: Callable[[str], bool]) -> dict[str, float]:
+    """The validity limits [SI] the characteristics' fits will add to the written .tir.
+
+    ``measured_limits`` of the points of every plan entry of a ``wanted`` relation that builds
+    a problem on ``chars`` (the rows measured_vs_model.csv will hold for them): what the MF
+    stages' validity grid must cover besides the trailer data (identify.fit.mf_stages.fit_mf
+    ``reach``), so that :func:`apply_limits` states no range the conditions were not held
+    over. ``ctx``: the relations' Context.
+    """
+    columns = ("Fz_N", "gamma_deg", "alpha_rad", "kappa")
+    frames = []
+    for e in PLAN:
+        problem = e.build(chars, ctx) if wanted(e.relation) else None
+        if problem is None:
+            continue
+        n = problem.measured.size
+        extra = problem.extra or {}
+        frames.append(pd.DataFrame({"pi_bar": np.broadcast_to(problem.pressure_bar, n),
+                                    **{c: np.asarray(extra.get(c, np.full(n, np.nan)), float)
+                                       for c in columns}}))
+    return measured_limits(pd.concat(frames, ignore_index=True)) if frames else {}
+
 
 def apply_limits(tir: dict, sources: dict[str, KeySource], points: pd.DataFrame) -> None:
     """Set the validity limits to the ranges of the fitted points (measured_vs_model rows)."""
