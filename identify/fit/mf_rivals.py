@@ -17,7 +17,7 @@ from identify.fit.mf_search import MIRROR, REFIT_NFEV, mirrored
 from identify.fit.optimize import Solved, fit, replay, snapped
 from identify.fit.result import FitResult, Rival
 
-__all__ = ["MIRROR", "with_rivals"]
+__all__ = ["MIRROR", "chi2_scale", "with_rivals"]
 
 
 def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],
@@ -67,7 +67,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
         if not far.any():
             continue
         if scale is None:
-            scale = _chi2_scale(problem, xb, se)
+            scale = chi2_scale(problem, xb, se)
         dchi2 = (wls - result.wls) / scale if scale > 0 else np.inf
         if dchi2 > RIVAL_CHI2:
             continue
@@ -99,7 +99,7 @@ def _solve(problem, x0: np.ndarray, solved: list[Solved]
     return True, x, float(r @ r), 1
 
 
-def _chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
+def chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
     """s^2 x the median ratio of the variances ``se``^2 to the iid ones at ``xb``: an objective
     difference divided by it is chi^2 on the scale of the reported intervals."""
     r = problem.residuals(xb)

@@ -29,7 +29,11 @@ After the stage's global fit (identify.fit.mf_stages):
    one was 0 at the start (PEX4 while PEX1..3 = 0, the MFeval defaults; PPMX1 while QSX2 = 0)
    is freed, and the stage is re-fitted locally from its optimum. A gate that moved only
    within the noise (QSX7, QSX8 of a tyre without that Mx term) frees nothing, so no product
-   of two unidentifiable coefficients is left to wander.
+   of two unidentifiable coefficients is left to wander. The re-fit is kept only when it
+   lowers chi^2 (on the scale of the stage's intervals) by more than the 95 % quantile of
+   chi^2 with one degree of freedom per freed coefficient: a gate that moved by chance (about
+   one stage in ten with three coefficients at 2 standard errors) would otherwise free a shape
+   that the re-fit fits to the noise (tests/test_fit_mf_after_fit_gain.py).
 """
 from __future__ import annotations
 

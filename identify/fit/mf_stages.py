@@ -91,7 +91,7 @@ from identify.fit.mf_stage_defs import (
     names_read,
 )
 from identify.fit.mf_problem import StageProblem, candidates, stage_problem, subproblem
-from identify.fit.mf_rivals import with_rivals
+from identify.fit.mf_rivals import chi2_scale, with_rivals
 from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
@@ -234,6 +234,16 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                 n: f"sensitivity: {AFTER_FIT}, and the re-fit with it did not converge or "
                    "ended higher" for n in added}})
             break
+        gain = _chi2_gain(sp.problem, result, refit)
+        if gain < chi2.ppf(0.95, len(added)):
+            result = dataclasses.replace(result, nfev=result.nfev + spent)
+            sp = dataclasses.replace(sp, held={**sp.held, **{
+                n: f"sensitivity: {AFTER_FIT}, and freeing {', '.join(added)} lowered chi^2 "
+                   f"by {gain:.2f} only (95 %: {chi2.ppf(0.95, len(added)):.2f})"
+                for n in added}})
+            _say(progress, f"MF {stage}: {', '.join(added)} held: the re-fit lowered chi^2 by "
+                           f"{gain:.2f}, not significant")
+            break
         added_all += added
         rivals_used += len(rivals)
         sp, others, solved = trial, candidates, trial_solved
@@ -247,6 +257,16 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                             + f" with {', '.join(added_all)}, which had no effect at the "
                               "start)")
     return result, sp, others, solved
+
+
+def _chi2_gain(problem: FitProblem, result: FitResult, refit: FitResult) -> float:
+    """How much lower ``refit``'s objective is than ``result``'s (on ``problem``, the points of
+    both), in chi^2 on the scale of ``result``'s intervals (identify.fit.mf_rivals.chi2_scale):
+    a likelihood-ratio statistic for the coefficients ``refit`` adds."""
+    xb = np.array([result.parameters[n] for n in result.free])
+    se = np.array([result.stderr.get(n, np.nan) for n in result.free])
+    scale = chi2_scale(problem, xb, se)
+    return float((result.wls - refit.wls) / scale) if scale > 0 else np.inf
 
 
 def _unpolished(result: FitResult, solved: Sequence[Solved]) -> list[dict[str, float]]:
