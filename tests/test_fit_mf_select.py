@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 from identify.fit.coverage import mf_coverage
-from identify.fit.mf_data import rolling_kappa, run_sweeps, select
+from identify.fit.mf_data import pressure_groups, rolling_kappa, run_sweeps, select
 from identify.fit.mf_problem import stage_problem
 from identify.model.parameters import defaults
 
@@ -160,3 +160,31 @@ def test_stray_slip_ratio_samples_do_not_make_a_held_slip_ratio_run_a_sweep_for_
     for table in (clean, stray):
         assert {c.stage: c.skipped for c in mf_coverage(table, fnomin, stages=stages)
                 } == expected
+
+
+def test_pressure_groups_are_the_pressure_levels_not_the_runs():
+    """A TTC run holds every pressure block: its sweeps (segments) at 212, 250 and 288 kPa set,
+    the second of each block 2 kPa warmer, each rising 1.5 kPa over its 50 samples, group as
+    three pressures whatever run they are in, each the median of its rows' sweep medians (set
+    + 1.75 kPa: 2.1375, 2.5175, 2.8975 bar, rounded to 0.01 bar); a sweep without a pressure
+    is NaN. Grouped by run, all were the run's median, 2.52 bar."""
+    rng = np.random.default_rng(0)
+    blocks = []
+    for run, sets in (("corner", (212e3, 250e3, 288e3)), ("drive", (250e3, 288e3))):
+        for seg, p_set in enumerate(sets):
+            for sweep in range(2):
+                p = (p_set + 2e3 * sweep + np.linspace(0, 1.5e3, 50)
+                     + 300 * rng.standard_normal(50))
+                blocks.append(pd.DataFrame({"run": run, "segment_id": 2 * seg + sweep,
+                                            "p_set": p_set, "p": p}))
+    blocks.append(pd.DataFrame({"run": "drive", "segment_id": 99, "p_set": 0.0,
+                                "p": np.full(5, np.nan)}))
+    t = pd.concat(blocks, ignore_index=True)
+    g = pressure_groups(t.drop(columns="p_set"))
+    assert np.isnan(g[-5:]).all()
+    level = {212e3: 2.14, 250e3: 2.52, 288e3: 2.90}
+    assert np.array_equal(g[:-5], t["p_set"].iloc[:-5].map(level).to_numpy())
+    # without the segment labels a run is one sweep, its median (so for runs at one
+    # pressure each, as before)
+    by_run = pressure_groups(t.drop(columns=["segment_id", "p_set"]))
+    assert set(np.unique(by_run[t["run"] == "corner"])) == {2.52}

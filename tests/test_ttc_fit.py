@@ -17,6 +17,7 @@ from identify.fit.coverage import StageCoverage, coverage_text, mf_coverage
 from identify.fit.run import FitRun
 from identify.fit.sources import DEFAULT
 from identify.io.folder import load_folder
+from identify.io.tir import read_tir
 from identify.workflows.fit import _skipped_sources
 from identify.workflows.import_session import import_session
 from identify.workflows.trailer_prep import prepare_trailer
@@ -154,6 +155,13 @@ def test_import_then_fit_a_short_session_without_hand_edits(tmp_path, suffix):
     before = _tree_hashes(folder)
     doc = _check_fit(folder, tmp_path, _fit(folder, tmp_path), before)
     assert all(not c["skipped"] for c in doc["coverage"] if c["stage"] != "My")
+    # the written pressure limits span the session's three pressure blocks (a run holds all
+    # of them; grouped by run they were 2.56-2.57 bar), each block's level within its warm-up
+    # rise (a few kPa) of the pressure set
+    tir = read_tir(next((tmp_path / "fits").glob("*/*.tir"))).params()
+    plan = full.truth["plan"]["pressures_Pa"]
+    assert min(plan) <= tir["PRESMIN"] <= min(plan) + 5e3
+    assert max(plan) <= tir["PRESMAX"] <= max(plan) + 5e3
 
 
 @pytest.mark.trials

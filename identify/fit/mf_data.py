@@ -166,9 +166,26 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
 
 
 def pressure_groups(frame: pd.DataFrame) -> np.ndarray:
-    """Pressure group of every row [bar]: the run's median pressure, rounded to 0.01 bar."""
-    med = frame.groupby("run", sort=False)["p"].transform("median").to_numpy(float)
-    return np.round(med / 1e5, 2)
+    """Pressure group of every row [bar], rounded to 0.01 bar: the median pressure of its
+    sweep (its run, and its segment where the table labels them, :data:`SEGMENT_COLUMN`),
+    sweeps whose medians lie within PRESSURE_RESOLUTION of each other merged into one level
+    (the median of their rows' sweep medians, as :func:`level_values`). The objective weights
+    each group as one pressure (identify.fit.metric.group_weights), and the written .tir's
+    PRESMIN/PRESMAX are their range. A TTC run holds every pressure block of the session, so
+    a group per run gave one pressure for all three (2.56 bar for 2.12, 2.50 and 2.88), and the
+    written limits claimed 2.56-2.57 bar; a rising pressure (several kPa as the tyre warms)
+    stays one level. NaN where a sweep has no finite pressure."""
+    keys = ["run"] + ([SEGMENT_COLUMN] if SEGMENT_COLUMN in frame.columns else [])
+    med = frame.groupby(keys, sort=False, dropna=False)["p"].transform("median").to_numpy(float)
+    out = np.full(med.shape, np.nan)
+    ok = np.isfinite(med)
+    if not ok.any():
+        return out
+    values, inverse = np.unique(med[ok], return_inverse=True)
+    level = np.r_[0, np.cumsum(np.diff(values) > PRESSURE_RESOLUTION)][inverse]
+    medians = np.array([np.median(med[ok][level == g]) for g in range(level.max() + 1)])
+    out[ok] = np.round(medians[level] / 1e5, 2)
+    return out
 
 
 def sweep_ids(frame: pd.DataFrame, fnomin: float) -> np.ndarray:
