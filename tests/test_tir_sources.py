@@ -28,7 +28,6 @@ from identify.cli.app import app
 from identify.core.errors import InputError
 from identify.core.tyre_size import parse_tyre_size
 from identify.fit.limits import LIMIT_COLUMNS, measured_limits
-from identify.fit.relations import Context
 from identify.fit.run import FitRun
 from identify.fit.sources import KINDS, KeySource
 from identify.io.folder import load_folder
@@ -36,7 +35,7 @@ from identify.io.tir import format_tir, read_tir, write_tir
 from identify.model.parameters import PARAMETERS
 from identify.simulate.default_tyre import default_tir_path, write_default_tir
 from identify.workflows.fit import (FitSettings, _base_tir, _broken_validity, _characteristics,
-                                    _numeric, fit_folder)
+                                    _context, fit_folder)
 from identify.workflows.tir_assembly import form_overrides, hold_names, relation_reach
 from tests.naive_tir import naive_read
 
@@ -119,9 +118,7 @@ def test_the_reach_announced_to_the_mf_stages_is_what_the_file_states(thesis):
     grid to it)."""
     mset = load_folder(THESIS)
     chars, _, _ = _characteristics(mset, None)
-    tyre = mset.manifest.tyre
-    ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
-                  tir=_numeric(_base_tir(mset, 61)))
+    ctx = _context(mset.manifest.tyre, _base_tir(mset, 61))
     reach = relation_reach(chars, ctx, lambda relation: True)
     assert reach == measured_limits(pd.read_csv(thesis.csv_path))
     assert reach["FZMIN"] == 2000.0 and reach["FZMAX"] == 7000.0

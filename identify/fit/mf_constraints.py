@@ -22,11 +22,12 @@ so E is never hidden by the E <= 1 clip). A constraint returns, for each of the 
 the minimum over the other grid axes of its margin (so an optimiser sees 11 values per
 condition instead of thousands).
 
-The conditions hold over whatever limits ``base`` carries. The MF stages give them the trailer
-data's ranges (identify.fit.mf_stages.fit_mf, identify.fit.limits.table_limits), the limits the
-written .tir states when those data are all its fitted points: over MFeval's defaults (ALPMIN/ALPMAX
-= -/+1.5 rad, KPUMIN/KPUMAX = -/+1.5), far beyond any sweep, Gx_alpha > 0 and Gy_kappa > 0 bind RCX1
-and RCY1 near 1, below the 1.05 of tyres that meet them over every slip a sweep reaches.
+The conditions hold over whatever limits ``base`` carries. The MF stages give them the limits
+the written .tir states: the trailer data's ranges widened to the other fitted points'
+(identify.fit.mf_stages.fit_mf ``reach``, identify.fit.limits). Over MFeval's defaults
+(ALPMIN/ALPMAX = -/+1.5 rad, KPUMIN/KPUMAX = -/+1.5), far beyond any sweep, Gx_alpha > 0 and
+Gy_kappa > 0 bind RCX1 and RCY1 near 1, below the 1.05 of tyres that meet them over every slip
+a sweep reaches. :func:`violations` checks a written file over its own limits.
 """
 from __future__ import annotations
 
@@ -43,6 +44,9 @@ from identify.model.modes import FIT_MODE
 from identify.model.state import OperatingState, prepare, sgn1
 
 GRID_POINTS = 11
+CONSTRAINED_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy")
+"""The stages with validity conditions (the table above; :func:`stage_constraints` gives the
+others none)."""
 
 
 @dataclass(frozen=True)
@@ -260,7 +264,7 @@ def violations(P: Mapping[str, float], pressures: Sequence[float]) -> tuple[str,
     """
     grid = validity_grid(P, pressures)
     out = []
-    for stage in ("Fx0", "Fy0", "Mz0", "Fx", "Fy"):
+    for stage in CONSTRAINED_STAGES:
         for c in stage_constraints(stage, P, lambda values: P, pressures):
             margin = c.fun({})
             worst = int(np.nanargmin(margin)) if np.isfinite(margin).any() else 0

@@ -184,6 +184,11 @@ def subset_state(s: OperatingState, idx: np.ndarray) -> OperatingState:
         if isinstance(getattr(s, f.name), np.ndarray)})
 
 
+def _combined_fx(P: Values, s: OperatingState) -> np.ndarray:
+    """The combined-slip longitudinal force Fx = Gx_alpha Fx0 [N] at ``P``."""
+    return longitudinal.gx_alpha(P, s) * longitudinal.fx0(P, s).fx0
+
+
 def stage_inputs(stage: str, base: Values, s: OperatingState,
                  omega: np.ndarray | None = None) -> dict[str, object]:
     """What ``stage``'s prediction needs besides its own coefficients, computed once from the
@@ -210,8 +215,7 @@ def stage_inputs(stage: str, base: Values, s: OperatingState,
         # the loaded radius reads the model's forces (the load law's terms Q_FCX Fx, Q_FCY
         # Fy); no coefficient of this stage acts on them, so they are computed once at
         # ``base``
-        fx = longitudinal.gx_alpha(base, s) * longitudinal.fx0(base, s).fx0
-        return {"omega": omega, "fx": fx,
+        return {"omega": omega, "fx": _combined_fx(base, s),
                 "fy": lateral.fy_combined(base, s, lateral.fy0(base, s)).fy}
     if stage == "Fx0":
         return {"gxa": longitudinal.gx_alpha(base, s)}
@@ -222,7 +226,7 @@ def stage_inputs(stage: str, base: Values, s: OperatingState,
     # each stage computes only the forces it uses (Mx no longitudinal, My no lateral one), so
     # that it reads only the coefficients it depends on (identify.fit.mf_uncertainty)
     if stage == "My":
-        return {"fx": longitudinal.gx_alpha(base, s) * longitudinal.fx0(base, s).fx0}
+        return {"fx": _combined_fx(base, s)}
     pure = lateral.fy0(base, s)
     if stage == "Fy":
         return {"pure": pure}

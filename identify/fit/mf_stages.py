@@ -23,8 +23,8 @@ fitted by the first that frees it; skipped without a wheel-speed channel). Each 
   stages carried forward; the held coefficients and why are in ``MFFit.held``;
 * enforces MFeval's validity conditions on the 11-point grid (identify.fit.mf_constraints)
   between the table's ranges of load, slip ratio, slip angle and camber
-  (identify.fit.limits.table_limits; the written .tir's limits when the trailer data are all
-  its fitted points), not the start .tir's (see :func:`fit_mf`);
+  (identify.fit.limits.table_limits), widened to the other fitted points' (``reach``): the
+  written .tir's limits, not the start .tir's (see :func:`fit_mf`);
 * evaluates the model with useMode 211 (docs/model.md, section 2).
 
 Global search (n_starts chosen deliberately, not the engine's 8 x free parameters: a stage has

@@ -187,6 +187,12 @@ def _numeric(t: dict) -> dict[str, float]:
     return {k: float(v) for k, v in t.items() if isinstance(v, (int, float))}
 
 
+def _context(tyre, tir: dict, **kwargs) -> Context:
+    """The relations' Context of ``tyre`` (nominal load and pressure) at the values ``tir``."""
+    return Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
+                   tir=_numeric(tir), **kwargs)
+
+
 def _characteristics(mset, progress) -> tuple[pd.DataFrame, tuple, dict | None]:
     frames = []
     flags: tuple = ()
@@ -299,8 +305,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     # (CFz, Flatplank) first; the plan loop below reuses that fit
     prefit: dict[tuple[str, str], TA.EntryFit] = {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        ctx0 = Context(fz0=float(tyre.nominal_load_N),
-                       p0_bar=float(tyre.nominal_pressure_Pa) / 1e5, tir=_numeric(tir))
+        ctx0 = _context(tyre, tir)
         for entry in PLAN:
             if not wanted(entry.relation) or not set(entry.writes) & set(GEOMETRY_INPUTS):
                 continue
@@ -338,9 +343,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             _say(progress, "fit: Magic Formula stages on trailer data")
             # the written limits span the characteristics' points too: hold the MF validity
             # conditions over those ranges as well
-            reach = TA.relation_reach(chars, Context(
-                fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
-                tir=_numeric(tir)), wanted)
+            reach = TA.relation_reach(chars, _context(tyre, tir), wanted)
             mf = fit_mf(trailer, _numeric(tir), seed=settings.seed, fittyp=settings.fittyp,
                         stages=stages, passes=settings.mf_passes, reach=reach,
                         progress=progress)
@@ -358,10 +361,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             tir.update(mf.params)
             rows.append(mf.measured_vs_model())
 
-    ctx = Context(fz0=float(tyre.nominal_load_N), p0_bar=float(tyre.nominal_pressure_Pa) / 1e5,
-                  tir=_numeric(tir),
-                  kya_from_tir=any(key_sources.get(k, KeySource.default()).kind == FITTED
-                                   for k in ("PKY1", "PKY2")))
+    ctx = _context(tyre, tir, kya_from_tir=any(
+        key_sources.get(k, KeySource.default()).kind == FITTED for k in ("PKY1", "PKY2")))
     choices = []
     for relation in TA.relations_in_plan_order():
         if not wanted(relation):
