@@ -138,6 +138,13 @@ def test_a_written_file_that_breaks_a_validity_condition_is_a_failure():
     (line,) = _broken_validity(tir, points)
     assert line.startswith("tir[validity]: Fy0: Ey <= 1 fails at Fz = 1000 N (margin -")
     assert line.endswith("within the written limits")
+    # beyond its bound by round-off, as a stage leaves an active condition: it holds (the
+    # fits' FEASIBLE_TOL); a millionth beyond it does not. Ey(1000 N) = (PEY1 + 0.24) 1.1
+    edge = 1 / 1.1 - 0.24
+    tir.update(PEY1=edge + 1e-12)  # margin -1.1e-12
+    assert _broken_validity(tir, points) == ()
+    tir.update(PEY1=edge + 1e-6)
+    assert len(_broken_validity(tir, points)) == 1
 
 
 def test_thesis_forms_and_the_poorly_identified_relaxation(thesis):

@@ -36,6 +36,7 @@ from typing import Callable, Mapping, Sequence
 
 import numpy as np
 
+from identify.fit.engine import FEASIBLE_TOL, violation
 from identify.fit.mf_stage_defs import subset_state
 from identify.fit.problem import Constraint
 from identify.model import lateral, longitudinal
@@ -259,8 +260,11 @@ def violations(P: Mapping[str, float], pressures: Sequence[float]) -> tuple[str,
 
     Every stage's conditions (:func:`stage_constraints`) evaluated at ``P`` on the grid of
     P's limits and the ``pressures`` [Pa]: MFeval's ``coefficientCheck`` of a written .tir.
-    Returns one line per broken condition, "Fy0: Ey <= 1 fails at Fz = 1000 N (margin -0.12)",
-    the load being the grid load of the least margin; empty when all hold.
+    A condition is broken when it fails by more than the fits' FEASIBLE_TOL
+    (identify.fit.engine.violation): a constrained stage leaves an active condition within
+    round-off of its bound (a generated TTC session, seed 12: Eyk <= 1 at -3.1e-14). Returns
+    one line per broken condition, "Fy0: Ey <= 1 fails at Fz = 1000 N (margin -0.12)", the
+    load being the grid load of the least margin; empty when all hold.
     """
     grid = validity_grid(P, pressures)
     out = []
@@ -268,7 +272,9 @@ def violations(P: Mapping[str, float], pressures: Sequence[float]) -> tuple[str,
         for c in stage_constraints(stage, P, lambda values: P, pressures):
             margin = c.fun({})
             worst = int(np.nanargmin(margin)) if np.isfinite(margin).any() else 0
-            if not np.all(margin >= 0):  # NaN breaks it too
+            # the fits' one feasibility test: an active condition ends within round-off
+            # (-3e-14) of its bound; NaN breaks it
+            if violation(margin) > FEASIBLE_TOL:
                 out.append(f"{stage}: {c.name} fails at Fz = {grid.fz[worst]:.0f} N "
                            f"(margin {margin[worst]:.3g})")
     return tuple(out)
