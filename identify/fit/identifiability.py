@@ -61,6 +61,13 @@ def _pairs(r: FitResult) -> list[tuple[str, str, float]]:
     return out
 
 
+def _width(r: FitResult, name: str) -> float:
+    """Width of the 95 % interval of ``name`` (FitResult.interval: the profile interval where
+    there is one)."""
+    a, b = r.interval(name)
+    return b - a
+
+
 def _wide(r: FitResult) -> list[tuple[str, str, str]]:
     """(name, short reason, the line of :func:`problems`) of free coefficients without a
     usable interval."""
@@ -74,7 +81,7 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
             out.append((n, "no effect on the data at the optimum",
                         f"{n} = {r.parameters[n]:.4g} has no effect on the data at the optimum "
                         "(standard error 0)"))
-        elif math.isfinite(lo) and math.isfinite(hi) and 2 * r.quantile(n) * se > hi - lo:
+        elif math.isfinite(lo) and math.isfinite(hi) and _width(r, n) > hi - lo:
             v = r.parameters[n]
             a, b = r.interval(n)
             out.append((n, "95 % interval wider than its bounds",

@@ -201,6 +201,14 @@ class FitResult:
                                             interval is value +/- t(0.975, dof) standard
                                             errors (:meth:`interval`); a name without one has
                                             infinite degrees of freedom (1.96)
+    profile : Mapping[str, tuple]           (lower, upper) 95 % profile interval of a free
+                                            coefficient where one was computed (the MF
+                                            stages: identify.fit.mf_profile): the values at
+                                            which refitting the others raises the objective
+                                            by what the quadratic approximation puts at the
+                                            ends of the value +/- t standard errors; equal
+                                            to those ends where the objective is quadratic,
+                                            wider or lopsided where it is not
     """
 
     relation: str
@@ -237,6 +245,7 @@ class FitResult:
     dof: Mapping[str, float] = field(default_factory=dict)
     rivals: tuple[Rival, ...] = ()
     conditional: Mapping[str, str] = field(default_factory=dict)
+    profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -244,8 +253,17 @@ class FitResult:
         return t_quantile(self.dof.get(name, math.inf), level)
 
     def interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
-        """The least-squares ``level`` interval of ``name``: value +/- :meth:`quantile`
-        standard errors (docs/intervals.md); NaN without a standard error."""
+        """The least-squares ``level`` interval of ``name``: its 95 % profile interval where
+        one was computed (:attr:`profile`), else value +/- :meth:`quantile` standard errors
+        (:meth:`wald_interval`; docs/intervals.md); NaN without a standard error."""
+        if level == 0.95 and name in self.profile:
+            lo, hi = self.profile[name]
+            return float(lo), float(hi)
+        return self.wald_interval(name, level)
+
+    def wald_interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
+        """value +/- :meth:`quantile` standard errors: the ``level`` interval of the quadratic
+        approximation of the objective at the optimum."""
         v = float(self.parameters[name])
         half = self.quantile(name, level) * float(self.stderr.get(name, math.nan))
         return v - half, v + half
@@ -289,6 +307,7 @@ class FitResult:
             "dof": _nums(self.dof),
             "rivals": [v.to_dict() for v in self.rivals],
             "conditional": dict(self.conditional),
+            "profile": {k: [_num(a), _num(b)] for k, (a, b) in self.profile.items()},
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -305,7 +324,7 @@ class FitResult:
         was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
         TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
         errors, as intervals were before it was recorded); a null one is infinite.
-        ``rivals`` and ``conditional`` default to empty.
+        ``rivals``, ``conditional`` and ``profile`` default to empty.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -339,7 +358,9 @@ class FitResult:
                    dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()},
                    rivals=tuple(Rival.from_dict(v) for v in d.get("rivals") or ()),
                    conditional={str(k): str(v)
-                                for k, v in (d.get("conditional") or {}).items()})
+                                for k, v in (d.get("conditional") or {}).items()},
+                   profile={str(k): (_float(b[0]), _float(b[1]))
+                            for k, b in (d.get("profile") or {}).items()})
 
     @property
     def fitted(self) -> dict[str, float]:

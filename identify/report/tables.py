@@ -96,10 +96,10 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
     """The free parameters with value, standard error, 95 % interval, bounds and flags.
 
     The interval is the MCMC 2.5-97.5 % posterior quantiles when the fit has an MCMC
-    summary for the parameter, else value +/- t(0.975, dof) standard errors
-    (FitResult.interval; labelled with the quantile, and with the covariance when it is not
-    iid); ``unidentified`` says why a coefficient is not identifiable
-    on its own (FitResult.unidentified).
+    summary for the parameter, else the profile interval where the fit has one, else value
+    +/- t(0.975, dof) standard errors (FitResult.interval; labelled "LS profile" or with the
+    quantile, and with the covariance when it is not iid); ``unidentified`` says why a
+    coefficient is not identifiable on its own (FitResult.unidentified).
     """
     mc = fit.mcmc
     q025, q975, med = (mc.q025, mc.q975, mc.median) if mc is not None else ({}, {}, {})
@@ -111,7 +111,9 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
             lo, hi, how = num(q025[name]), num(q975[name]), "MCMC 2.5-97.5 %"
         else:
             lo, hi = fit.interval(name)
-            how = f"LS +/-{fit.quantile(name):.3g} s.e." + _COVARIANCE.get(fit.covariance, "")
+            how = ("LS profile" if name in fit.profile
+                   else f"LS +/-{fit.quantile(name):.3g} s.e.")
+            how += _COVARIANCE.get(fit.covariance, "")
         lower, upper = fit.bounds.get(name, (-math.inf, math.inf))
         rows.append(ParamRow(name, v, se, lo, hi, how, num(lower), num(upper),
                              name in fit.at_bound, name in keys, num(med.get(name)),

@@ -30,6 +30,7 @@ from identify.fit.mcmc_steps import ChainProgress
 from identify.fit.mf_constraints import violations
 from identify.fit.mf_stage_defs import STAGES
 from identify.fit.mf_stages import fit_mf, stage_mcmc
+from identify.fit.mf_profile import profile_intervals
 from identify.fit.mf_uncertainty import propagate
 from identify.fit.plan import PLAN, RELATION_NAMES
 from identify.fit.relations import Context
@@ -350,6 +351,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             _say(progress, "MF standard errors: delete-one-sweep jackknife, the earlier "
                            "stages' uncertainty included")
             mf = propagate(trailer, mf)
+            _say(progress, "MF 95 % intervals: profiles of the objective (refits with each "
+                           "coefficient held)")
+            mf = profile_intervals(trailer, mf, progress)
             fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:
