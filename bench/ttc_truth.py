@@ -8,9 +8,10 @@ fit`` without MCMC and report, then
 - Fx, Fy, Mz of the fitted .tir against the truth .tir at the fitted MF points (the measured
   operating range; identify.workflows.truth_compare, RMS of the difference relative to the RMS
   of the truth, bar 2 %);
-- the MF coefficients whose 95 % interval (value +/- t(0.975, dof) standard errors, fit.json's
-  ``dof``: FitResult.interval; ``--normal`` counts 1.96 standard errors instead, as before the
-  degrees of freedom were recorded) holds the truth value, of
+- the MF coefficients whose 95 % interval (FitResult.interval: the profile interval, fit.json's
+  ``profile``, where the fit has one, else value +/- t(0.975, dof) standard errors, fit.json's
+  ``dof``; ``--normal`` counts 1.96 standard errors instead, as before the degrees of freedom
+  and the profiles were recorded) holds the truth value, of
   the identifiable ones (fit.json ``unidentified``: at a bound, near-null direction,
   correlation above 0.99), and over all seeds the two readings of "every identifiable
   coefficient within its 95 % interval in 9 of 10 seeds" (:func:`coverage_tables`), the pooled
@@ -112,6 +113,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
         if r.relation != "MF":
             continue
         values = canonical_signs(r.parameters)
+        flipped = {n for n in values if values[n] != r.parameters[n]}
         stages[r.form] = {"seconds": r.seconds, "points": r.n_points,
                           "converged": bool(r.converged), "covariance": r.covariance,
                           "clusters": r.clusters}
@@ -121,13 +123,16 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
             se = float(r.stderr.get(name, math.nan))
             why = (r.unidentified.get(name) if r.converged else "stage did not converge")
             z = (values[name] - float(truth[name])) / se if se > 0 else math.inf
+            lo, hi = r.interval(name)  # the profile interval where there is one
+            if name in flipped:
+                lo, hi = -hi, -lo
             coefs.append({"stage": r.form, "name": name, "value": values[name],
-                          "se": se, "q": r.quantile(name), "truth": float(truth[name]), "z": z,
+                          "se": se, "q": r.quantile(name), "lo": lo, "hi": hi,
+                          "profile": name in r.profile, "truth": float(truth[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
     fitted = [c for c in coefs if c["identifiable"]]
-    outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted
-               if not abs(c["z"]) <= _q(c)]
+    outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted if not _inside(c)]
     forces = {q.name: q.rms_pct for q in cmp.quantities if q.name in ("Fx", "Fy", "Mz")}
     return {"seed": seed, "binned": binned, "fit_s": seconds, "stages": stages,
             "failed": list(run.failed), "forces_pct": forces,
@@ -152,7 +157,19 @@ def _q(c: dict) -> float:
 
 
 def _inside(c: dict) -> bool:
+    """The record's 95 % interval holds the truth: its ends (``lo``, ``hi``: FitResult.interval,
+    the profile interval where the fit has one) unless ``--normal`` or the record predates
+    them, else value +/- :func:`_q` standard errors."""
+    if "lo" in c and not NORMAL:
+        return c["lo"] <= c["truth"] <= c["hi"]
     return abs(c["value"] - c["truth"]) <= _q(c) * c["se"]
+
+
+def _half_width(c: dict) -> float:
+    """Half the width of the record's 95 % interval (as :func:`_inside` reads it)."""
+    if "lo" in c and not NORMAL:
+        return (c["hi"] - c["lo"]) / 2
+    return _q(c) * c["se"]
 
 
 def _median(xs: list, empty=math.nan):
@@ -236,7 +253,7 @@ def coverage_tables(records: list[dict]) -> dict:
     identified = {k: v for k, v in per.items() if v[0]}  # identifiable in some seed
     expected = sum(_p_below(v[0]) for v in identified.values())
     every = [c for rec in records for c in rec["coefs"] if c["se"] > 0]
-    widths = [_q(c) * c["se"] / abs(c["value"]) for rec in records for c in rec["coefs"]
+    widths = [_half_width(c) / abs(c["value"]) for rec in records for c in rec["coefs"]
               if _identifiable(c) and c["value"] != 0]
     n_ident = _median([r["identifiable"] for r in rows], 0)
     return {"seeds": seeds, "per_coefficient": per, "failing": failing, "why": why,
@@ -261,8 +278,8 @@ def compare_widths(before: list[dict], after: list[dict]) -> dict:
              and (rec["seed"], c["stage"], c["name"]) in old]
     pairs = [(b, a) for b, a in pairs if b["se"] > 0 and b["value"] != 0]
     return {"n": len(pairs),
-            "half_width_before": _median([_q(b) * b["se"] / abs(b["value"]) for b, _ in pairs]),
-            "half_width_after": _median([_q(a) * a["se"] / abs(a["value"]) for _, a in pairs]),
+            "half_width_before": _median([_half_width(b) / abs(b["value"]) for b, _ in pairs]),
+            "half_width_after": _median([_half_width(a) / abs(a["value"]) for _, a in pairs]),
             "se_ratio": _median([a["se"] / b["se"] for b, a in pairs]),
             "inside_before": sum(_inside(b) for b, _ in pairs),
             "inside_after": sum(_inside(a) for _, a in pairs)}
