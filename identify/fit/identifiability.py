@@ -63,7 +63,7 @@ def _pairs(r: FitResult) -> list[tuple[str, str, float]]:
 
 def _width(r: FitResult, name: str) -> float:
     """Width of the 95 % interval of ``name`` (FitResult.interval: the profile interval where
-    there is one)."""
+    there is one; a profile flat from bound to bound spans them exactly, hence >= below)."""
     a, b = r.interval(name)
     return b - a
 
@@ -81,7 +81,7 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
             out.append((n, "no effect on the data at the optimum",
                         f"{n} = {r.parameters[n]:.4g} has no effect on the data at the optimum "
                         "(standard error 0)"))
-        elif math.isfinite(lo) and math.isfinite(hi) and _width(r, n) > hi - lo:
+        elif math.isfinite(lo) and math.isfinite(hi) and _width(r, n) >= hi - lo:
             v = r.parameters[n]
             a, b = r.interval(n)
             out.append((n, "95 % interval wider than its bounds",

@@ -201,14 +201,12 @@ class FitResult:
                                             interval is value +/- t(0.975, dof) standard
                                             errors (:meth:`interval`); a name without one has
                                             infinite degrees of freedom (1.96)
-    profile : Mapping[str, tuple]           (lower, upper) 95 % profile interval of a free
-                                            coefficient where one was computed (the MF
-                                            stages: identify.fit.mf_profile): the values at
-                                            which refitting the others raises the objective
-                                            by what the quadratic approximation puts at the
-                                            ends of the value +/- t standard errors; equal
-                                            to those ends where the objective is quadratic,
-                                            wider or lopsided where it is not
+    profile : Mapping[str, tuple]           (lower, upper) 95 % interval of an identifiable
+                                            MF coefficient (identify.fit.mf_profile): value
+                                            +/- t standard errors with each end moved out to
+                                            the objective's profile where that is flatter
+                                            than the quadratic approximation, and stopped at
+                                            a bound
     """
 
     relation: str
