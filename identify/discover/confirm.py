@@ -8,11 +8,11 @@ import numpy as np
 from scipy import stats
 
 from identify.discover.library import Candidate
-from identify.discover.objective import Objective, with_fixed, with_free
+from identify.discover.objective import Objective
 from identify.discover.result import Trial
 from identify.discover.working import Working, total_error_pct
 from identify.fit.engine import covariance, pseudo_solve
-from identify.fit.problem import FitProblem
+from identify.fit.problem import FitProblem, with_fixed, with_free
 
 __all__ = ["confirm", "fold_errors"]
 

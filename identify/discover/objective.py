@@ -19,30 +19,12 @@ from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
 from identify.fit.problem import FitProblem
 from scipy.linalg import qr
 
-__all__ = ["Objective", "Solution", "problem_name", "with_free", "with_fixed"]
+__all__ = ["Objective", "Solution", "problem_name"]
 
 
 def problem_name(problem: FitProblem) -> str:
     """The discovery name of a problem (``extra["name"]`` or ``relation/form``)."""
     return str(problem.extra.get("name") or f"{problem.relation}/{problem.form}")
-
-
-def with_free(problem: FitProblem, values: dict[str, float],
-              bounds: dict[str, tuple[float, float]]) -> FitProblem:
-    """A copy with the named parameters freed at ``values`` within ``bounds``."""
-    P = problem.parameters.copy()
-    for k, v in values.items():
-        lo, hi = bounds[k]
-        P[k].set(value=float(np.clip(v, lo, hi)), vary=True, min=lo, max=hi)
-    return dataclasses.replace(problem, parameters=P)
-
-
-def with_fixed(problem: FitProblem, names: list[str], x: np.ndarray) -> FitProblem:
-    """A copy with the named free parameters held at their values in ``x``."""
-    P = problem.parameters.copy()
-    for k in names:
-        P[k].set(value=float(x[problem.free.index(k)]), vary=False)
-    return dataclasses.replace(problem, parameters=P)
 
 
 @dataclass(frozen=True)

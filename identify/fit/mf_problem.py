@@ -27,11 +27,13 @@ from identify.fit.mf_stage_defs import (
     subset_state,
 )
 from identify.fit.problem import FitProblem
+from identify.fit.result import FitResult
 from identify.model.modes import FIT_MODE
 from identify.model.parameters import bounds, spec
 from identify.model.state import OperatingState, prepare
 
-__all__ = ["StagePoints", "StageProblem", "candidates", "stage_problem", "subproblem"]
+__all__ = ["StagePoints", "StageProblem", "candidates", "fitted_problem", "stage_problem",
+           "subproblem"]
 
 
 @dataclass(frozen=True)
@@ -218,6 +220,19 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     problem = (build(vary, cons) if screened is None
                else dataclasses.replace(screened, constraints=tuple(cons)))
     return StageProblem(problem, rows, held, s, omega, dict(params), at)
+
+
+def fitted_problem(trailer: pd.DataFrame, params: Mapping[str, float], result: FitResult
+                   ) -> StageProblem | None:
+    """The problem of the MF stage ``result`` fitted, built again at the staged fit's values
+    ``params``: its free coefficients free, every other coefficient of the stage held ("held
+    in the fit"), no screening; None when the table holds no point for it. For the work done
+    after the fit on the stage's optimum (identify.fit.mf_uncertainty.propagate,
+    identify.fit.mf_profile, identify.fit.mf_stages.stage_mcmc); the caller checks that its
+    ``problem.free`` is ``result.free``."""
+    hold = {n: "held in the fit" for n in result.parameters if n not in result.free}
+    return stage_problem(result.form, trailer, params, free={result.form: list(result.parameters)},
+                         hold=hold)
 
 
 def subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:

@@ -42,9 +42,9 @@ from identify.core.progress import Progress
 from identify.fit import engine
 from identify.fit.identifiability import unidentified
 from identify.fit.mf_result import MFFit
-from identify.fit.mf_stages import stage_problem
+from identify.fit.mf_problem import fitted_problem
 from identify.fit.optimize import fit
-from identify.fit.problem import FitProblem
+from identify.fit.problem import FitProblem, with_fixed
 from identify.fit.result import FitResult
 
 __all__ = ["QUADRATIC", "profile_ends", "profile_intervals"]
@@ -65,6 +65,8 @@ RVY4 with a standard error 2e4 times its value) would otherwise take it far out.
 PROFILE_NFEV = 60
 """Budget of each refit's least-squares solve: they start next to their optimum (the
 quadratic approximation's conditional optimum)."""
+
+
 def _rise(problem: FitProblem, j: int, value: float, start: np.ndarray, base: float
           ) -> float | None:
     """Least-squares cost with free coefficient ``j`` held at ``value``, the others refitted
@@ -72,11 +74,11 @@ def _rise(problem: FitProblem, j: int, value: float, start: np.ndarray, base: fl
     ``base``; None when the refit does not converge. The solves stop where the cost falls
     by less than 1e-2 s^2 (engine.SEARCH): a T_j is at least q^2 s^2, so the rise is known
     to better than 0.3 % of it."""
-    name = problem.free[j]
-    params = problem.parameters.copy()
-    params[name].set(value=value, vary=False)
-    held = dataclasses.replace(problem, parameters=params)
-    starts = np.delete(np.atleast_2d(start), j, axis=1)
+    start = np.atleast_2d(start)
+    at = start[0].copy()
+    at[j] = value
+    held = with_fixed(problem, [problem.free[j]], at)
+    starts = np.delete(start, j, axis=1)
     if starts.shape[1] == 0:
         r = held.residuals(np.zeros(0))
         return float(r @ r) - base
@@ -221,9 +223,7 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
     results = []
     for r in mf.results:
         names = _profiled(r) if r.converged else []
-        hold = {n: "held in the fit" for n in r.parameters if n not in r.free}
-        sp = stage_problem(r.form, trailer, mf.params, free={r.form: list(r.parameters)},
-                           hold=hold) if names else None
+        sp = fitted_problem(trailer, mf.params, r) if names else None
         if sp is None or sp.problem.free != r.free:
             results.append(r)
             continue
@@ -231,7 +231,8 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
         ends, linear = profile_ends(sp.problem, x, names, dict(r.stderr),
                                     {n: r.quantile(n) for n in names})
         if progress is not None:
-            moved = sum(1 for n, e in ends.items() if e != r.wald_interval(n))
+            moved = sum(1 for n, (a, b) in ends.items()
+                        if a < r.wald_interval(n)[0] or b > r.wald_interval(n)[1])
             progress(f"MF [{r.form}]: 95 % intervals of {len(ends)} coefficients, {moved} "
                      "widened to the objective's profile"
                      + (f", {linear} end(s) left linearised (refit did not converge)"

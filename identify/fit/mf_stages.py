@@ -90,7 +90,8 @@ from identify.fit.mf_stage_defs import (
     STAGES,
     names_read,
 )
-from identify.fit.mf_problem import StageProblem, candidates, stage_problem, subproblem
+from identify.fit.mf_problem import (StageProblem, candidates, fitted_problem, stage_problem,
+                                     subproblem)
 from identify.fit.mf_rivals import chi2_scale, with_rivals
 from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
@@ -574,9 +575,7 @@ def stage_mcmc(trailer: pd.DataFrame, mf: MFFit, stage: str, *, seed: int = 0,
     chain_file, progress).
     """
     result = mf.result(stage)
-    hold = {n: "held in the fit" for n in result.parameters if n not in result.free}
-    sp = stage_problem(stage, trailer, mf.params, free={stage: list(result.parameters)},
-                       hold=hold)
+    sp = fitted_problem(trailer, mf.params, result)
     ridge = None
     if reparam and stage == "Fy0":
         free = sp.problem.free

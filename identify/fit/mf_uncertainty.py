@@ -28,7 +28,8 @@ import pandas as pd
 from identify.fit import engine, mf_data
 from identify.fit.mf_result import MFFit
 from identify.fit.mf_stage_defs import names_read, stage_model
-from identify.fit.mf_stages import StageProblem, stage_problem
+from identify.fit.mf_problem import fitted_problem
+from identify.fit.mf_stages import StageProblem
 from identify.fit.result import FitResult
 from identify.fit.trf_svd import tall_svd
 
@@ -154,9 +155,7 @@ def propagate(trailer: pd.DataFrame, mf: MFFit) -> MFFit:
     steps: dict[str, np.ndarray] = {}
     results = []
     for r in mf.results:
-        hold = {n: "held in the fit" for n in r.parameters if n not in r.free}
-        sp = stage_problem(r.form, trailer, mf.params, free={r.form: list(r.parameters)},
-                           hold=hold) if r.free else None
+        sp = fitted_problem(trailer, mf.params, r) if r.free else None
         if (sp is None or r.covariance != "sweep-jackknife" or sp.problem.clusters() is None
                 or sp.problem.free != r.free):
             results.append(r)

@@ -5,7 +5,7 @@ Every relation and MF stage is expressed as a :class:`FitProblem` and solved by
 """
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Callable, Mapping
 
 import lmfit
@@ -358,3 +358,22 @@ class FitProblem:
             return np.concatenate([np.atleast_1d(np.asarray(f(v), dtype=float))
                                    for f in funs])
         return local
+
+
+def with_free(problem: FitProblem, values: dict[str, float],
+              bounds: dict[str, tuple[float, float]]) -> FitProblem:
+    """A copy with the named parameters freed at ``values`` within ``bounds``."""
+    P = problem.parameters.copy()
+    for k, v in values.items():
+        lo, hi = bounds[k]
+        P[k].set(value=float(np.clip(v, lo, hi)), vary=True, min=lo, max=hi)
+    return replace(problem, parameters=P)
+
+
+def with_fixed(problem: FitProblem, names: list[str], x: np.ndarray) -> FitProblem:
+    """A copy with the named free parameters held at their values in ``x`` (``problem.free``
+    order)."""
+    P = problem.parameters.copy()
+    for k in names:
+        P[k].set(value=float(x[problem.free.index(k)]), vary=False)
+    return replace(problem, parameters=P)
