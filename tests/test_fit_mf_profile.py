@@ -13,7 +13,7 @@ from scipy.optimize import brentq
 
 from identify.fit.covariance import t_quantile
 from identify.fit.identifiability import unidentified
-from identify.fit.mf_profile import TOLERANCE, profile_ends
+from identify.fit.mf_profile import MAX_REFITS, TOLERANCE, profile_ends
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
@@ -52,10 +52,15 @@ def _profile_cost_k(y: np.ndarray, k: float) -> float:
     return float(y @ y - (y @ e) ** 2 / (e @ e))
 
 
-def _ends(result: FitResult, problem: FitProblem, names=("A", "k")):
+def _found(result: FitResult, problem: FitProblem, names=("A", "k"), **kw):
     x = np.array([result.parameters[n] for n in problem.free])
     return profile_ends(problem, x, list(names), dict(result.stderr),
-                        {n: result.quantile(n) for n in names})
+                        {n: result.quantile(n) for n in names}, **kw)
+
+
+def _ends(result: FitResult, problem: FitProblem, names=("A", "k")):
+    found = _found(result, problem, names)
+    return found.ends, found.unconverged
 
 
 def test_a_quadratic_cost_keeps_the_linearised_interval():
@@ -102,6 +107,26 @@ def test_a_curved_cost_moves_the_flatter_end_to_the_profile():
     # optimum within ~TOLERANCE of the exact one (1 % margin for the curvature)
     assert hi == pytest.approx(ref_hi, abs=(TOLERANCE + 0.01) * (ref_hi - k_hat))
     assert lo == wald_lo
+
+
+def test_the_refit_budget_goes_to_the_flattest_ends_and_the_rest_stay_linearised():
+    """The budget bounds the work on a real session whose costs are flat along many
+    coefficients. With no refits allowed, the flatter end of the decay's k keeps its
+    linearised end and is counted over budget; with enough for one end it is the flattest
+    (k's upper end) that gets them, and A's ends are as with the full budget."""
+    y = _decay_data(seed=1, noise=0.1)
+    problem = _problem(_decay, y, (0.8, 2.0), sigma=0.1)
+    result = fit(problem)
+    full = _found(result, problem)
+    assert full.refits > 0 and full.over_budget == 0
+    none = _found(result, problem, budget=0)
+    assert none.refits == 0 and none.over_budget >= 1
+    for n in ("A", "k"):
+        assert none.ends[n] == pytest.approx(result.wald_interval(n), rel=1e-12), n
+    one = _found(result, problem, budget=MAX_REFITS)
+    assert one.ends["k"][1] == full.ends["k"][1] > result.wald_interval("k")[1]
+    assert one.over_budget == full.over_budget + sum(
+        1 for n in ("A", "k") for a, b in zip(one.ends[n], full.ends[n]) if a != b)
 
 
 def test_an_interval_that_would_pass_a_bound_stops_there():

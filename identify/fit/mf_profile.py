@@ -27,7 +27,11 @@ until it is within TOLERANCE of T_j. Where the profile is steeper the linearised
 the variance ratio is read at the optimum, and narrowing on it cost 7 of 291 intervals their
 truth on the Formula Student tyre (docs/intervals.md). An end past a bound is the bound; an
 end whose refits do not converge stays linearised (counted in the progress line). Only the
-identifiable coefficients get a profile (:func:`_profiled`).
+identifiable coefficients get a profile (:func:`_profiled`). The refits of one stage are
+budgeted (:data:`STAGE_REFITS`): every end is screened first, the flattest are refitted first,
+and the ends the budget does not reach keep their linearised ends (counted in the progress
+line), so that a real session whose costs are flat along many coefficients cannot spend
+minutes here; a count of refits, not seconds, keeps the intervals the same on any machine.
 """
 from __future__ import annotations
 
@@ -47,7 +51,7 @@ from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem, with_fixed
 from identify.fit.result import FitResult
 
-__all__ = ["QUADRATIC", "profile_ends", "profile_intervals"]
+__all__ = ["QUADRATIC", "STAGE_REFITS", "ProfileEnds", "profile_ends", "profile_intervals"]
 
 QUADRATIC = 0.1
 """The linearised end is kept unless sqrt(rise / T_j) there is below 1 - QUADRATIC (the end
@@ -62,6 +66,11 @@ STEP_RCOND = 1e-5
 """Relative singular value (of the column-scaled Jacobian) below which the screening
 Gauss-Newton step of :func:`_flatter` leaves a direction alone: the undetermined ones (Fy's
 RVY4 with a standard error 2e4 times its value) would otherwise take it far out."""
+STAGE_REFITS = 150
+"""Refits one stage's profile intervals may take in all (each at most 2 starts x
+PROFILE_NFEV evaluations): the flattest ends first, the rest keep their linearised ends. A
+generated TTC session takes 0-30 per stage (see docs/intervals.md); a real session whose
+costs are flat along many coefficients could otherwise take minutes per stage."""
 PROFILE_NFEV = 60
 """Budget of each refit's least-squares solve: they start next to their optimum (the
 quadratic approximation's conditional optimum)."""
@@ -88,44 +97,40 @@ def _rise(problem: FitProblem, j: int, value: float, start: np.ndarray, base: fl
     return float(end.wls) - base
 
 
-def _flatter(problem: FitProblem, p: np.ndarray, j: int, base: float, threshold: float
-             ) -> bool:
-    """The cost at the linearised end ``p`` (the quadratic approximation's conditional optimum
-    with coefficient ``j`` at the end), on that line or after one Gauss-Newton step of the
-    others from it, has risen by less than (1 - QUADRATIC)^2 of the threshold: the profile is
+def _steepness(problem: FitProblem, p: np.ndarray, j: int, base: float, threshold: float
+               ) -> float:
+    """sqrt(rise / threshold) at the linearised end ``p`` (the quadratic approximation's
+    conditional optimum with coefficient ``j`` at the end): the lower of the cost on that line
+    and after one Gauss-Newton step of the others from it. Below 1 - QUADRATIC the profile is
     flatter than the approximation there and the end moves out. Where the cost is quadratic
     ``p`` is the refitted optimum and the step does not move it; in a curved valley the line
     leaves the valley floor and the step falls back towards it (seed 10's PEX1: the rise on
-    the line was within 10 % of T_j, the profile's a fraction of it)."""
+    the line was within 10 % of T_j, the profile's a fraction of it). Infinite without a
+    threshold."""
     if not threshold > 0:
-        return False
+        return math.inf
     r = problem.residuals(p)
-    if math.sqrt(max(float(r @ r) - base, 0.0) / threshold) < 1.0 - QUADRATIC:
-        return True
+    g = math.sqrt(max(float(r @ r) - base, 0.0) / threshold)
     others = np.delete(np.arange(p.size), j)
-    if not others.size:
-        return False
+    if g < 1.0 - QUADRATIC or not others.size:
+        return g
     Js, scale = engine.column_scaled(engine.residual_jacobian(problem, p)[:, others])
     step = np.linalg.lstsq(Js, -r, rcond=STEP_RCOND)[0] / scale
     lo, hi = problem.bounds()
     q = p.copy()
     q[others] = np.clip(p[others] + step, lo[others], hi[others])
     r2 = problem.residuals(q)
-    return math.sqrt(max(float(r2 @ r2) - base, 0.0) / threshold) < 1.0 - QUADRATIC
+    return min(g, math.sqrt(max(float(r2 @ r2) - base, 0.0) / threshold))
 
 
-def _end(problem: FitProblem, x: np.ndarray, j: int, side: int, half: float,
-         threshold: float, direction: np.ndarray, base: float) -> float | None:
-    """One end (``side`` -1 or +1) of coefficient ``j``'s profile interval (see module); None
-    when a refit did not converge (the caller keeps the linearised end)."""
+def _refit_end(problem: FitProblem, x: np.ndarray, j: int, side: int, half: float,
+               threshold: float, direction: np.ndarray, base: float) -> tuple[float | None, int]:
+    """One end (``side`` -1 or +1) of coefficient ``j``'s profile interval whose screen found
+    the cost flatter (see module), and the refits it took; None for the end when a refit did
+    not converge (the caller keeps the linearised end)."""
     lo, hi = problem.bounds()
     limit = hi[j] if side > 0 else lo[j]
     wald = x[j] + side * half
-    if math.isfinite(limit) and (wald - limit) * side >= 0:
-        return float(limit)  # the coefficient does not go past its bound
-    if not _flatter(problem, np.clip(x + side * half * direction, lo, hi), j, base,
-                    threshold):
-        return wald
     d = half
     for k in range(MAX_REFITS):
         v = x[j] + side * d
@@ -138,23 +143,49 @@ def _end(problem: FitProblem, x: np.ndarray, j: int, side: int, half: float,
         start = np.clip(np.vstack([x + (v - x[j]) * direction, x]), lo, hi)
         rise = _rise(problem, j, v, start, base)
         if rise is None:
-            return None
+            return None, k + 1
         g = math.sqrt(max(rise, 0.0) / threshold)
         if k == 0 and g >= 1.0 - QUADRATIC:
-            return wald
+            return wald, 1
         if abs(g - 1.0) <= TOLERANCE or (at_limit and g < 1.0):
-            return v
+            return v, k + 1
         # outwards only: the linearised end stays the nearest
         d = max(half, d * min(1.0 / g, MAX_GROWTH) if g > 0 else d * MAX_GROWTH)
-    return x[j] + side * d
+    return x[j] + side * d, MAX_REFITS
+
+
+@dataclasses.dataclass(frozen=True)
+class ProfileEnds:
+    """The 95 % intervals :func:`profile_ends` found, and what it did to find them.
+
+    Attributes
+    ----------
+    ends : dict of str -> (float, float)
+        Each profiled coefficient's interval.
+    unconverged : int
+        Ends left linearised because a refit did not converge.
+    over_budget : int
+        Ends whose screen found the cost flatter but left linearised: the stage's refits
+        were spent (:data:`STAGE_REFITS`).
+    refits : int
+        Refits done (each a least-squares solve with one coefficient held, two starts).
+    """
+
+    ends: dict
+    unconverged: int = 0
+    over_budget: int = 0
+    refits: int = 0
 
 
 def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
-                 stderr: dict[str, float], quantile: dict[str, float]
-                 ) -> tuple[dict[str, tuple[float, float]], int]:
+                 stderr: dict[str, float], quantile: dict[str, float],
+                 budget: int = STAGE_REFITS) -> ProfileEnds:
     """The 95 % profile intervals of ``names`` (free coefficients of ``problem``) at its
-    optimum ``x`` (see module), from their standard errors and t quantiles; and the number of
-    ends left linearised because a refit did not converge.
+    optimum ``x`` (see module), from their standard errors and t quantiles.
+
+    Every end is screened first (:func:`_steepness`); the ends found flatter are then refitted,
+    the flattest first, until ``budget`` refits are spent; the rest keep their linearised
+    ends (counted in ``over_budget``).
 
     Parameters
     ----------
@@ -167,14 +198,17 @@ def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
     stderr, quantile : dict
         Each name's standard error and the t quantile of its interval (FitResult.stderr,
         FitResult.quantile).
+    budget : int
+        Refits allowed in all (:data:`STAGE_REFITS`).
     """
     J = engine.residual_jacobian(problem, x)
     Js, scale = engine.column_scaled(J)
     Ginv = np.linalg.pinv(Js.T @ Js) / np.outer(scale, scale)
     r = problem.residuals(x)
     base = float(r @ r)
-    out: dict[str, tuple[float, float]] = {}
-    linear = 0
+    lo, hi = problem.bounds()
+    ends: dict[str, list[float]] = {}
+    flatter = []  # (steepness, name, side, j, half, threshold, direction) of the ends to refit
     for name in names:
         j = problem.free.index(name)
         gjj = Ginv[j, j]
@@ -184,15 +218,29 @@ def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
         half = q * se
         threshold = half ** 2 / gjj
         direction = Ginv[:, j] / gjj  # the others' conditional optimum per unit of j
-        ends = []
-        for side in (-1, 1):
-            e = _end(problem, x, j, side, half, threshold, direction, base)
-            if e is None:
-                linear += 1
-                e = x[j] + side * half
-            ends.append(float(e))
-        out[name] = (ends[0], ends[1])
-    return out, linear
+        ends[name] = [x[j] - half, x[j] + half]
+        for k, side in enumerate((-1, 1)):
+            limit = hi[j] if side > 0 else lo[j]
+            if math.isfinite(limit) and (x[j] + side * half - limit) * side >= 0:
+                ends[name][k] = float(limit)  # the coefficient does not go past its bound
+                continue
+            g = _steepness(problem, np.clip(x + side * half * direction, lo, hi), j, base,
+                           threshold)
+            if g < 1.0 - QUADRATIC:
+                flatter.append((g, name, k, j, half, threshold, direction))
+    unconverged = over_budget = refits = 0
+    for _g, name, k, j, half, threshold, direction in sorted(flatter, key=lambda e: e[0]):
+        if refits + MAX_REFITS > budget:  # an end may take MAX_REFITS: never over budget
+            over_budget += 1
+            continue
+        end, used = _refit_end(problem, x, j, 2 * k - 1, half, threshold, direction, base)
+        refits += used
+        if end is None:
+            unconverged += 1
+        else:
+            ends[name][k] = float(end)
+    return ProfileEnds({n: (a, b) for n, (a, b) in ends.items()}, unconverged, over_budget,
+                       refits)
 
 
 def _profiled(r: FitResult) -> list[str]:
@@ -228,14 +276,17 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
             results.append(r)
             continue
         x = np.array([float(mf.params[n]) for n in r.free])
-        ends, linear = profile_ends(sp.problem, x, names, dict(r.stderr),
-                                    {n: r.quantile(n) for n in names})
+        found = profile_ends(sp.problem, x, names, dict(r.stderr),
+                             {n: r.quantile(n) for n in names})
+        ends = found.ends
         if progress is not None:
             moved = sum(1 for n, (a, b) in ends.items()
                         if a < r.wald_interval(n)[0] or b > r.wald_interval(n)[1])
             progress(f"MF [{r.form}]: 95 % intervals of {len(ends)} coefficients, {moved} "
-                     "widened to the objective's profile"
-                     + (f", {linear} end(s) left linearised (refit did not converge)"
-                        if linear else ""))
+                     f"widened to the objective's profile ({found.refits} refits)"
+                     + (f", {found.unconverged} end(s) left linearised (refit did not "
+                        "converge)" if found.unconverged else "")
+                     + (f", {found.over_budget} flatter end(s) left linearised (the stage's "
+                        f"{STAGE_REFITS} refits spent)" if found.over_budget else ""))
         results.append(dataclasses.replace(r, profile=ends))
     return dataclasses.replace(mf, results=tuple(results))
