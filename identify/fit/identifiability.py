@@ -61,13 +61,6 @@ def _pairs(r: FitResult) -> list[tuple[str, str, float]]:
     return out
 
 
-def _width(r: FitResult, name: str) -> float:
-    """Width of the 95 % interval of ``name`` (FitResult.interval: the profile interval where
-    there is one; a profile flat from bound to bound spans them exactly, hence >= below)."""
-    a, b = r.interval(name)
-    return b - a
-
-
 def _wide(r: FitResult) -> list[tuple[str, str, str]]:
     """(name, short reason, the line of :func:`problems`) of free coefficients without a
     usable interval."""
@@ -81,12 +74,14 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
             out.append((n, "no effect on the data at the optimum",
                         f"{n} = {r.parameters[n]:.4g} has no effect on the data at the optimum "
                         "(standard error 0)"))
-        elif math.isfinite(lo) and math.isfinite(hi) and _width(r, n) >= hi - lo:
-            v = r.parameters[n]
+        elif math.isfinite(lo) and math.isfinite(hi):
+            # FitResult.interval: the profile interval where there is one; a profile flat
+            # from bound to bound spans them exactly, hence >=
             a, b = r.interval(n)
-            out.append((n, "95 % interval wider than its bounds",
-                        f"{n} = {v:.4g}: 95 % interval [{a:.3g}, "
-                        f"{b:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
+            if b - a >= hi - lo:
+                out.append((n, "95 % interval wider than its bounds",
+                            f"{n} = {r.parameters[n]:.4g}: 95 % interval [{a:.3g}, "
+                            f"{b:.3g}] is wider than its bounds [{lo:g}, {hi:g}]"))
     return out
 
 
