@@ -4,7 +4,8 @@ Per seed: ``mfid simulate default --format ttc`` (1 % noise, AR(1) 0.7, drift, w
 logging quirks on: the generator's defaults), ``mfid import`` of the two ``.mat`` runs, ``mfid
 fit`` without MCMC and report, then
 
-- the wall time of the fit and of each MF stage, and the stages that failed;
+- the wall time of the fit and of each MF stage, and the stages that failed; the refits each
+  stage's profile intervals took (its progress line; the most over all seeds is printed);
 - Fx, Fy, Mz of the fitted .tir against the truth .tir at the fitted MF points (the measured
   operating range; identify.workflows.truth_compare, RMS of the difference relative to the RMS
   of the truth, bar 2 %);
@@ -101,14 +102,17 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
     if not binned:
         settings = dataclasses.replace(settings, bin_alpha_deg=None, bin_kappa=None)
     stages = {}
+    lines: list[str] = []
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        run = fit_folder(imp.path, out_root=where / "fits", settings=settings)
+        run = fit_folder(imp.path, out_root=where / "fits", settings=settings,
+                         progress=lines.append)
     seconds = time.perf_counter() - t0
     cmp = compare_to_truth(read_tir(run.tir_path).params(), truth, pd.read_csv(run.csv_path))
     coefs = []
     truth = canonical_signs(truth)
+    refits = _profile_refits(lines)
     for r in run.results:
         if r.relation != "MF":
             continue
@@ -116,7 +120,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
         flipped = {n for n in values if values[n] != r.parameters[n]}
         stages[r.form] = {"seconds": r.seconds, "points": r.n_points,
                           "converged": bool(r.converged), "covariance": r.covariance,
-                          "clusters": r.clusters}
+                          "clusters": r.clusters, "profile_refits": refits.get(r.form, 0)}
         for name in r.free:
             if name not in truth:
                 continue
@@ -139,6 +143,15 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
             "forces_ok": all(v <= BAR_PCT for v in forces.values()),
             "in_95": len(fitted) - len(outside), "fitted": len(fitted), "outside": outside,
             "coefs": coefs}
+
+
+PROFILE_LINE = re.compile(r"MF \[(\w+)\]: 95 % intervals of .* \((\d+) refits\)")
+"""The profile step's progress line of a stage (identify.fit.mf_profile.profile_intervals)."""
+
+
+def _profile_refits(lines: list[str]) -> dict[str, int]:
+    """Stage -> the refits its profile intervals took, from the fit's progress ``lines``."""
+    return {m[1]: int(m[2]) for m in map(PROFILE_LINE.search, lines) if m}
 
 
 def _identifiable(c: dict) -> bool:
@@ -385,6 +398,10 @@ def main() -> None:
                                         for k, v in r["stages"].items()))
         if r["outside"]:
             print("   outside: " + ", ".join(r["outside"]))
+    most = max(((v.get("profile_refits", 0), k, r["seed"]) for r in records
+                for k, v in r["stages"].items()), default=(0, "-", "-"))
+    print(f"   profile refits: at most {most[0]} in a stage ({most[1]}, seed {most[2]}; the "
+          "budget is identify.fit.mf_profile.STAGE_REFITS)")
     print("   covariance: " + ", ".join(f"{k} {v['covariance']} ({v['clusters']})"
                                          for k, v in records[0]["stages"].items()))
     print_tables(coverage_tables(records))
