@@ -59,6 +59,7 @@ from pathlib import Path  # noqa: E402
 import pandas as pd  # noqa: E402
 
 from identify.io.tir import read_tir  # noqa: E402
+from identify.model.symmetries import aligned  # noqa: E402
 from identify.simulate import default_tir_path  # noqa: E402
 from identify.simulate.ttc import simulate_ttc  # noqa: E402
 from identify.workflows.fit import FitSettings, fit_folder  # noqa: E402
@@ -68,20 +69,6 @@ from identify.workflows.truth_compare import compare_to_truth  # noqa: E402
 BAR_PCT = 2.0
 """Issue 14, acceptance 3: Fx, Fy, Mz within 2 % of the truth."""
 Z95 = 1.959964
-
-
-def canonical_signs(values: dict) -> dict:
-    """``values`` with the combined-slip side force in one sign convention: S_Vyk =
-    D_Vyk sin(RVY5 atan(RVY6 kappa)), D_Vyk proportional to RVY1 + RVY2 dfz + RVY3 gamma, is
-    unchanged when RVY5 (or RVY6) and RVY1..3 all change sign, so a truth with RVY6 < 0 and a
-    fit with RVY6 > 0 are the same tyre; both are compared with RVY5, RVY6 >= 0."""
-    out = dict(values)
-    for odd in ("RVY5", "RVY6"):
-        if odd in out and float(out[odd]) < 0:
-            for n in (odd, "RVY1", "RVY2", "RVY3"):
-                if n in out:
-                    out[n] = -float(out[n])
-    return out
 
 
 def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
@@ -111,13 +98,14 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
     seconds = time.perf_counter() - t0
     cmp = compare_to_truth(read_tir(run.tir_path).params(), truth, pd.read_csv(run.csv_path))
     coefs = []
-    truth = canonical_signs(truth)
     refits = _profile_refits(lines)
     for r in run.results:
         if r.relation != "MF":
             continue
-        values = canonical_signs(r.parameters)
-        flipped = {n for n in values if values[n] != r.parameters[n]}
+        values = r.parameters
+        # the image of the truth that shares the fit's signs: the same tyre, bit for bit
+        # (identify.model.symmetries; e.g. RVY1..3 and RVY6 all of the other sign)
+        image = aligned(truth, values, r.free, r.stderr)
         stages[r.form] = {"seconds": r.seconds, "points": r.n_points,
                           "converged": bool(r.converged), "covariance": r.covariance,
                           "clusters": r.clusters, "profile_refits": refits.get(r.form, 0)}
@@ -126,13 +114,11 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
                 continue
             se = float(r.stderr.get(name, math.nan))
             why = (r.unidentified.get(name) if r.converged else "stage did not converge")
-            z = (values[name] - float(truth[name])) / se if se > 0 else math.inf
+            z = (values[name] - float(image[name])) / se if se > 0 else math.inf
             lo, hi = r.interval(name)  # the profile interval where there is one
-            if name in flipped:
-                lo, hi = -hi, -lo
             coefs.append({"stage": r.form, "name": name, "value": values[name],
                           "se": se, "q": r.quantile(name), "lo": lo, "hi": hi,
-                          "profile": name in r.profile, "truth": float(truth[name]), "z": z,
+                          "profile": name in r.profile, "truth": float(image[name]), "z": z,
                           "at_bound": name in r.at_bound, "identifiable": why is None,
                           "why": why, "covariance": r.covariance})
     fitted = [c for c in coefs if c["identifiable"]]

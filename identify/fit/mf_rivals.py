@@ -13,11 +13,12 @@ from identify.core.progress import Progress
 from identify.fit.engine import MF_SOLVE, covariance, residual_jacobian, residual_variance
 from identify.fit.identifiability import RIVAL_CHI2
 from identify.fit.mf_problem import StageProblem
-from identify.fit.mf_search import MIRROR, REFIT_NFEV, mirrored
+from identify.fit.mf_search import REFIT_NFEV
 from identify.fit.optimize import Solved, fit, replay, snapped
 from identify.fit.result import FitResult, Rival
+from identify.model.symmetries import nearest_image, sign_patterns
 
-__all__ = ["MIRROR", "chi2_scale", "with_rivals"]
+__all__ = ["chi2_scale", "with_rivals"]
 
 
 def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mapping[str, float]],
@@ -48,6 +49,7 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     # checks a rival against
     lo, hi = np.array([result.interval(n) for n in free]).T
     problem = sp.problem
+    signs = sign_patterns(free, problem.values())
     scale = None  # s^2 x the intervals' inflation over iid: computed at the first far end
     found: list[Rival] = []
     ends: list[np.ndarray] = []
@@ -55,14 +57,14 @@ def with_rivals(result: FitResult, sp: StageProblem, candidates: Sequence[Mappin
     solved = list(solved)
     for c in candidates:
         x0 = np.array([float(c.get(n, result.parameters[n])) for n in free])
-        x0 = _mirrored(free, x0, xb)
+        x0 = nearest_image(x0, xb, signs)
         if np.all(np.abs(x0 - xb) <= se):
             continue
         converged, xe, wls, nfev = _solve(problem, x0, solved)
         spent += nfev
         if not converged:
             continue
-        xr = _mirrored(free, xe, xb)
+        xr = nearest_image(xe, xb, signs)  # a mirror image of the optimum is no rival
         far = (xr < lo) | (xr > hi)
         if not far.any():
             continue
@@ -107,14 +109,3 @@ def chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
     iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
     ok = np.isfinite(iid) & (iid > 0)
     return s2 * (float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0)
-
-
-def _mirrored(free: Sequence[str], x: np.ndarray, ref: np.ndarray) -> np.ndarray:
-    """``x`` or its mirror image (identify.fit.mf_search.mirrored), whichever is nearer
-    ``ref`` in Mz0's mirror pair."""
-    flipped = mirrored(tuple(free), x)
-    if flipped is None:
-        return x
-    i, j = (list(free).index(n) for n in MIRROR)
-    near = abs(flipped[i] - ref[i]) + abs(flipped[j] - ref[j])
-    return flipped if near < abs(x[i] - ref[i]) + abs(x[j] - ref[j]) else x

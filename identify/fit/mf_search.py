@@ -36,12 +36,12 @@ from identify.fit.optimize import BEST_RTOL
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.parameters import spec
+from identify.model.symmetries import nearest_image, sign_patterns
 from identify.model.state import OperatingState
 
-__all__ = ["N_LHS", "MAX_NFEV", "REFIT_NFEV", "SEARCH_NFEV", "BOX", "MIRROR", "SUBSAMPLE", "LADDER",
+__all__ = ["N_LHS", "MAX_NFEV", "REFIT_NFEV", "SEARCH_NFEV", "BOX", "SUBSAMPLE", "LADDER",
            "CANDIDATE_RTOL", "MAX_CANDIDATES", "CHI2_GAP", "Search", "start_points", "subsample",
-           "ladder_sizes", "search", "refine_on", "prune", "mirrored", "canonical_br",
-           "final_predictions"]
+           "ladder_sizes", "search", "refine_on", "prune", "final_predictions"]
 
 N_LHS = 2
 """Latin-hypercube starts per stage besides the carried-forward and default values."""
@@ -88,11 +88,6 @@ DISTINCT_RTOL = 1e-4
 """Two end points are the same candidate when their objectives agree to
 identify.fit.optimize.BEST_RTOL, every coefficient agrees to this fraction of max(|value|,
 1e-3), or they are within MERGE_CHI2 in chi^2 (:func:`_same_optimum`)."""
-MIRROR = ("QBZ9", "QBZ10")
-"""Mz0's mirror pair: (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict identically (canonical_br);
-the search keeps one of two candidates that are each other's mirror image (on a generated TTC
-session, seed 0, the second was solved on all points for 37 evaluations to the mirror image of
-the first's optimum, 3.7e-5 lower in chi^2, and then re-fitted as its rival)."""
 BOX = 0.5
 """Half width of the start box relative to max(|start|, |default|) (0.05 absolute at 0)."""
 MERGE_CHI2 = 1.0
@@ -208,9 +203,10 @@ class _Reached:
     (without one, end points only, in their own solver's metric)."""
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
-                 free: tuple[str, ...], jac=None):
+                 free: tuple[str, ...], jac=None, signs: np.ndarray | None = None):
         n_free = len(free)
         self.free = free
+        self.signs = sign_patterns(free) if signs is None else signs
         self.ends = [(j, e.x, e.jac, e.cost,
                       engine.residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
@@ -222,13 +218,12 @@ class _Reached:
 
     def __call__(self, x: np.ndarray, cost: float) -> str | None:
         self.path.append((np.array(x, dtype=float), cost))
-        # x, and its mirror image where it has one (Mz0: the same prediction and cost; the
-        # Jacobian at the mirror image is J with the pair's columns negated, so the path test
-        # compares x with the mirrored path points in the metric of J)
-        alike = _images(self.free, x)
+        # x's mirror image nearest the end (identify.model.symmetries: the same prediction
+        # and cost; the Jacobian at a mirror image is J with the flipped columns negated, so
+        # the path test compares x with the path points' images nearest it in the metric of J)
         for j, xe, Je, ce, s2 in self.ends:
-            if cost <= ce + 0.5 * MERGE_CHI2 * s2 and any(_within_merge(Je, y - xe, s2)
-                                                          for y in alike):
+            if (cost <= ce + 0.5 * MERGE_CHI2 * s2
+                    and _within_merge(Je, nearest_image(x, xe, self.signs) - xe, s2)):
                 self.into = j
                 return f"reached the end point of start {j + 1}"
         J = None if self.jac is None else self.jac.at(x)
@@ -238,7 +233,7 @@ class _Reached:
             for xt, ct in path:
                 if abs(cost - ct) > 0.5 * MERGE_CHI2 * s2:
                     continue
-                if any(_within_merge(J, x - y, s2) for y in _images(self.free, xt)):
+                if _within_merge(J, x - nearest_image(xt, x, self.signs), s2):
                     self.into = j
                     return f"reached the path of start {j + 1}"
         return None
@@ -276,8 +271,9 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     jac = problem.residual_jacobian if problem.jacobian is not None else None
     ends: list[engine.Estimate] = []
     paths: list[list[tuple[np.ndarray, float]]] = []
+    signs = sign_patterns(problem.free, problem.values())
     for x0 in np.atleast_2d(starts):
-        reached = _Reached(ends, paths, problem.free, jac)
+        reached = _Reached(ends, paths, problem.free, jac, signs)
         end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH,
                                    jac=reached.jac, max_nfev=SEARCH_NFEV, stop=reached)
         paths.append(reached.path)
@@ -290,17 +286,17 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     order = np.argsort(objs, kind="stable")
     best = objs[order[0]]
     n_free = len(problem.free)
-    # a start at the best's mirror image reached the best too (as for the candidates below)
-    at_best = sum(any(_same_optimum(ends[order[0]], best, x, o, n_free)
-                      for x in _images(problem.free, e.x))
+    # a start at a mirror image of the best reached the best too (as for the candidates below)
+    at_best = sum(_same_optimum(ends[order[0]], best,
+                                nearest_image(e.x, ends[order[0]].x, signs), o, n_free)
                   for e, o in zip(ends, objs))
     chosen: list[tuple[engine.Estimate, float]] = []
     for i in order:
         if chosen and not objs[i] <= best + CANDIDATE_RTOL * abs(best):
             break
-        # an end point or its mirror image (Mz0: it predicts the same, see canonical_br)
-        alike = _images(problem.free, ends[i].x)
-        if any(_same_optimum(c, o, x, objs[i], n_free) for c, o in chosen for x in alike):
+        # an end point or a mirror image of it (the same prediction; identify.model.symmetries)
+        if any(_same_optimum(c, o, nearest_image(ends[i].x, c.x, signs), objs[i], n_free)
+               for c, o in chosen):
             continue
         chosen.append((ends[i], float(objs[i])))
         if len(chosen) == MAX_CANDIDATES:
@@ -309,41 +305,6 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
                   starts_at_best=int(at_best),
                   points=int(problem.measured.size), nfev=counter.calls,
                   converged=bool(ends[order[0]].success))
-
-
-def mirrored(free: tuple[str, ...], x: np.ndarray) -> np.ndarray | None:
-    """``x`` (values of ``free``) with Mz0's mirror pair MIRROR negated, which predicts the
-    same (:func:`canonical_br`); None when the pair is not free."""
-    if not all(n in free for n in MIRROR):
-        return None
-    flipped = np.array(x, dtype=float)
-    flipped[[free.index(n) for n in MIRROR]] *= -1
-    return flipped
-
-
-def _images(free: tuple[str, ...], x: np.ndarray) -> list[np.ndarray]:
-    """``x`` and, where it has one, its mirror image (:func:`mirrored`): the points that
-    predict what ``x`` predicts."""
-    m = mirrored(free, x)
-    return [x] if m is None else [x, m]
-
-
-def canonical_br(result: FitResult, start: Mapping[str, float]) -> FitResult:
-    """Mz depends on Br = QBZ9*LKY/LMUY + QBZ10*By*Cy only through cos(atan(Br*alpha)), so
-    (QBZ9, QBZ10) and (-QBZ9, -QBZ10) predict identically (bit for bit); return the one
-    nearer the start values (relative to max(|start|, 1e-3))."""
-    pair = MIRROR
-    if not set(pair) <= set(result.free):
-        return result
-    q = np.array([result.parameters[n] for n in pair])
-    s = np.array([float(start[n]) for n in pair])
-    scale = np.maximum(np.abs(s), 1e-3)
-    if np.sum(((q - s) / scale) ** 2) <= np.sum(((-q - s) / scale) ** 2):
-        return result
-    values = {n: (-v if n in pair else v) for n, v in result.parameters.items()}
-    corr = {k: (-c if len(set(pair) & set(k.split("|"))) == 1 else c)
-            for k, c in result.correlations.items()}
-    return dataclasses.replace(result, parameters=values, correlations=corr)
 
 
 def final_predictions(result: FitResult, problem: FitProblem, s: OperatingState,

@@ -35,9 +35,10 @@ spaced subsample of the stage's points; the distinct end points near the best ar
 on all points by the engine's local solver (identify.fit.optimize.fit) within MAX_NFEV
 evaluations (identify.fit.mf_search.search); ``starts_at_best`` says how many starts reached
 the best value on the subsample. The full bounds are far too wide for a few starts in 20-30
-dimensions; the box is where the optimum of a carried-forward stage lies. The Mz0 stage's
-mirror solutions (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) predict identically; the one nearer the start
-is reported.
+dimensions; the box is where the optimum of a carried-forward stage lies. Mirror images of an
+optimum ((QBZ9, QBZ10) -> (-QBZ9, -QBZ10) and the others of identify.model.symmetries) predict
+identically: the search and the rivals treat them as one minimum, and the image nearest the
+start is reported (identify.fit.mf_signs).
 
 Derivatives: exact (JAX forward mode, identify.fit.mf_jacobian) when JAX is installed, else
 finite differences; the same optimum either way.
@@ -67,12 +68,12 @@ from identify.fit.limits import table_limits, union_limits
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
+from identify.fit.mf_signs import canonical_signs
 from identify.fit.mf_search import (
     CHI2_GAP,
     MAX_NFEV,
     N_LHS,
     REFIT_NFEV,
-    canonical_br,
     final_predictions,
     ladder_sizes,
     prune,
@@ -530,8 +531,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 result = with_rivals(result, sp, branch + list(others), label, progress,
                                      solved)
                 new_nfev = result.nfev
-            if stage == "Mz0":
-                result = canonical_br(result, params)
+            result = canonical_signs(result, params)
             result = canonical_even(result)
             if screen:  # what rests on coefficients held since the re-fit with them failed
                 result = with_conditional(result, sp, stage, trailer, params)
