@@ -11,7 +11,7 @@ measured - truth relative to the RMS of the truth [%] and its mean with the sign
 (a systematic pull towards or away from zero) [%], on the pure-slip points (Fx: |alpha| < 0.5
 deg; Fy, Mz: |kappa| < 0.005).
 
-    python bench/pipeline_distortion.py --seeds 0 1 [--keep DIR]
+    python bench/pipeline_distortion.py --seeds 0 1 [--keep DIR] [--tir FILE]
 
 Measured 2026-11-25, seed 1 (docs/intervals.md, "What the averaging does"): the raw samples
 are exact (0.0000 %); the revolution average alone leaves Fx 0.057 %, Fy 0.023 %, Mz 0.091 %
@@ -55,9 +55,11 @@ PURE = {"Fx": ("alpha", np.deg2rad(0.5)), "Fy": ("kappa", 0.005), "Mz": ("kappa"
 """Quantity -> the slip that must be near zero for a pure-slip point, and how near."""
 
 
-def distortion(where: Path, seed: int) -> dict[str, dict[str, tuple[float, float]]]:
-    """Per way and quantity: (RMS, signed mean) of measured - truth over RMS truth [%]."""
-    truth_tir = read_tir(default_tir_path()).params()
+def distortion(where: Path, seed: int, tir: Path | None = None
+               ) -> dict[str, dict[str, tuple[float, float]]]:
+    """Per way and quantity: (RMS, signed mean) of measured - truth over RMS truth [%];
+    ``tir``: the truth (default the bundled tyre)."""
+    truth_tir = read_tir(tir or default_tir_path()).params()
     simulate_ttc(truth_tir, where / "ttc", seed=seed, noise=0.0, overwrite=True)
     truth = {k: float(v) for k, v in
              json.loads((where / "ttc" / "truth.json").read_text())["tir"].items()
@@ -88,11 +90,13 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[1])
     ap.add_argument("--keep", type=Path, default=None, help="keep the folders here")
+    ap.add_argument("--tir", type=Path, default=None,
+                    help="the truth .tir (default: the bundled 225/50 R17 tyre)")
     args = ap.parse_args()
     for seed in args.seeds:
         with tempfile.TemporaryDirectory() as tmp:
             where = (args.keep / f"seed{seed}") if args.keep else Path(tmp)
-            res = distortion(where, seed)
+            res = distortion(where, seed, args.tir)
         print(f"seed {seed}: measured - truth on noise-free points, RMS (signed mean) [%]")
         for way, qs in res.items():
             print(f"  {way:38s} " + "  ".join(f"{q} {rms:.4f} ({mean:+.4f})"
