@@ -26,6 +26,7 @@ from identify.fit.engine import MF_SOLVE
 from identify.fit.mf_problem import StageProblem, stage_problem
 from identify.fit.mf_screen import Z_GATE
 from identify.fit.mf_search import MAX_NFEV
+from identify.fit.mf_signs import flipped
 from identify.fit.mf_stage_defs import EVEN_START
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
@@ -36,14 +37,9 @@ __all__ = ["canonical_even", "even_gate", "not_significant"]
 def canonical_even(result: FitResult) -> FitResult:
     """``result`` with each even coefficient as |q| (EVEN_START: the load law's
     (Q_FCY Fy/Fz0)^2 predicts the same at -q as at q, bit for bit: the square only clears the
-    sign bit), its correlations' signs flipped with it."""
-    flip = [n for n in EVEN_START if n in result.free and result.parameters[n] < 0]
-    if not flip:
-        return result
-    values = {n: (-v if n in flip else v) for n, v in result.parameters.items()}
-    corr = {k: (-c if len(set(flip) & set(k.split("|"))) == 1 else c)
-            for k, c in result.correlations.items()}
-    return dataclasses.replace(result, parameters=values, correlations=corr)
+    sign bit), its correlations' signs flipped with it (identify.fit.mf_signs.flipped)."""
+    return flipped(result, [n for n in EVEN_START
+                            if n in result.free and result.parameters[n] < 0])
 
 
 def not_significant(result: FitResult) -> dict[str, str]:

@@ -10,14 +10,14 @@ start values, among the images inside the bounds.
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping
+from collections.abc import Collection, Mapping
 
 import numpy as np
 
 from identify.fit.result import FitResult, Rival
 from identify.model.symmetries import nearest_image, sign_patterns
 
-__all__ = ["canonical_signs"]
+__all__ = ["canonical_signs", "flipped"]
 
 
 def canonical_signs(result: FitResult, start: Mapping[str, float]) -> FitResult:
@@ -40,7 +40,15 @@ def canonical_signs(result: FitResult, start: Mapping[str, float]) -> FitResult:
     lo, hi = np.array([result.bounds.get(n, (-np.inf, np.inf)) for n in free], dtype=float).T
     inside = signs[np.all((signs * x >= lo) & (signs * x <= hi), axis=1)]
     image = nearest_image(x, np.array([float(start[n]) for n in free]), inside)
-    flip = {n for n, a, b in zip(free, image, x) if a != b}
+    return flipped(result, {n for n, a, b in zip(free, image, x) if a != b})
+
+
+def flipped(result: FitResult, names: Collection[str]) -> FitResult:
+    """``result`` with the coefficients ``names`` of the other sign (an image of its optimum:
+    the caller knows the change leaves the predictions alone), and with them the signs of
+    their correlations with the others, their rivals' values and their profile ends;
+    ``result`` itself when ``names`` is empty."""
+    flip = set(names)
     if not flip:
         return result
 
