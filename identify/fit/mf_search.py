@@ -203,10 +203,9 @@ class _Reached:
     (without one, end points only, in their own solver's metric)."""
 
     def __init__(self, ends: list[engine.Estimate], paths: list[list[tuple[np.ndarray, float]]],
-                 free: tuple[str, ...], jac=None, signs: np.ndarray | None = None):
-        n_free = len(free)
-        self.free = free
-        self.signs = sign_patterns(free) if signs is None else signs
+                 signs: np.ndarray, jac=None):
+        n_free = signs.shape[1]
+        self.signs = signs  # sign_patterns of the free coefficients
         self.ends = [(j, e.x, e.jac, e.cost,
                       engine.residual_variance(e.cost, e.fun.size, n_free))
                      for j, e in enumerate(ends)
@@ -273,7 +272,7 @@ def search(problem: FitProblem, starts: np.ndarray) -> Search:
     paths: list[list[tuple[np.ndarray, float]]] = []
     signs = sign_patterns(problem.free, problem.values())
     for x0 in np.atleast_2d(starts):
-        reached = _Reached(ends, paths, problem.free, jac, signs)
+        reached = _Reached(ends, paths, signs, jac)
         end = engine.least_squares(problem.residuals, x0, problem.bounds(), SEARCH,
                                    jac=reached.jac, max_nfev=SEARCH_NFEV, stop=reached)
         paths.append(reached.path)
