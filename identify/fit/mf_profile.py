@@ -64,7 +64,7 @@ MAX_GROWTH = 4.0
 """Largest factor by which one step moves the end outwards (a flat cost)."""
 STEP_RCOND = 1e-5
 """Relative singular value (of the column-scaled Jacobian) below which the screening
-Gauss-Newton step of :func:`_flatter` leaves a direction alone: the undetermined ones (Fy's
+Gauss-Newton step of :func:`_steepness` leaves a direction alone: the undetermined ones (Fy's
 RVY4 with a standard error 2e4 times its value) would otherwise take it far out."""
 STAGE_REFITS = 150
 """Refits one stage's profile intervals may take in all (each at most 2 starts x
@@ -280,8 +280,8 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
                              {n: r.quantile(n) for n in names})
         ends = found.ends
         if progress is not None:
-            moved = sum(1 for n, (a, b) in ends.items()
-                        if a < r.wald_interval(n)[0] or b > r.wald_interval(n)[1])
+            wald = {n: r.wald_interval(n) for n in ends}
+            moved = sum(1 for n, (a, b) in ends.items() if a < wald[n][0] or b > wald[n][1])
             progress(f"MF [{r.form}]: 95 % intervals of {len(ends)} coefficients, {moved} "
                      f"widened to the objective's profile ({found.refits} refits)"
                      + (f", {found.unconverged} end(s) left linearised (refit did not "

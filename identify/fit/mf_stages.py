@@ -237,13 +237,13 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                    "ended higher" for n in added}})
             break
         gain = _chi2_gain(sp.problem, result, refit)
-        if gain < chi2.ppf(0.95, len(added)):
+        needed, names = chi2.ppf(0.95, len(added)), ", ".join(added)
+        if gain < needed:
             result = dataclasses.replace(result, nfev=result.nfev + spent)
             sp = dataclasses.replace(sp, held={**sp.held, **{
-                n: f"sensitivity: {AFTER_FIT}, and freeing {', '.join(added)} lowered chi^2 "
-                   f"by {gain:.2f} only (95 %: {chi2.ppf(0.95, len(added)):.2f})"
-                for n in added}})
-            _say(progress, f"MF {stage}: {', '.join(added)} held: the re-fit lowered chi^2 by "
+                n: f"sensitivity: {AFTER_FIT}, and freeing {names} lowered chi^2 by {gain:.2f} "
+                   f"only (95 %: {needed:.2f})" for n in added}})
+            _say(progress, f"MF {stage}: {names} held: the re-fit lowered chi^2 by "
                            f"{gain:.2f}, not significant")
             break
         added_all += added
