@@ -137,11 +137,10 @@ def aligned(values: Mapping[str, float], ref: Mapping[str, float], names: Sequen
     x = np.array([float(values[n]) for n in every])
     compared = np.array([n in names and n in ref for n in every])
     r = np.array([float(ref[n]) if c else 0.0 for n, c in zip(every, compared)])
-    if scale is None:
-        unit = np.maximum(np.abs(r), 1e-3)
-    else:
-        unit = np.array([float(scale.get(n, 1.0)) if c else 1.0 for n, c in zip(every, compared)])
-        unit = np.where(np.isfinite(unit) & (unit > 0), unit, np.maximum(np.abs(r), 1e-3))
-    d = np.sum((((patterns * x - r) / unit) * compared) ** 2, axis=1)
-    image = patterns[int(np.argmin(d))] * x
+    unit = np.maximum(np.abs(r), 1e-3)
+    if scale is not None:
+        given = np.array([float(scale.get(n, 1.0)) for n in every])
+        unit = np.where(np.isfinite(given) & (given > 0), given, unit)
+    # a coefficient not compared counts for nothing: an infinite unit
+    image = nearest_image(x, r, patterns, np.where(compared, unit, np.inf))
     return {**values, **{n: float(v) for n, v in zip(every, image)}}
