@@ -336,3 +336,28 @@ def test_make_fits_batch(tmp_path):
     assert after["tyreA"] == before["tyreA"]
     assert all(a > b for a, b in zip(after["tyreB"], before["tyreB"]))
     assert _make("-q", "fits", *var).returncode == 0
+
+
+class _Stop(Exception):
+    """Raised by the test's stand-in once it has recorded the segmentation settings."""
+
+
+@pytest.mark.parametrize("flag, averaged", [((), True), (("--no-revolution-average",), False)])
+def test_revolution_average_option_reaches_the_segmentation(tmp_path, monkeypatch, flag,
+                                                            averaged):
+    """``--no-revolution-average`` is recorded in the settings and switches the filter off in
+    the segmentation of the MF stages' samples (the fit is stopped there: only the wiring is
+    under test; what the filter does is tests/test_segment.py's)."""
+    import identify.workflows.fit as fit_workflow
+
+    seen = []
+
+    def record(mset, settings, **kw):
+        seen.append(settings)
+        raise _Stop
+
+    monkeypatch.setattr(fit_workflow, "prepare_trailer", record)
+    result = _fit(tmp_path, ROOT / "measurements" / "sample-225-50R17", "--only", "MF",
+                  "--no-report", *flag)
+    assert isinstance(result.exception, _Stop)
+    assert [s.revolution_average for s in seen] == [averaged]

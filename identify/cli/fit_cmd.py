@@ -175,7 +175,7 @@ def summary_table(run: FitRun) -> Table:
 def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                      no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
                      mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
-                     no_bin=False, no_segment=False) -> str:
+                     no_bin=False, no_segment=False, no_revolution_average=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -207,6 +207,8 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
         args.append("--no-segment")
     if no_bin:
         args.append("--no-bin")
+    if no_revolution_average:
+        args.append("--no-revolution-average")
     if bin_alpha is not None:
         args += ["--bin-alpha", f"{bin_alpha:g}"]
     if bin_kappa is not None:
@@ -260,6 +262,12 @@ def fit_command(
         False, "--no-segment",
         help="Fit trailer runs with a warm-up (logged test programmes such as a TTC session) "
              "on all their samples, not on their quasi-steady sweeps only."),
+    no_revolution_average: bool = typer.Option(
+        False, "--no-revolution-average",
+        help="Do not average trailer samples over one wheel revolution before the bins: for a "
+             "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
+             "ratio) when the ripple is the wheel's load variation, which the forces follow "
+             "(docs/intervals.md, 'A published tyre as the truth')."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -271,7 +279,7 @@ def fit_command(
     command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
-                               no_segment)
+                               no_segment, no_revolution_average)
     try:
         bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
             k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
@@ -283,7 +291,7 @@ def fit_command(
             fittyp=fittyp, form=form, hold=hold,
             mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
                            if math.isinf(mcmc_budget) else mcmc_budget),
-            segment=not no_segment, **bins)
+            segment=not no_segment, revolution_average=not no_revolution_average, **bins)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not mcmc_budget > 0:

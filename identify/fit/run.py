@@ -73,6 +73,12 @@ class FitSettings:
     bin_kappa : float or None       the same for slip-ratio sweeps [-]
     segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
                            their quasi-steady sweeps only (identify.workflows.sweep_bins)
+    revolution_average : bool   average the trailer samples over one wheel revolution
+                           before the MF stages (identify.segment.filters; against a ripple
+                           the forces do not follow); off, the raw samples go to the bins,
+                           which average the ripple over the passes through each bin without
+                           bending a curve that changes within a revolution (docs/intervals.md,
+                           "A published tyre as the truth")
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
@@ -94,6 +100,7 @@ class FitSettings:
     bin_alpha_deg: float | None = BIN_ALPHA_DEG
     bin_kappa: float | None = BIN_KAPPA
     segment: bool = True
+    revolution_average: bool = True
     mf_passes: int = 2
 
     def to_dict(self) -> dict[str, Any]:

@@ -324,9 +324,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        td = prepare_trailer(mset, SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg,
-                                                   bin_kappa=settings.bin_kappa),
-                             segment=settings.segment)
+        td = prepare_trailer(mset, SegmentSettings(
+            bin_alpha_deg=settings.bin_alpha_deg, bin_kappa=settings.bin_kappa,
+            revolution_average=settings.revolution_average), segment=settings.segment)
         if td.segmentation is not None:
             sg = td.segmentation
             _say(progress, f"segment: {', '.join(td.segmented_runs)}: {sg.kept} of "
