@@ -26,6 +26,7 @@ fit`` without MCMC and report, then
                               [--tir FILE] [--set KEY=VALUE ...]   # another tyre as the truth
     python bench/ttc_truth.py --from-json FILE [--normal]  # the tables of saved records
     python bench/ttc_truth.py --seeds 0 1 --relaxation 0.5  # forces lag the slip angle set
+    python bench/ttc_truth.py --seeds 0 1 --no-revolution-average  # the raw samples binned
 
 ``--relaxation M``: the generator's lateral relaxation length (the model sees the slip angle
 through a first-order lag over M metres of rolling, the SA channel records the angle set: the
@@ -73,10 +74,10 @@ Z95 = 1.959964
 
 def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
           tir: str | None = None, overrides: dict | None = None,
-          relaxation: float = 0.0) -> dict:
+          relaxation: float = 0.0, revolution_average: bool = True) -> dict:
     """One seed: simulate, import, fit, compare; a JSON-safe dict. ``tir``: the truth .tir
     (default the bundled tyre), ``overrides``: .tir values replaced in it, ``relaxation``:
-    the generator's lateral relaxation length [m]."""
+    the generator's lateral relaxation length [m]; ``revolution_average``: FitSettings'."""
     where = Path(where)
     truth_all = {**read_tir(tir or default_tir_path()).params(), **(overrides or {})}
     simulate_ttc(truth_all, where / "ttc", seed=seed, overwrite=True, relaxation=relaxation)
@@ -85,7 +86,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
                                    "unloaded_radius_m": float(truth["UNLOADED_RADIUS"])}
     imp = import_session(sorted((where / "ttc").glob("*.mat")), where / "folder",
                          overwrite=True, **nominal)
-    settings = FitSettings()
+    settings = FitSettings(revolution_average=revolution_average)
     if not binned:
         settings = dataclasses.replace(settings, bin_alpha_deg=None, bin_kappa=None)
     stages = {}
@@ -334,6 +335,8 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, nargs="+", default=[0, 1, 2])
     ap.add_argument("--no-bin", action="store_true", help="fit every sample")
+    ap.add_argument("--no-revolution-average", action="store_true",
+                    help="fit the raw samples (mfid fit --no-revolution-average)")
     ap.add_argument("--proposed", action="store_true",
                     help="keep the import's proposed nominal pressure and radius")
     ap.add_argument("--jobs", type=int, default=1)
@@ -370,7 +373,8 @@ def main() -> None:
         with ProcessPoolExecutor(max_workers=args.jobs) as pool:
             records = list(pool.map(trial, args.seeds, dirs, [not args.no_bin] * n,
                                     [args.proposed] * n, [args.tir] * n, [overrides] * n,
-                                    [args.relaxation] * n))
+                                    [args.relaxation] * n,
+                                    [not args.no_revolution_average] * n))
     for r in records:
         f = r["forces_pct"]
         how = "binned" if r["binned"] else "every sample"
