@@ -45,7 +45,8 @@ def test_grid(tyre, grid):
         ref = df[name].to_numpy(float)
         err = _relative(out[name], ref)
         assert np.array_equal(np.isnan(out[name]), np.isnan(ref)), name
-        assert np.nanmax(err) <= TOL, f"{name}: worst {np.nanmax(err):.2e} at row {np.nanargmax(err)}"
+        assert np.nanmax(err) <= TOL, \
+            f"{name}: worst {np.nanmax(err):.2e} at row {np.nanargmax(err)}"
     assert len(df) in (192, 558)
 
 
