@@ -345,19 +345,26 @@ class _Stop(Exception):
 @pytest.mark.parametrize("flag, averaged", [((), True), (("--no-revolution-average",), False)])
 def test_revolution_average_option_reaches_the_segmentation(tmp_path, monkeypatch, flag,
                                                             averaged):
-    """``--no-revolution-average`` is recorded in the settings and switches the filter off in
-    the segmentation of the MF stages' samples (the fit is stopped there: only the wiring is
-    under test; what the filter does is tests/test_segment.py's)."""
+    """``--no-revolution-average`` switches the filter off in both segmentations of the MF
+    stages' samples: the session logs' (prepare_trailer) and the other runs with a warm-up
+    (sweep_bins.mf_table). The fit is stopped there: only the wiring is under test; what the
+    filter does is tests/test_segment.py's and tests/test_sweep_bins.py's."""
     import identify.workflows.fit as fit_workflow
 
-    seen = []
+    seen = {}
+    prepare = fit_workflow.prepare_trailer
 
-    def record(mset, settings, **kw):
-        seen.append(settings)
+    def record_prepare(mset, settings, **kw):
+        seen["prepare_trailer"] = settings.revolution_average
+        return prepare(mset, settings, **kw)
+
+    def record_table(*args, revolution_average, **kw):
+        seen["mf_table"] = revolution_average
         raise _Stop
 
-    monkeypatch.setattr(fit_workflow, "prepare_trailer", record)
+    monkeypatch.setattr(fit_workflow, "prepare_trailer", record_prepare)
+    monkeypatch.setattr(fit_workflow, "mf_table", record_table)
     result = _fit(tmp_path, ROOT / "measurements" / "sample-225-50R17", "--only", "MF",
                   "--no-report", *flag)
     assert isinstance(result.exception, _Stop)
-    assert [s.revolution_average for s in seen] == [averaged]
+    assert seen == {"prepare_trailer": averaged, "mf_table": averaged}

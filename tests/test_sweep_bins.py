@@ -88,6 +88,16 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
     assert mf_data.levels(out["Fz"].to_numpy(), resolution) == loads
     binned, notes = mf_table(table, fnomin, segment=True, alpha_deg=0.25, kappa=0.0025)
     assert len(binned) < len(out) / 5 and len(notes) == 1
+    # without the revolution average (mfid fit --no-revolution-average) the same sweeps are
+    # kept as measured samples (more of them: the average trims a revolution at each end of
+    # a stretch)
+    assert "revolution average" in notes[0]
+    raw, notes = mf_table(table, fnomin, segment=True, alpha_deg=None, kappa=None,
+                          revolution_average=False)
+    assert "revolution average" not in notes[0]
+    assert np.unique(mf_data.sweep_ids(raw, fnomin)).size == 45 and len(raw) > len(out)
+    assert np.isin(raw["Fz"], table["Fz"]).all()  # measured samples, not averages
+    assert not np.isin(out["Fz"], table["Fz"]).any()
 
 
 def test_runs_without_a_warmup_are_kept_as_they_are():

@@ -166,7 +166,8 @@ def _mf_trailer(td, fnomin: float, settings: FitSettings,
     warm-up, their dense sweeps binned (identify.workflows.sweep_bins)."""
     done = td.table["run"].astype(str).isin(td.segmented_runs).to_numpy()
     table, notes = mf_table(td.table[~done], fnomin, segment=settings.segment,
-                            alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa)
+                            alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa,
+                            revolution_average=settings.revolution_average)
     for note in notes:
         _say(progress, note)
     return pd.concat([td.table[done], table], ignore_index=True) if done.any() else table

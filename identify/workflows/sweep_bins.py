@@ -130,7 +130,8 @@ def _labelled(table: pd.DataFrame, trailer: pd.DataFrame) -> pd.DataFrame:
 
 
 def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: float | None,
-             kappa: float | None) -> tuple[pd.DataFrame, list[str]]:
+             kappa: float | None, revolution_average: bool = True
+             ) -> tuple[pd.DataFrame, list[str]]:
     """The trailer points of the MF stages: logged runs segmented, dense sweeps binned.
 
     Parameters
@@ -143,6 +144,8 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
         Fit the runs with a warm-up on their quasi-steady sweeps only (see module).
     alpha_deg, kappa : float or None
         Bin widths [deg], [-] (None: not binned).
+    revolution_average : bool
+        The segmentation's one-revolution average (FitSettings.revolution_average).
 
     Returns
     -------
@@ -157,8 +160,8 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
     parts = []
     rest = trailer
     if segment and not trailer.empty:
-        seg = segment_trailer(trailer, SegmentSettings(bin_alpha_deg=alpha_deg,
-                                                       bin_kappa=kappa))
+        seg = segment_trailer(trailer, SegmentSettings(
+            bin_alpha_deg=alpha_deg, bin_kappa=kappa, revolution_average=revolution_average))
         runs = list(dict.fromkeys(s.run for s in seg.segmentation.segments
                                   if s.kind == "warmup"))
         if runs:
