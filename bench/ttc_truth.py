@@ -125,7 +125,8 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
     fitted = [c for c in coefs if c["identifiable"]]
     outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted if not _inside(c)]
     forces = {q.name: q.rms_pct for q in cmp.quantities if q.name in ("Fx", "Fy", "Mz")}
-    return {"seed": seed, "binned": binned, "fit_s": seconds, "stages": stages,
+    return {"seed": seed, "binned": binned, "revolution_average": revolution_average,
+            "fit_s": seconds, "stages": stages,
             "failed": list(run.failed), "forces_pct": forces,
             "forces_ok": all(v <= BAR_PCT for v in forces.values()),
             "in_95": len(fitted) - len(outside), "fitted": len(fitted), "outside": outside,
@@ -377,7 +378,8 @@ def main() -> None:
                                     [not args.no_revolution_average] * n))
     for r in records:
         f = r["forces_pct"]
-        how = "binned" if r["binned"] else "every sample"
+        how = ("binned" if r["binned"] else "every sample") + \
+            ("" if r.get("revolution_average", True) else ", raw samples")
         print(f"seed {r['seed']}: fit {r['fit_s']:.0f} s ({how}), failed {r['failed'] or 'none'}; "
               f"Fx {f.get('Fx', math.nan):.2f} %, "
               f"Fy {f.get('Fy', math.nan):.2f} %, Mz {f.get('Mz', math.nan):.2f} % "
