@@ -28,8 +28,7 @@ import pandas as pd
 from identify.fit import engine, mf_data
 from identify.fit.mf_result import MFFit
 from identify.fit.mf_stage_defs import names_read, stage_model
-from identify.fit.mf_problem import fitted_problem
-from identify.fit.mf_stages import StageProblem
+from identify.fit.mf_problem import StageProblem, fitted_problem
 from identify.fit.result import FitResult
 from identify.fit.trf_svd import tall_svd
 
