@@ -19,7 +19,16 @@ converged fit is **poorly identified** when any of these holds (thresholds below
 - its value rests on coefficients held at values the data did not choose (FitResult.conditional:
   held ones that took effect only after the fit, with which its standard error would grow
   beyond identify.fit.mf_conditional.VIF_LIMIT; its interval assumes them exact);
-- fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient.
+- fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient;
+- the validity conditions cost the fit beyond doubt and beyond a few per cent: the optimum is
+  a polished point whose objective exceeds the least-squares optimum it left
+  (FitResult.unconstrained_wls) by more than :data:`CONDITIONS_CHI2` in chi^2 (that point's
+  residual variance) and by more than :data:`CONDITIONS_RATIO` times. The data then ask for
+  a model that the conditions forbid somewhere on the validity grid, and the coefficients
+  are where the conditions, not the data, put them (on a raw-sample TTC session of the golden
+  test tyre, seed 5, before the re-fit test counted on the larger model's variance: the Fy
+  stage's least-squares optimum broke Gyk > 0 and its polish ended 15 times higher, 22 %
+  off the data, with every coefficient's interval reported as merely wide).
 
 Otherwise its status is "ok". :func:`suspects` ranks the coefficients the problems name, so
 that a caller can hold the worst at its default and re-fit, one at a time.
@@ -32,13 +41,22 @@ from collections.abc import Mapping
 
 from identify.fit.result import FitResult
 
-__all__ = ["MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
+__all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
            "problems", "suspects", "unidentified"]
 
 MAX_CORRELATION = 0.99
 """|correlation| of two estimates above which only their combination is determined."""
 MIN_POINTS_PER_COEFFICIENT = 2
 """Fewest data points per free coefficient for a fit to carry them."""
+CONDITIONS_CHI2 = 25.0
+"""Rise of chi^2 = r^T r / s^2 (s^2 the least-squares optimum's residual variance) from the
+least-squares optimum to the polished one beyond which the validity conditions' cost is
+beyond doubt (5 standard deviations of a one-parameter chi^2 difference, as
+identify.fit.mf_search.CHI2_GAP)."""
+CONDITIONS_RATIO = 1.1
+"""Ratio of the polished objective to the least-squares one beyond which the conditions' cost
+matters: the RMS weighted residual 5 % larger. On thousands of points with correlated
+residuals a chi^2 rise of 25 alone can be a fraction of a per cent of the objective."""
 OK = "ok"
 POOR = "poorly identified"
 
@@ -140,7 +158,26 @@ def problems(r: FitResult) -> list[str]:
     for a, b, c in _pairs(r):
         out.append(f"{a} and {b} are correlated {c:+.4f}: only their combination is "
                    "determined")
+    cost = _conditions_cost(r)
+    if cost is not None:
+        ratio, rise = cost
+        named = ", ".join(r.active_constraints) or "the validity conditions"
+        out.append(f"the validity conditions ({named}) hold only at {ratio:.3g} times the "
+                   f"objective of the least-squares optimum (chi^2 +{rise:.3g}): the data ask "
+                   "for a model they forbid somewhere on the validity grid, and the "
+                   "coefficients are where the conditions put them")
     return out
+
+
+def _conditions_cost(r: FitResult) -> tuple[float, float] | None:
+    """(objective ratio, chi^2 rise) of ``r``'s polished optimum over the least-squares
+    optimum it left, when both exceed CONDITIONS_RATIO and CONDITIONS_CHI2; else None."""
+    base = r.unconstrained_wls
+    if not (math.isfinite(base) and base > 0 and math.isfinite(r.wls)):
+        return None
+    s2 = base / max(r.n_points - len(r.free), 1)
+    ratio, rise = r.wls / base, (r.wls - base) / s2
+    return (ratio, rise) if ratio > CONDITIONS_RATIO and rise > CONDITIONS_CHI2 else None
 
 
 def unidentified(r: FitResult) -> dict[str, str]:

@@ -11,6 +11,7 @@ evaluations the whole search took.
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 
@@ -376,7 +377,11 @@ def _assemble(problem: FitProblem, outcomes: list[Outcome], best: int, at_best: 
         correlations=corr, predicted=pred, measured=problem.measured,
         pressure_bar=problem.pressure_bar, seconds=time.perf_counter() - t0, nfev=counter.calls,
         status=out.status, covariance=diag.covariance, clusters=diag.clusters,
-        dof=dict(zip(free, map(float, diag.dof))))
+        dof=dict(zip(free, map(float, diag.dof))),
+        # what the polish cost: r^T r at the least-squares point it left (0.5 r^T r solved)
+        unconstrained_wls=(2.0 * float(out.lsq.cost) if out.polished
+                           and problem.objective == "wls" and problem.constraints
+                           else math.nan))
 
 
 def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,

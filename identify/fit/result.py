@@ -207,6 +207,12 @@ class FitResult:
                                             the objective's profile where that is flatter
                                             than the quadratic approximation, and stopped at
                                             a bound
+    unconstrained_wls : float               r^T r (as ``wls``) at the least-squares optimum
+                                            that a constrained polish left to meet the
+                                            validity conditions (identify.fit.optimize); NaN
+                                            when the optimum is the least-squares one: how
+                                            much the conditions cost (identify.fit.
+                                            identifiability.problems)
     """
 
     relation: str
@@ -244,6 +250,7 @@ class FitResult:
     rivals: tuple[Rival, ...] = ()
     conditional: Mapping[str, str] = field(default_factory=dict)
     profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
+    unconstrained_wls: float = math.nan
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -306,6 +313,7 @@ class FitResult:
             "rivals": [v.to_dict() for v in self.rivals],
             "conditional": dict(self.conditional),
             "profile": {k: [_num(a), _num(b)] for k, (a, b) in self.profile.items()},
+            "unconstrained_wls": _num(self.unconstrained_wls),
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -322,7 +330,8 @@ class FitResult:
         was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
         TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
         errors, as intervals were before it was recorded); a null one is infinite.
-        ``rivals``, ``conditional`` and ``profile`` default to empty.
+        ``rivals``, ``conditional`` and ``profile`` default to empty,
+        ``unconstrained_wls`` to NaN.
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -358,7 +367,8 @@ class FitResult:
                    conditional={str(k): str(v)
                                 for k, v in (d.get("conditional") or {}).items()},
                    profile={str(k): (_float(b[0]), _float(b[1]))
-                            for k, b in (d.get("profile") or {}).items()})
+                            for k, b in (d.get("profile") or {}).items()},
+                   unconstrained_wls=_float(d.get("unconstrained_wls")))
 
     @property
     def fitted(self) -> dict[str, float]:
