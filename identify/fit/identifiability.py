@@ -41,8 +41,9 @@ from collections.abc import Mapping
 
 from identify.fit.result import FitResult
 
-__all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION", "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess",
-           "problems", "suspects", "unidentified"]
+__all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION",
+           "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess", "problems", "suspects",
+           "unidentified"]
 
 MAX_CORRELATION = 0.99
 """|correlation| of two estimates above which only their combination is determined."""
