@@ -39,6 +39,7 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
+from identify.fit.covariance import residual_variance
 from identify.fit.result import FitResult
 
 __all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION",
@@ -176,7 +177,7 @@ def _conditions_cost(r: FitResult) -> tuple[float, float] | None:
     base = r.unconstrained_wls
     if not (math.isfinite(base) and base > 0 and math.isfinite(r.wls)):
         return None
-    s2 = base / max(r.n_points - len(r.free), 1)
+    s2 = residual_variance(0.5 * base, r.n_points, len(r.free))
     ratio, rise = r.wls / base, (r.wls - base) / s2
     return (ratio, rise) if ratio > CONDITIONS_RATIO and rise > CONDITIONS_CHI2 else None
 
