@@ -414,11 +414,11 @@ def main() -> None:
         table = trailer
         if args.bin:
             from identify.fit.run import FitSettings  # not in versions before binning
-            from identify.workflows.sweep_bins import mf_table
+            from identify.workflows.sweep_bins import mf_table, segment_settings
 
             s = FitSettings()
             table, _ = mf_table(trailer, base["FNOMIN"], segment=s.segment,
-                                alpha_deg=s.bin_alpha_deg, kappa=s.bin_kappa)
+                                settings=segment_settings(s))
         passes = {} if args.passes is None else {"passes": args.passes}
         mf = fit_mf(table, base, **passes)
         total_fit = time.perf_counter() - t0

@@ -30,6 +30,7 @@ from fit_cost import FOLDER, start_values  # noqa: E402
 from identify.fit.mf_stages import fit_mf  # noqa: E402
 from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
+from identify.segment import SegmentSettings  # noqa: E402
 from identify.workflows.sweep_bins import mf_table  # noqa: E402
 
 
@@ -51,9 +52,9 @@ def main() -> None:
         fnomin, nompres, r0 = t.nominal_load_N, t.nominal_pressure_Pa, t.unloaded_radius_m
     base = start_values(fnomin, nompres, r0)
     # both as mfid fit selects the points (logged runs segmented), with and without binning
-    binned, _ = mf_table(trailer, fnomin, segment=True, alpha_deg=args.alpha_deg,
-                         kappa=args.kappa)
-    trailer, _ = mf_table(trailer, fnomin, segment=True, alpha_deg=None, kappa=None)
+    binned, _ = mf_table(trailer, fnomin, segment=True, settings=SegmentSettings(
+        bin_alpha_deg=args.alpha_deg, bin_kappa=args.kappa))
+    trailer, _ = mf_table(trailer, fnomin, segment=True, settings=SegmentSettings())
     fits = {}
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)

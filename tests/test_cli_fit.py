@@ -358,8 +358,8 @@ def test_revolution_average_option_reaches_the_segmentation(tmp_path, monkeypatc
         seen["prepare_trailer"] = settings.revolution_average
         return prepare(mset, settings, **kw)
 
-    def record_table(*args, revolution_average, **kw):
-        seen["mf_table"] = revolution_average
+    def record_table(*args, settings, **kw):
+        seen["mf_table"] = settings.revolution_average
         raise _Stop
 
     monkeypatch.setattr(fit_workflow, "prepare_trailer", record_prepare)

@@ -21,7 +21,7 @@ from identify.io.tir import read_tir
 from identify.model.parameters import defaults
 from identify.simulate.ttc import simulate_ttc
 from identify.workflows.import_session import import_session
-from identify.workflows.sweep_bins import mf_table
+from identify.workflows.sweep_bins import mf_table, segment_settings
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
 
@@ -45,7 +45,7 @@ def other_tyre(request, tmp_path_factory):
                 UNLOADED_RADIUS=float(tyre.unloaded_radius_m))
     settings = FitSettings()
     table, _ = mf_table(mset.trailer, base["FNOMIN"], segment=settings.segment,
-                        alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa)
+                        settings=segment_settings(settings))
     return table, base, truth
 
 

@@ -9,10 +9,13 @@ import pandas as pd
 from identify.fit import mf_data
 from identify.io.folder import load_folder
 from identify.io.trailer import read_trailer
+from identify.segment import SegmentSettings
 from identify.workflows.sweep_bins import bin_sweeps, mf_table
 from tests.ttc_cases import session
 
 SAMPLE = Path(__file__).resolve().parents[1] / "measurements" / "sample-225-50R17"
+RAW = SegmentSettings()  # the segmentation's defaults: not binned
+BINNED = SegmentSettings(bin_alpha_deg=0.25, bin_kappa=0.0025)
 
 
 def _table(n: int = 2000) -> tuple[pd.DataFrame, pd.DataFrame]:
@@ -68,7 +71,7 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
     table = pd.concat([read_trailer(f) for f in s.files if f.suffix == ".mat"],
                       ignore_index=True)
     fnomin = float(s.truth["tir"]["FNOMIN"])
-    out, notes = mf_table(table, fnomin, segment=True, alpha_deg=None, kappa=None)
+    out, notes = mf_table(table, fnomin, segment=True, settings=RAW)
     assert len(notes) == 1 and notes[0].startswith("segment: ")
     assert list(out.columns) == [*table.columns, "segment_id"]
     assert 0.5 * len(table) < len(out) < len(table)
@@ -86,14 +89,14 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
     resolution = mf_data.LOAD_RESOLUTION * fnomin
     assert mf_data.levels(table["Fz"].to_numpy(), resolution) == 1
     assert mf_data.levels(out["Fz"].to_numpy(), resolution) == loads
-    binned, notes = mf_table(table, fnomin, segment=True, alpha_deg=0.25, kappa=0.0025)
+    binned, notes = mf_table(table, fnomin, segment=True, settings=BINNED)
     assert len(binned) < len(out) / 5 and len(notes) == 1
     # without the revolution average (mfid fit --no-revolution-average) the same sweeps are
     # kept as measured samples (more of them: the average trims a revolution at each end of
     # a stretch)
     assert "revolution average" in notes[0]
-    raw, notes = mf_table(table, fnomin, segment=True, alpha_deg=None, kappa=None,
-                          revolution_average=False)
+    raw, notes = mf_table(table, fnomin, segment=True,
+                          settings=SegmentSettings(revolution_average=False))
     assert "revolution average" not in notes[0]
     assert np.unique(mf_data.sweep_ids(raw, fnomin)).size == 45 and len(raw) > len(out)
     assert np.isin(raw["Fz"], table["Fz"]).all()  # measured samples, not averages
@@ -103,7 +106,7 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
 def test_runs_without_a_warmup_are_kept_as_they_are():
     mset = load_folder(SAMPLE)
     out, notes = mf_table(mset.trailer, mset.manifest.tyre.nominal_load_N, segment=True,
-                          alpha_deg=0.25, kappa=0.0025)
+                          settings=BINNED)
     assert notes == []
     pd.testing.assert_frame_equal(out.reset_index(drop=True),
                                   mset.trailer.reset_index(drop=True))

@@ -43,8 +43,7 @@ from identify.io.folder import load_folder
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
-from identify.segment import SegmentSettings
-from identify.workflows.sweep_bins import mf_table
+from identify.workflows.sweep_bins import mf_table, segment_settings
 from identify.workflows.trailer_prep import prepare_trailer
 
 __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
@@ -166,8 +165,7 @@ def _mf_trailer(td, fnomin: float, settings: FitSettings,
     warm-up, their dense sweeps binned (identify.workflows.sweep_bins)."""
     done = td.table["run"].astype(str).isin(td.segmented_runs).to_numpy()
     table, notes = mf_table(td.table[~done], fnomin, segment=settings.segment,
-                            alpha_deg=settings.bin_alpha_deg, kappa=settings.bin_kappa,
-                            revolution_average=settings.revolution_average)
+                            settings=segment_settings(settings))
     for note in notes:
         _say(progress, note)
     return pd.concat([td.table[done], table], ignore_index=True) if done.any() else table
@@ -325,9 +323,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
-        td = prepare_trailer(mset, SegmentSettings(
-            bin_alpha_deg=settings.bin_alpha_deg, bin_kappa=settings.bin_kappa,
-            revolution_average=settings.revolution_average), segment=settings.segment)
+        td = prepare_trailer(mset, segment_settings(settings), segment=settings.segment)
         if td.segmentation is not None:
             sg = td.segmentation
             _say(progress, f"segment: {', '.join(td.segmented_runs)}: {sg.kept} of "

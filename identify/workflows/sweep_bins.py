@@ -44,6 +44,7 @@ import pandas as pd
 
 from identify.fit import mf_data
 from identify.fit.mf_data import SEGMENT_COLUMN
+from identify.fit.run import FitSettings
 from identify.segment import FilterCount, SegmentSettings, segment_trailer
 from identify.segment.filters import binning
 
@@ -129,8 +130,16 @@ def _labelled(table: pd.DataFrame, trailer: pd.DataFrame) -> pd.DataFrame:
         columns={"segment": SEGMENT_COLUMN})[columns]
 
 
-def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: float | None,
-             kappa: float | None, revolution_average: bool = True
+def segment_settings(settings: FitSettings) -> SegmentSettings:
+    """The segmentation thresholds of a fit: the defaults with ``settings``' bin widths and
+    revolution average. Every segmentation of one fit (the session logs' in
+    identify.workflows.trailer_prep and the other runs' in :func:`mf_table`) takes this one
+    object, so that an option cannot reach one and miss the other."""
+    return SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg, bin_kappa=settings.bin_kappa,
+                           revolution_average=settings.revolution_average)
+
+
+def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, settings: SegmentSettings
              ) -> tuple[pd.DataFrame, list[str]]:
     """The trailer points of the MF stages: logged runs segmented, dense sweeps binned.
 
@@ -142,10 +151,10 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
         Nominal load.
     segment : bool
         Fit the runs with a warm-up on their quasi-steady sweeps only (see module).
-    alpha_deg, kappa : float or None
-        Bin widths [deg], [-] (None: not binned).
-    revolution_average : bool
-        The segmentation's one-revolution average (FitSettings.revolution_average).
+    settings : SegmentSettings
+        The segmentation's thresholds and filters (:func:`segment_settings` for a fit), its
+        bin widths ``bin_alpha_deg`` [deg] and ``bin_kappa`` [-] also the other runs' (None:
+        not binned).
 
     Returns
     -------
@@ -160,8 +169,7 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
     parts = []
     rest = trailer
     if segment and not trailer.empty:
-        seg = segment_trailer(trailer, SegmentSettings(
-            bin_alpha_deg=alpha_deg, bin_kappa=kappa, revolution_average=revolution_average))
+        seg = segment_trailer(trailer, settings)
         runs = list(dict.fromkeys(s.run for s in seg.segmentation.segments
                                   if s.kind == "warmup"))
         if runs:
@@ -177,7 +185,8 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, alpha_deg: 
                          f"{filters})")
             parts.append(picked)
             rest = trailer[~mine]
-    binned, count = bin_sweeps(rest, fnomin, alpha_deg=alpha_deg, kappa=kappa)
+    binned, count = bin_sweeps(rest, fnomin, alpha_deg=settings.bin_alpha_deg,
+                               kappa=settings.bin_kappa)
     if count.applied and len(rest) and parts:
         notes.append(f"bin: the other runs' {len(rest)} samples -> {count.remaining} points "
                      f"({count.note}; dense sweeps only)")
