@@ -303,6 +303,38 @@ def test_a_start_that_reaches_an_earlier_end_point_stops_there(truth, data):
     assert both.nfev <= one.nfev + 3 * (len(p.free) + 1)
 
 
+def test_a_start_far_below_an_earlier_end_point_has_not_reached_it():
+    """mf_search.MERGE_CHI2: an end point on a plateau (a coefficient run off to where its
+    column of the Jacobian is zero) is no minimum, and its Jacobian's metric does not say how
+    far a point is from it. A start's iterate in that metric but far below its cost has not
+    reached it; one at its cost has. Before, only a cost above the end's was checked: on a
+    TTC session of the golden tyre (tests/data/tir/testA_61.tir, inputs without noise, seed
+    1) the Fy stage's re-fit stopped its start from the defaults at 2.7e-4 as having reached
+    a plateau at 1.5e-2 (RBY4 -> -5e22), and Fy ended 19.7 % off the truth.
+
+    Here y = A tanh(B x) through tanh(2 x): from B = 1e5 the solve stops at once (d/dB = 0 at
+    every point), A the mean of |y|, about 700 times the optimum's cost."""
+    x = np.linspace(-1.0, 1.0, 201)
+    y = np.tanh(2.0 * x) + 0.01 * np.random.default_rng(3).standard_normal(x.size)
+
+    def residuals(v):
+        return v[0] * np.tanh(v[1] * x) - y
+
+    bounds = (np.array([0.0, 0.0]), np.array([10.0, 1e6]))
+    plateau = engine.least_squares(residuals, np.array([1.0, 1e5]), bounds, engine.SEARCH)
+    assert plateau.success and plateau.x[1] == 1e5 and not plateau.jac[:, 1].any()
+    signs = sign_patterns(["A", "B"])
+    below = np.array([plateau.x[0], 3.0])  # in the plateau's metric: the same A
+    cost = 0.5 * float(residuals(below) @ residuals(below))
+    assert cost < 0.5 * plateau.cost
+    reached = mf_search._Reached([plateau], [[]], signs)
+    assert reached(below, cost) is None and reached.into is None
+    # at the plateau's own cost, within its metric: the same end point
+    at = plateau.x + np.array([1e-6, 0.0])
+    assert reached(at, 0.5 * float(residuals(at) @ residuals(at))) is not None
+    assert reached.into == 0
+
+
 @needs_stop
 def test_least_squares_stop_callable_ends_the_solve():
     seen = []
