@@ -74,13 +74,17 @@ Z95 = 1.959964
 
 def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
           tir: str | None = None, overrides: dict | None = None,
-          relaxation: float = 0.0, revolution_average: bool = True) -> dict:
+          relaxation: float = 0.0, revolution_average: bool = True,
+          input_noise: float | None = None) -> dict:
     """One seed: simulate, import, fit, compare; a JSON-safe dict. ``tir``: the truth .tir
     (default the bundled tyre), ``overrides``: .tir values replaced in it, ``relaxation``:
-    the generator's lateral relaxation length [m]; ``revolution_average``: FitSettings'."""
+    the generator's lateral relaxation length [m]; ``revolution_average``: FitSettings';
+    ``input_noise``: the generator's noise of the slip, camber, load and speed channels
+    (None: its ``noise``)."""
     where = Path(where)
     truth_all = {**read_tir(tir or default_tir_path()).params(), **(overrides or {})}
-    simulate_ttc(truth_all, where / "ttc", seed=seed, overwrite=True, relaxation=relaxation)
+    simulate_ttc(truth_all, where / "ttc", seed=seed, overwrite=True, relaxation=relaxation,
+                 input_noise=input_noise)
     truth = json.loads((where / "ttc" / "truth.json").read_text())["tir"]
     nominal = {} if proposed else {"nominal_pressure_Pa": float(truth["NOMPRES"]),
                                    "unloaded_radius_m": float(truth["UNLOADED_RADIUS"])}
@@ -126,6 +130,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
     outside = [f"{c['stage']}:{c['name']} z={c['z']:+.1f}" for c in fitted if not _inside(c)]
     forces = {q.name: q.rms_pct for q in cmp.quantities if q.name in ("Fx", "Fy", "Mz")}
     return {"seed": seed, "binned": binned, "revolution_average": revolution_average,
+            "input_noise": input_noise,
             "fit_s": seconds, "stages": stages,
             "failed": list(run.failed), "forces_pct": forces,
             "forces_ok": all(v <= BAR_PCT for v in forces.values()),
@@ -355,6 +360,9 @@ def main() -> None:
     ap.add_argument("--relaxation", type=float, default=0.0, metavar="METRES",
                     help="the generator's lateral relaxation length (forces lag the slip "
                          "angle set: a real machine's sweep loops)")
+    ap.add_argument("--input-noise", type=float, default=None, metavar="FRACTION",
+                    help="the generator's noise of the slip, camber, load and speed channels "
+                         "(default: that of every channel, 0.01); 0: inputs known exactly")
     args = ap.parse_args()
     overrides = {k: float(v) for k, v in (item.split("=", 1) for item in args.set)}
     global NORMAL
@@ -375,7 +383,8 @@ def main() -> None:
             records = list(pool.map(trial, args.seeds, dirs, [not args.no_bin] * n,
                                     [args.proposed] * n, [args.tir] * n, [overrides] * n,
                                     [args.relaxation] * n,
-                                    [not args.no_revolution_average] * n))
+                                    [not args.no_revolution_average] * n,
+                                    [args.input_noise] * n))
     for r in records:
         f = r["forces_pct"]
         how = ("binned" if r["binned"] else "every sample") + \

@@ -170,7 +170,7 @@ def test_simulate_command_writes_a_ttc_session(tmp_path):
     out = tmp_path / "ttc"
     result = runner.invoke(app, ["simulate", "--format", "ttc", "default", str(out), "--seed",
                                  "4", "--units", "USCS", "--cornering-only", "--implausible",
-                                 "N,RE", "--implausible", "SR"])
+                                 "N,RE", "--implausible", "SR", "--input-noise", "0.002"])
     assert result.exit_code == 0, result.stderr
     assert result.stdout.startswith(f"wrote {out}: SIM1run4 (cornering, ")
     assert sorted(p.name for p in out.iterdir()) == ["SIM1run4.dat", "SIM1run4.mat",
@@ -178,11 +178,17 @@ def test_simulate_command_writes_a_ttc_session(tmp_path):
     truth = json.loads((out / "truth.json").read_text())
     assert truth["units"] == "USCS" and truth["implausible"] == ["N", "RE", "SR"]
     assert truth["tir"]["FNOMIN"] == 5000.0 and truth["seed"] == 4
+    assert truth["noise"] == 0.01 and truth["input_noise"] == 0.002
     bad = runner.invoke(app, ["simulate", "--format", "ttc", "default", str(tmp_path / "x"),
                               "--implausible", "XX"])
     assert bad.exit_code == 2
     assert bad.stderr.strip() == ("error: --implausible: unknown implausible channel 'XX' "
                                   "(one of N, RE, SR)")
+    bad = runner.invoke(app, ["simulate", "--format", "ttc", "default", str(tmp_path / "y"),
+                              "--input-noise", "-1"])
+    assert bad.exit_code == 2
+    assert bad.stderr.strip() == "error: --input-noise: input noise must be >= 0, not -1.0"
+    assert not (tmp_path / "y").exists()
 
 
 def test_lagged_slip_lags_a_ramp_by_the_relaxation_length_over_the_speed():
@@ -217,3 +223,25 @@ def test_relaxation_lags_the_forces_not_the_recorded_slip_angle(tmp_path):
     d = np.abs(a["FY"] - b["FY"])
     d = d[np.isfinite(d)]  # 99th percentile: a step of the slip angle set (end of a warm-up)
     assert 100.0 < np.percentile(d, 99) < 1500.0  # is followed over 0.5 m, by design
+
+
+def test_input_noise_sets_the_noise_of_the_operating_conditions_only(tmp_path):
+    """input_noise = 0: the slip, camber, load and speed channels are those of a noise-free
+    session, the forces and moments keep their 1 % (a rig whose inputs are known exactly;
+    bench/ttc_truth.py --input-noise). Compared where neither session has a logging quirk
+    (spikes, dropouts, repeated rows and a time gap are drawn after the noise, at other
+    samples: the two are matched on their time stamps)."""
+    exact = session(tmp_path / "exact", seed=4, cornering_only=True, input_noise=0.0)
+    clean = session(tmp_path / "clean", seed=4, cornering_only=True, noise=0.0)
+    assert exact.truth["input_noise"] == 0.0 and exact.truth["noise"] == 0.01
+    a, b = (scipy.io.loadmat(s.files[0], squeeze_me=True) for s in (exact, clean))
+    ticks = [np.round(m["ET"] * 100).astype(int) for m in (a, b)]
+    _, ia, ib = np.intersect1d(*ticks, return_indices=True)
+    assert ia.size > 0.99 * ticks[0].size
+    for name in ("SA", "SL", "IA", "FZ", "V"):
+        same = a[name][ia] == b[name][ib]
+        assert same.mean() > 0.99, name
+    for name in ("FY", "MZ", "MX"):
+        assert np.isclose(a[name][ia], b[name][ib], rtol=1e-6, atol=0).mean() < 0.01, name
+    with pytest.raises(InputError, match="input noise"):
+        session(tmp_path / "bad", input_noise=-0.1)

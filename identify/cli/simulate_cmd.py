@@ -95,6 +95,11 @@ def simulate_command(
                                      help="--format ttc: lateral relaxation length: the forces "
                                           "lag the slip angle set over this rolling distance "
                                           "(a real machine's up/down-sweep loop); 0: none."),
+    input_noise: Optional[float] = typer.Option(None, "--input-noise",
+                                                help="--format ttc: noise of the slip, camber, "
+                                                     "load and speed channels (SA, SL, SR, IA, "
+                                                     "FZ, V, N) as a fraction of each one's "
+                                                     "RMS; default: --noise."),
     transients: bool = typer.Option(True, "--transients/--no-transients",
                                     help="Start-up transients in stiffness runs."),
     stick_slip: bool = typer.Option(True, "--stick-slip/--no-stick-slip",
@@ -131,7 +136,7 @@ def simulate_command(
                                    implausible=parse_names(implausible),
                                    cornering_only=cornering_only, tireid=tireid,
                                    mat_version=mat_version.value, relaxation=relaxation,
-                                   overwrite=overwrite)
+                                   input_noise=input_noise, overwrite=overwrite)
             runs = ", ".join(f"{r['stem']} ({r['test']}, {r['samples']} samples)"
                              for r in session.truth["runs"])
             out_console.print(f"wrote {session.path}: {runs}; .mat and .dat each, "

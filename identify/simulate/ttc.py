@@ -100,7 +100,8 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                  noise: float = 0.01, ar1: float = 0.7, units: str = "SI",
                  implausible: Sequence[str] = (), cornering_only: bool = False,
                  tireid: str = "mfid-sim 225/50 R17", mat_version: str = "5",
-                 relaxation: float = 0.0, overwrite: bool = False) -> TtcSession:
+                 relaxation: float = 0.0, input_noise: float | None = None,
+                 overwrite: bool = False) -> TtcSession:
     """Write a simulated TTC session (``.mat`` and ``.dat`` per run, ``truth.json``).
 
     Parameters
@@ -131,6 +132,11 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
         Lateral relaxation length: the model sees the slip angle through a first-order lag
         of this rolling distance, the SA channel records the slip angle set
         (identify.simulate.ttc_signals.lagged_slip); 0 (default): none.
+    input_noise : float or None
+        Noise of the operating-condition channels (slip angle and ratios, camber, load,
+        speeds; identify.simulate.ttc_signals.INPUT_CHANNELS) as a fraction of each one's
+        RMS [-]; None (default): ``noise``. 0 gives inputs known exactly, errors in the
+        forces and moments only.
     overwrite : bool
         Replace a non-empty ``outdir``.
 
@@ -151,6 +157,9 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
                                f"{', '.join(IMPLAUSIBLE)})", key="--implausible")
     if not noise >= 0 or not -1 < ar1 < 1:
         raise InputError(None, f"noise must be >= 0 and ar1 in (-1, 1), got {noise}, {ar1}")
+    if input_noise is not None and not input_noise >= 0:
+        raise InputError(None, f"input noise must be >= 0, not {input_noise}",
+                         key="--input-noise")
     if not 0 <= relaxation < 10:
         raise InputError(None, f"relaxation must be in [0, 10) m, not {relaxation}",
                          key="--relaxation")
@@ -161,7 +170,8 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
     strings = {"source": f"mfid {__version__} simulate --format ttc (not TTC data)",
                "testid": TESTID, "tireid": tireid}
     truth = {"generator": "identify.simulate.ttc", "mfid_version": __version__,
-             "seed": int(seed), "noise": noise, "ar1": ar1, "units": units,
+             "seed": int(seed), "noise": noise, "ar1": ar1,
+             "input_noise": noise if input_noise is None else input_noise, "units": units,
              "mat_version": mat_version, "relaxation_m": relaxation,
              "implausible": list(implausible), "axes": "SAE", "rate_Hz": RATE,
              "model_mode": TRAILER_MODE, "tir": params, "plan": plan.to_dict(),
@@ -175,7 +185,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
             prog = programme(plan, "cornering" if test == "cornering" else "drive_brake", rng)
             act = actual_conditions(prog, rng)
             si = ttc_channels(model, act, number, rng=rng, noise=noise, ar1=ar1,
-                              relaxation=relaxation)
+                              relaxation=relaxation, input_noise=input_noise)
             in_sweep = act["kind"] == 4
             segments = _segments(prog, si["ET"])
             ch, unit_names = to_file_units(si, units)

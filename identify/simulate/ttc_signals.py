@@ -23,7 +23,10 @@ file's units and SAE axes:
   channel's RMS (forces, moments, slip, camber, speeds), at least 0.001 on the slip ratios SL
   and SR (so a cornering run's SL scatters about 0 as a real one does); fixed levels on
   pressure (0.3 kPa), radii (0.5 mm) and temperatures (0.2 K) at ``noise = 0.01``, in
-  proportion otherwise.
+  proportion otherwise. The channels of the operating conditions the model is evaluated at
+  (:data:`INPUT_CHANNELS`: slip angle and ratios, camber, load, speeds) can take their own
+  level ``input_noise`` (a rig whose slip channels are cleaner or noisier than its load
+  cells); their floor on SL and SR scales with it.
 
 All of it is vectorised over the samples.
 """
@@ -39,7 +42,8 @@ from identify.simulate.artefacts import ar1_unit
 from identify.simulate.model import TyreModel
 from identify.simulate.ttc_plan import KIND_CODES, RATE, Programme
 
-__all__ = ["AMBIENT_C", "actual_conditions", "lagged_slip", "to_file_units", "ttc_channels"]
+__all__ = ["AMBIENT_C", "INPUT_CHANNELS", "actual_conditions", "lagged_slip", "to_file_units",
+           "ttc_channels"]
 
 #: Ambient temperature [degC].
 AMBIENT_C = 25.0
@@ -47,6 +51,9 @@ _P_ATM = 101325.0
 #: Least noise of the slip-ratio channels at ``noise = 0.01`` [-]: a real cornering run's SL
 #: scatters about 0 (wheel-speed and radius noise), it is never exactly 0.
 SLIP_FLOOR = {"SL": 1e-3, "SR": 1e-3}
+#: The channels of the operating conditions (slip angle and ratios, camber, load, speeds): their
+#: noise is an error in the model's inputs, not in the measured forces.
+INPUT_CHANNELS = ("SA", "SL", "SR", "IA", "FZ", "V", "N")
 _TARGET_C = {"start": AMBIENT_C, "pressure_change": AMBIENT_C, "warmup": 70.0,
              "transition": 55.0, "sweep": 55.0}
 
@@ -109,8 +116,11 @@ def lagged_slip(alpha: np.ndarray, vx: np.ndarray, relaxation: float) -> np.ndar
 
 def ttc_channels(model: TyreModel, act: dict[str, np.ndarray], run_number: int, *,
                  rng: np.random.Generator, noise: float, ar1: float,
-                 relaxation: float = 0.0) -> dict[str, np.ndarray]:
-    """The TTC channels in SI units and SAE axes (temperatures in degC), noise added.
+                 relaxation: float = 0.0,
+                 input_noise: float | None = None) -> dict[str, np.ndarray]:
+    """The TTC channels in SI units and SAE axes (temperatures in degC), noise added:
+    ``noise`` on every channel, ``input_noise`` instead on :data:`INPUT_CHANNELS` (None: the
+    same ``noise``), each a fraction of the channel's RMS [-].
 
     The eccentricity ripple multiplies the load before the model is evaluated, so the forces
     carry it as a real wheel's would; the model sees the slip angle through the
@@ -147,10 +157,11 @@ def ttc_channels(model: TyreModel, act: dict[str, np.ndarray], run_number: int, 
              "RST": 0.0, "AMBTMP": 0.0}
     for name in ("V", "N", "SA", "IA", "FX", "FY", "FZ", "MX", "MZ", "SL", "SR", *fixed):
         x = ch[name]
-        sigma = (fixed[name] * noise / 0.01 if name in fixed
-                 else noise * float(np.sqrt(np.mean(x ** 2))))
+        level = noise if input_noise is None or name not in INPUT_CHANNELS else input_noise
+        sigma = (fixed[name] * level / 0.01 if name in fixed
+                 else level * float(np.sqrt(np.mean(x ** 2))))
         if name in SLIP_FLOOR:
-            sigma = max(sigma, SLIP_FLOOR[name] * noise / 0.01)
+            sigma = max(sigma, SLIP_FLOOR[name] * level / 0.01)
         if sigma > 0:
             ch[name] = x + sigma * ar1_unit(rng, x.size, ar1)
     with np.errstate(divide="ignore", invalid="ignore"):
