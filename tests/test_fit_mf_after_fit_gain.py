@@ -58,25 +58,41 @@ def _case(rvy1: float, shape_start: dict | None = None) -> tuple[dict, dict]:
     return truth, start
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2, 3])
-def test_a_shape_that_does_not_improve_the_fit_stays_held(seed):
+SEEDS = range(20)
+"""Noise seeds of the held-shape test: enough for a statement about a 5 % test's rate."""
+
+
+def test_a_shape_that_does_not_improve_the_fit_stays_held():
     """RVY1 = 0.003 (about 10 of its standard errors) gives RVY4..6 an effect; the truth's
-    values are their start, so freeing them can lower chi^2 only by fitting noise (measured
-    4.33, 1.15, 1.71, 0.58 for seeds 0-3, chi^2 with 3 degrees of freedom): held, and
-    fit.json says why."""
+    values are their start, so freeing them can lower chi^2 only by fitting noise, and the
+    likelihood-ratio test at 5 % (7.81, chi^2 with 3 degrees of freedom) should take the
+    re-fit in about 1 seed of 20. Measured over seeds 0-39 (2026-11-28, numpy 2.4, scipy
+    1.17): taken in 2 (seeds 0 and 16, gains 8.38 and 8.62: RVY6 = 477 in seed 0, a step at
+    kappa = 0 fitted to the noise), held in 38 (gains 0.19-7.14, mean 2.4 against chi^2(3)'s
+    3). Until that date the test asked for seeds 0-3 all held (seed 0's gain was 4.33 with
+    the packages of then): a 5 % test passes that only 81 % of the time, and seed 0 moved with
+    scipy's solver path. Here at most 3 of 20 may be taken (a calibrated test exceeds that
+    with probability 1.6 %); without the test every re-fit that lowers the objective would be
+    taken, all 20. Every held seed says why in fit.json, with its gain below 7.81."""
     truth, start = _case(0.003)
-    lines: list[str] = []
-    mf = fit_mf(_table(truth, seed), start, stages=("Fy",), seed=0, progress=lines.append)
-    r = mf.result("Fy")
-    assert r.converged and "RVY1" in r.free
-    assert abs(r.parameters["RVY1"] - 0.003) < 3 * r.stderr["RVY1"]
-    assert any("re-fit with RVY4, RVY5, RVY6" in line for line in lines)
-    for name in ("RVY4", "RVY5", "RVY6"):
-        assert name not in r.free and r.parameters[name] == truth[name]
-        why = mf.held["Fy"][name]
-        assert "freeing RVY4, RVY5, RVY6 lowered chi^2 by" in why
-        gain = float(why.split("lowered chi^2 by ")[1].split()[0])
-        assert 0 <= gain < chi2.ppf(0.95, 3)
+    taken = []
+    for seed in SEEDS:
+        lines: list[str] = []
+        mf = fit_mf(_table(truth, seed), start, stages=("Fy",), seed=0, progress=lines.append)
+        r = mf.result("Fy")
+        assert r.converged and "RVY1" in r.free
+        assert abs(r.parameters["RVY1"] - 0.003) < 3 * r.stderr["RVY1"]
+        assert any("re-fit with RVY4, RVY5, RVY6" in line for line in lines)
+        if "RVY4" in r.free:
+            taken.append(seed)
+            continue
+        for name in ("RVY4", "RVY5", "RVY6"):
+            assert name not in r.free and r.parameters[name] == truth[name]
+            why = mf.held["Fy"][name]
+            assert "freeing RVY4, RVY5, RVY6 lowered chi^2 by" in why
+            gain = float(why.split("lowered chi^2 by ")[1].split()[0])
+            assert 0 <= gain < chi2.ppf(0.95, 3)
+    assert len(taken) <= 3, taken
 
 
 def test_a_shape_the_data_need_is_freed_and_recovered():
