@@ -94,6 +94,7 @@ from identify.fit.mf_stage_defs import (
 from identify.fit.mf_problem import (StageProblem, candidates, fitted_problem, stage_problem,
                                      subproblem)
 from identify.fit.mf_rivals import chi2_scale, with_rivals
+from identify.fit.mf_score import score_added
 from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
@@ -206,12 +207,19 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                  if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
         gates = stage_problem(stage, trailer, {**params, **moved}, free=free, like=sp)
         added = [n for n in gates.problem.free if n not in result.free]
-        if not added:
+        # and those the fitted values give an effect that the data ask for, whether or not
+        # what gave it moved by Z_GATE of its own standard errors (identify.fit.mf_score)
+        scored = score_added(result, sp, stage, trailer, params, free, exclude=added)
+        if not added and not scored:
             break
-        held = {n: why for n, why in gates.held.items() if n not in result.free}
+        added += list(scored)
+        held = {n: why for n, why in gates.held.items()
+                if n not in result.free and n not in scored}
         values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
         trial = stage_problem(stage, trailer, values, free=free, hold=held, like=sp)
-        _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit)")
+        _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit"
+                       + "".join(f"; {n}: score chi^2 {v:.3g}" for n, v in scored.items())
+                       + ")")
         # from the optimum as the global search does: on the subsample first (the added
         # coefficients can move the optimum far), then on all points; and from the search's
         # other candidates near it (the added coefficients can make another basin the lower)

@@ -1,0 +1,82 @@
+"""Which held coefficients the fitted values give an effect the data ask for (a score test).
+
+After a stage's global fit, identify.fit.mf_stages._refine frees the coefficients that had no
+effect at the start only because another was 0 there (PEX4 while PEX1 = 0: E (1 - PEX4 sgn
+kappa) is 0 for every PEX4). It looked only at the coefficients that moved by at least
+Z_GATE standard errors, so that a shape is not freed on a move the noise made. A move can be
+large and certain in the model's output and still not Z_GATE standard errors of its own: PEX1
+went from 0 to 0.40 on a generated TTC session (bench/ttc_truth.py seed 21), but its standard
+error was that of one of a pair correlated +0.9998 (PCX1, PEX1), and PEX4 stayed held at 0
+(truth 0.15). The Fx0 optimum without it lay 507 in iid chi^2 above the one with it (3.4 % of
+the objective), and the drive/brake asymmetry that PEX4 describes went into the vertical
+shift: PVX1 = 0.0021 +- 0.00046 for a truth of 0, 4.7 standard errors off; with PEX4 free,
+0.0002. In the 6 of 30 seeds where PEX4 stayed held, PVX1 missed its interval in all 6.
+
+:func:`score_added` asks the data directly: for each coefficient that the screen at the fitted
+values frees (and the moved ones did not), the drop of the objective that one Gauss-Newton
+step with it free would give, less the drop without it (the score, or Lagrange-multiplier,
+statistic of holding it), on the scale of the stage's intervals (identify.fit.mf_rivals.
+chi2_scale). Above the 95 % point of chi^2 with one degree of freedom it is added to the
+re-fit, whose likelihood-ratio test (mf_stages._chi2_gain) still decides whether it is kept.
+"""
+from __future__ import annotations
+
+from typing import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.stats import chi2
+
+from identify.fit.engine import residual_jacobian
+from identify.fit.mf_problem import StageProblem, stage_problem
+from identify.fit.mf_rivals import chi2_scale
+from identify.fit.problem import FitProblem
+from identify.fit.result import FitResult
+
+__all__ = ["SCORE_LEVEL", "score_added", "step_drop"]
+
+SCORE_LEVEL = 0.95
+"""A held coefficient joins the re-fit when its score statistic exceeds this quantile of
+chi^2 with one degree of freedom (3.84)."""
+
+
+def step_drop(problem: FitProblem, x: np.ndarray) -> float:
+    """How much one Gauss-Newton step from ``x`` would lower r^T r (the stage's ``wls``): the
+    squared norm of the residuals' projection on the Jacobian's columns."""
+    r = problem.residuals(x)
+    jac = residual_jacobian(problem, x)
+    step = np.linalg.lstsq(jac, -r, rcond=None)[0]
+    return float(np.sum((jac @ step) ** 2))
+
+
+def score_added(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+                params: Mapping[str, float], free, exclude: Sequence[str] = ()
+                ) -> dict[str, float]:
+    """The coefficients (name -> score statistic, chi^2 on the intervals' scale) that the
+    identifiability screen at ``result``'s values frees, that ``result`` held, that are not in
+    ``exclude``, and whose freeing one Gauss-Newton step says would lower the objective beyond
+    the SCORE_LEVEL point of chi^2(1) (see module). ``params``: the values the stage started
+    from; ``free``: the stage's candidate list (stage_problem); ``sp``: ``result``'s problem."""
+    values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
+    wide = stage_problem(stage, trailer, values, free=free, like=sp)
+    if wide is None:
+        return {}
+    names = [n for n in wide.problem.free if n not in result.free and n not in exclude]
+    if not names:
+        return {}
+    base = list(sp.problem.free)
+    xb = np.array([values[n] for n in base])
+    se = np.array([result.stderr.get(n, np.nan) for n in base])
+    scale = chi2_scale(sp.problem, xb, se)
+    if not scale > 0:
+        return {}
+    without = step_drop(sp.problem, xb)
+    needed = chi2.ppf(SCORE_LEVEL, 1)
+    out = {}
+    for name in names:
+        trial = stage_problem(stage, trailer, values, free={stage: [*result.free, name]}, hold={},
+                              like=sp)
+        score = (step_drop(trial.problem, trial.problem.x0()) - without) / scale
+        if score > needed:
+            out[name] = score
+    return out
