@@ -60,9 +60,14 @@ def truth():
     return read_tir(default_tir_path()).params()
 
 
-def test_a_held_coefficient_the_data_ask_for_is_named(truth):
+@pytest.fixture(scope="module")
+def held(truth):
+    return _held_fit(truth)
+
+
+def test_a_held_coefficient_the_data_ask_for_is_named(truth, held):
     assert truth["PEX4"] == pytest.approx(0.15) and truth["PEX1"] != 0
-    result, sp, table, start = _held_fit(truth)
+    result, sp, table, start = held
     scored = score_added(result, sp, "Fx0", table, start, None)
     assert set(scored) == {"PEX4"}
     assert scored["PEX4"] > 5 * chi2.ppf(0.95, 1)  # 25.0: not a borderline case
@@ -82,8 +87,8 @@ def test_no_coefficient_is_named_when_the_tyre_lacks_its_effect(truth):
     assert score_added(result, sp, "Fx0", table, start, None) == {}
 
 
-def test_excluded_and_free_coefficients_are_not_tested(truth):
-    result, sp, table, start = _held_fit(truth)
+def test_excluded_coefficients_are_not_tested(held):
+    result, sp, table, start = held
     assert score_added(result, sp, "Fx0", table, start, None, exclude=("PEX4",)) == {}
 
 
