@@ -58,7 +58,7 @@ def _case(rvy1: float, shape_start: dict | None = None) -> tuple[dict, dict]:
     return truth, start
 
 
-SEEDS = range(20)
+SEEDS = range(12)
 """Noise seeds of the held-shape test: enough for a statement about a 5 % test's rate."""
 
 
@@ -71,9 +71,9 @@ def test_a_shape_that_does_not_improve_the_fit_stays_held():
     kappa = 0 fitted to the noise), held in 38 (gains 0.19-7.14, mean 2.4 against chi^2(3)'s
     3). Until that date the test asked for seeds 0-3 all held (seed 0's gain was 4.33 with
     the packages of then): a 5 % test passes that only 81 % of the time, and seed 0 moved with
-    scipy's solver path. Here at most 3 of 20 may be taken (a calibrated test exceeds that
-    with probability 1.6 %); without the test every re-fit that lowers the objective would be
-    taken, all 20. Every held seed says why in fit.json, with its gain below 7.81."""
+    scipy's solver path. Here at most 2 of seeds 0-11 may be taken (a calibrated test exceeds
+    that with probability 2.0 %); without the test every re-fit that lowers the objective would
+    be taken, all 12. Every held seed says why in fit.json, with its gain below 7.81."""
     truth, start = _case(0.003)
     taken = []
     for seed in SEEDS:
@@ -92,7 +92,7 @@ def test_a_shape_that_does_not_improve_the_fit_stays_held():
             assert "freeing RVY4, RVY5, RVY6 lowered chi^2 by" in why
             gain = float(why.split("lowered chi^2 by ")[1].split()[0])
             assert 0 <= gain < chi2.ppf(0.95, 3)
-    assert len(taken) <= 3, taken
+    assert len(taken) <= 2, taken
 
 
 def test_a_shape_the_data_need_is_freed_and_recovered():
