@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from identify.fit.identifiability import unidentified
@@ -99,3 +100,28 @@ def test_conditional_coefficients_are_unidentified_and_round_trip_through_json(m
     back = FitResult.from_dict(flagged.to_dict())
     assert back.conditional == flagged.conditional
     assert set(unidentified(back)) == set(flagged.unidentified)
+
+
+def test_a_shift_held_for_slip_angles_of_one_sign_leaves_what_trades_with_it_conditional():
+    """Combined slip at slip angles 3 and 6 deg only (a TTC drive/brake run sets 0, -3, -6
+    deg; the stage's points leave out 0) at two cambers, from a tyre with RBY3 = -0.03: the
+    coverage holds RBY3 at 0 (a shift of the slip angle needs both signs), and RBY2, which
+    trades with it along By_kappa = RBY1 cos(atan(RBY2 (alpha - RBY3))), is listed as resting
+    on it (mf_conditional.ONE_SIGN). Without the ONE_SIGN reason nothing is flagged."""
+    truth = dict(_truth(), RBY3=-0.03)
+    d = np.deg2rad
+    pts = pd.concat([pd.DataFrame({"run": f"comb_{fz:g}_{g:g}_{a:g}", "Vx": 16.7,
+                                   "kappa": np.linspace(-0.25, 0.25, 41), "alpha": d(a),
+                                   "gamma": d(g), "p": 2.5e5, "Fz": fz})
+                     for fz in (3000.0, 5000.0, 7000.0) for g in (0.0, 2.0) for a in (3.0, 6.0)],
+                    ignore_index=True)
+    data = add_noise(simulate(truth, pts), 3)
+    start = dict(truth, RBY3=0.0)
+    sp = stage_problem("Fy", data, start)
+    assert sp.held["RBY3"] == "data: slip angles of one sign only"
+    result = fit(sp.problem, starts=sp.problem.x0()[None, :])
+    assert result.converged and "RBY2" in result.free
+    found = conditional_on_held(result, sp, "Fy", data, start)
+    assert "RBY2" in found and "RBY3 = 0" in found["RBY2"], found
+    other = dataclasses.replace(sp, held={**sp.held, "RBY3": "data: one load"})
+    assert "RBY2" not in conditional_on_held(result, other, "Fy", data, start)

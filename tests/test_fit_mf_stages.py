@@ -166,6 +166,13 @@ def test_coefficients_the_data_cannot_identify_are_held(truth):
     fy = stage_problem("Fy", data[np.abs(data["alpha"]) > np.deg2rad(1.0)], truth)
     for n in ("RBY4", "RVY3"):
         assert fy.held[n] == "data: no camber variation"
+    # a shift of the slip angle, and the slip angles all of one sign
+    assert fy.held["RBY3"] == "data: slip angles of one sign only"
+    assert "RBY3" not in fy.problem.free
+    # of both signs, -3 and 3 deg: still two values of |alpha|, found by the sensitivity screen
+    both = _simulate(truth, _sweeps(combined_alpha_deg=(-3.0, 3.0)))
+    both = both[both["gamma"] == 0.0].reset_index(drop=True)
+    fy = stage_problem("Fy", both[np.abs(both["alpha"]) > np.deg2rad(1.0)], truth)
     assert fy.held["RBY3"].startswith("sensitivity: not separable from")
     assert "RBY3" not in fy.problem.free
     # RVY1 = RVY2 = RVY3 = 0: the shape coefficients of SVyk have no effect

@@ -126,7 +126,8 @@ QBZ2 load; QBZ3 load2:2; QBZ4 camber; QBZ5 camber; QDZ2 load; QDZ3 camber; QDZ4 
 QDZ7 load; QDZ8 camber; QDZ9 camber load; QDZ10 camber:2; QDZ11 camber:2 load; QEZ2 load;
 QEZ3 load2:2; QEZ5 camber; QHZ2 load; QHZ3 camber; QHZ4 camber load; PPZ1 pressure;
 PPZ2 pressure camber;
-RBX3 camber:2; REX2 load; RBY4 camber:2; REY2 load; RHY2 load; RVY2 load; RVY3 camber;
+RBX3 camber:2; REX2 load; RBY3 alpha_sign; RBY4 camber:2; REY2 load; RHY2 load; RVY2 load;
+RVY3 camber;
 SSZ3 camber; SSZ4 camber load;
 QSX2 camber; QSX7 camber; QSX10 camber; QSX11 camber; QSX12 camber:2; QSX14 camber;
 PPMX1 pressure camber;
@@ -137,16 +138,21 @@ _NEEDS_ITEMS = [item.split() for item in _NEEDS_TEXT.replace("\n", " ").split(";
 NEEDS: dict[str, tuple[str, ...]] = {
     item[0]: tuple(t.split(":")[0] for t in item[1:]) for item in _NEEDS_ITEMS}
 """Coverage a coefficient needs: ``load``/``load2``/``load3`` >= 2/3/4 load levels (PKX3: with
-three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches,
-PKX2 = +-a, and a local solve from near one branch can end on the other), ``pressure``/
-``pressure2`` >= 2/3 pressures, ``speed``/``speed2`` >= 2/3 speeds, ``camber`` a camber
-variation, ``kappa_sign``/``alpha_sign`` slip of both signs. Geometry: R0 Q_RE0 - Re is
-(Fz0/Cz') (DREFF atan(BREFF x) + FREFF x) at the data's loads x = Fz/Fz0, so at one pressure n
-load levels determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); with three loads
-BREFF is separable from Q_RE0 only through the pressure scaling of that term by the held
-Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more pressures with PFZ1 != 0 (the
-sensitivity screen holds it otherwise, and the value then rests on the CFz relation's PFZ1);
-Q_V1 needs free rolling at two speeds (omega^2 term)."""
+three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on two branches, PKX2
+= +-a, and a local solve from near one branch can end on the other), ``pressure``/``pressure2``
+>= 2/3 pressures, ``speed``/``speed2`` >= 2/3 speeds, ``camber`` a camber variation,
+``kappa_sign``/``alpha_sign`` slip of both signs (RBY3, a shift of the slip angle in By_kappa =
+(RBY1 + RBY4 gamma^2) cos(atan(RBY2 (alpha - RBY3))), needs combined slip at slip angles of both
+signs: at one sign, as on a TTC drive/brake run's 0, -3, -6 deg, it trades with RBY2 along a
+ridge that only camber bends; the generated sessions of the bundled tyre (RBY3 = 0) put it at
+-0.015 +- 0.019 rad over 60 seeds, and a written RBY3 of -0.04 makes By_kappa 28 % smaller at +6
+deg than at -6 deg on the side no point measured). Geometry: R0 Q_RE0 - Re is (Fz0/Cz') (DREFF
+atan(BREFF x) + FREFF x) at the data's loads x = Fz/Fz0, so at one pressure n load levels
+determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); with three loads BREFF is
+separable from Q_RE0 only through the pressure scaling of that term by the held Cz' =
+VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more pressures with PFZ1 != 0 (the sensitivity
+screen holds it otherwise, and the value then rests on the CFz relation's PFZ1); Q_V1 needs free
+rolling at two speeds (omega^2 term)."""
 TERM_VARIABLES = {"camber": "gamma", "load": "dfz", "load2": "dfz", "load3": "dfz",
                   "pressure": "dpi", "pressure2": "dpi"}
 """The variable of a need that the coefficient's term multiplies: |gamma| [rad], |dfz| [-],
