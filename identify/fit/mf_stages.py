@@ -202,64 +202,44 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     added."""
     added_all: list[str] = []
     rivals_used = 0
+    rejected: set[str] = set()  # freed once and not kept: not tried again
     for _ in range(MAX_ROUNDS):
-        moved = {n: float(result.parameters[n]) for n in result.free
-                 if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
-        gates = stage_problem(stage, trailer, {**params, **moved}, free=free, like=sp)
-        added = [n for n in gates.problem.free if n not in result.free]
-        # and those the fitted values give an effect that the data ask for, whether or not
-        # what gave it moved by Z_GATE of its own standard errors (identify.fit.mf_score)
-        scored = score_added(result, sp, stage, trailer, params, free, exclude=added)
-        if not added and not scored:
+        progressed = False
+        # first the coefficients the significant moves give an effect; then, each group
+        # with its own likelihood-ratio test, those the fitted values give an effect that
+        # the data ask for, whether or not what gave it moved by Z_GATE of its own standard
+        # errors (identify.fit.mf_score): in one test a weak one rode along with a strong
+        # one (a short TTC session's Mx: QSX6 at score 3.9 beside PPMX1)
+        for kind in ("moved", "score"):
+            if kind == "moved":
+                moved = {n: float(result.parameters[n]) for n in result.free
+                         if abs(result.parameters[n] - params[n]) >= Z_GATE * result.stderr[n]}
+                gates = stage_problem(stage, trailer, {**params, **moved}, free=free, like=sp)
+                added = [n for n in gates.problem.free
+                         if n not in result.free and n not in rejected]
+                held = {n: why for n, why in gates.held.items() if n not in result.free}
+                held.update({n: sp.held[n] for n in gates.problem.free
+                             if n in rejected and n in sp.held})
+                scored: dict[str, float] = {}
+            else:
+                scored = score_added(result, sp, stage, trailer, params, free,
+                                     exclude=tuple(rejected))
+                added = list(scored)
+                held = {n: why for n, why in sp.held.items() if n not in added}
+            if not added:
+                continue
+            step = _refit_with(result, sp, stage, trailer, params, free, added, held, scored,
+                               others, solved, progress, n_lhs=n_lhs, seed=seed)
+            result, sp = step.result, step.sp
+            if not step.kept:
+                rejected.update(added)
+                continue
+            progressed = True
+            added_all += added
+            rivals_used += step.rivals
+            others, solved = step.others, step.solved
+        if not progressed:
             break
-        added += list(scored)
-        held = {n: why for n, why in gates.held.items()
-                if n not in result.free and n not in scored}
-        values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
-        trial = stage_problem(stage, trailer, values, free=free, hold=held, like=sp)
-        _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit"
-                       + "".join(f"; {n}: score chi^2 {v:.3g}" for n, v in scored.items())
-                       + ")")
-        # from the optimum as the global search does: on the subsample first (the added
-        # coefficients can move the optimum far), then on all points; and from the search's
-        # other candidates near it (the added coefficients can make another basin the lower)
-        rivals = _rivals(sp.problem, result, others)
-        # and from the least-squares point a polish left for the optimum (a constrained
-        # stage): with the added coefficients free it may hold the constraints itself
-        unpolished = _unpolished(result, solved)
-        # and from the defaults and Latin-hypercube points around the optimum, as the global
-        # search (start_points): the added coefficients can open basins that a start at
-        # their carried-forward values does not reach
-        around = start_points(trial.problem, n_lhs, seed)
-        starts = np.vstack([around[:1]] + [
-            [c.get(n, float(values[n])) for n in trial.problem.free]
-            for c in unpolished + rivals] + [around[1:]])
-        refit, candidates, trial_solved = _global_fit(trial, starts, None, give_up=True)
-        refit = _continue_refit(refit, result, trial, len(added), progress)
-        spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
-        if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
-            result = dataclasses.replace(result, nfev=result.nfev + spent)
-            # e.g. a product of two weakly determined coefficients: keep the global optimum
-            sp = dataclasses.replace(sp, held={**sp.held, **{
-                n: f"sensitivity: {AFTER_FIT}, and the re-fit with it did not converge or "
-                   "ended higher" for n in added}})
-            break
-        gain = _chi2_gain(trial.problem, result, refit)
-        needed, names = chi2.ppf(0.95, len(added)), ", ".join(added)
-        if gain < needed:
-            result = dataclasses.replace(result, nfev=result.nfev + spent)
-            sp = dataclasses.replace(sp, held={**sp.held, **{
-                n: f"sensitivity: {AFTER_FIT}, and freeing {names} lowered chi^2 by {gain:.2f} "
-                   f"only (95 %: {needed:.2f})" for n in added}})
-            _say(progress, f"MF {stage}: {names} held: the re-fit lowered chi^2 by "
-                           f"{gain:.2f}, not significant")
-            break
-        added_all += added
-        rivals_used += len(rivals)
-        sp, others, solved = trial, candidates, trial_solved
-        result = dataclasses.replace(
-            refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
-            seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
     if added_all:
         result = dataclasses.replace(
             result, message=f"{result.message} (then re-fitted from the global optimum"
@@ -267,6 +247,71 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
                             + f" with {', '.join(added_all)}, which had no effect at the "
                               "start)")
     return result, sp, others, solved
+
+
+@dataclasses.dataclass(frozen=True)
+class _RefitStep:
+    """One re-fit of :func:`_refine`: the result and problem to go on with (the re-fit's when
+    ``kept``, else the optimum's with the added coefficients held and why), the global fit's
+    candidates and solves when kept, and how many rival starts it took."""
+    kept: bool
+    result: FitResult
+    sp: StageProblem
+    others: Sequence[Mapping[str, float]] = ()
+    solved: Sequence[Solved] = ()
+    rivals: int = 0
+
+
+def _refit_with(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+                params: Mapping[str, float], free, added: list[str], held: Mapping[str, str],
+                scored: Mapping[str, float], others: Sequence[Mapping[str, float]],
+                solved: Sequence[Solved], progress: Progress | None, *, n_lhs: int,
+                seed: int) -> _RefitStep:
+    """Re-fit the stage with ``added`` freed (``held``: every other candidate held, and why)
+    from the starts :func:`_refine` describes, and keep it when its likelihood-ratio gain
+    passes the 95 % point of chi^2 with len(added) degrees of freedom. ``scored``: the score
+    statistics of added coefficients that the score test named (for the progress line)."""
+    values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
+    trial = stage_problem(stage, trailer, values, free=free, hold=dict(held), like=sp)
+    _say(progress, f"MF {stage}: re-fit with {', '.join(added)} (effective after the fit"
+                   + "".join(f"; {n}: score chi^2 {v:.3g}" for n, v in scored.items()) + ")")
+    # from the optimum as the global search does: on the subsample first (the added
+    # coefficients can move the optimum far), then on all points; and from the search's
+    # other candidates near it (the added coefficients can make another basin the lower)
+    rivals = _rivals(sp.problem, result, others)
+    # and from the least-squares point a polish left for the optimum (a constrained
+    # stage): with the added coefficients free it may hold the constraints itself
+    unpolished = _unpolished(result, solved)
+    # and from the defaults and Latin-hypercube points around the optimum, as the global
+    # search (start_points): the added coefficients can open basins that a start at
+    # their carried-forward values does not reach
+    around = start_points(trial.problem, n_lhs, seed)
+    starts = np.vstack([around[:1]] + [
+        [c.get(n, float(values[n])) for n in trial.problem.free]
+        for c in unpolished + rivals] + [around[1:]])
+    refit, candidates, trial_solved = _global_fit(trial, starts, None, give_up=True)
+    refit = _continue_refit(refit, result, trial, len(added), progress)
+    spent = refit if isinstance(refit, int) else refit.nfev  # int: search not converged
+    if isinstance(refit, int) or not refit.converged or refit.wls > result.wls:
+        # e.g. a product of two weakly determined coefficients: keep the global optimum
+        return _RefitStep(False, dataclasses.replace(result, nfev=result.nfev + spent),
+                          dataclasses.replace(sp, held={**sp.held, **{
+                              n: f"sensitivity: {AFTER_FIT}, and the re-fit with it did not "
+                                 "converge or ended higher" for n in added}}))
+    gain = _chi2_gain(trial.problem, result, refit)
+    needed, names = chi2.ppf(0.95, len(added)), ", ".join(added)
+    if gain < needed:
+        _say(progress, f"MF {stage}: {names} held: the re-fit lowered chi^2 by "
+                       f"{gain:.2f}, not significant")
+        return _RefitStep(False, dataclasses.replace(result, nfev=result.nfev + spent),
+                          dataclasses.replace(sp, held={**sp.held, **{
+                              n: f"sensitivity: {AFTER_FIT}, and freeing {names} lowered "
+                                 f"chi^2 by {gain:.2f} only (95 %: {needed:.2f})"
+                              for n in added}}))
+    kept = dataclasses.replace(
+        refit, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
+        seconds=result.seconds + refit.seconds, nfev=result.nfev + refit.nfev)
+    return _RefitStep(True, kept, trial, candidates, trial_solved, len(rivals))
 
 
 def _chi2_gain(problem: FitProblem, result: FitResult, refit: FitResult) -> float:
