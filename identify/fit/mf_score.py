@@ -16,8 +16,9 @@ shift: PVX1 = 0.0021 +- 0.00046 for a truth of 0, 4.7 standard errors off; with 
 values frees (and the moved ones did not), the drop of the objective that one Gauss-Newton
 step with it free would give, less the drop without it (the score, or Lagrange-multiplier,
 statistic of holding it), on the scale of the stage's intervals (identify.fit.mf_rivals.
-chi2_scale). Above the 95 % point of chi^2 with one degree of freedom it is added to the
-re-fit, whose likelihood-ratio test (mf_stages._chi2_gain) still decides whether it is kept.
+chi2_scale). Above the 95 % point of chi^2 with one degree of freedom it is freed in a re-fit
+of its own, after the moved ones' (mf_stages._refit_with), whose likelihood-ratio test
+(mf_stages._chi2_gain) decides whether it is kept.
 """
 from __future__ import annotations
 
@@ -36,8 +37,8 @@ from identify.fit.result import FitResult
 __all__ = ["SCORE_LEVEL", "score_added", "step_drop"]
 
 SCORE_LEVEL = 0.95
-"""A held coefficient joins the re-fit when its score statistic exceeds this quantile of
-chi^2 with one degree of freedom (3.84)."""
+"""A held coefficient is re-fitted when its score statistic exceeds this quantile of chi^2
+with one degree of freedom (3.84)."""
 
 
 def step_drop(problem: FitProblem, x: np.ndarray) -> float:

@@ -199,7 +199,10 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
     and their solves there (``solved``: :func:`_global_fit`'s). The FitResult keeps the
     global search's n_starts and starts_at_best, adds
     the re-fits' seconds and model evaluations to the search's, and its message says what was
-    added."""
+    added. In each round the coefficients the significant moves give an effect are re-fitted
+    first, then those whose score statistic at the fitted values passes chi^2(1)'s 95 % point
+    (identify.fit.mf_score), each group with its own re-fit and likelihood-ratio test
+    (:func:`_refit_with`); a group not kept is not tried again."""
     added_all: list[str] = []
     rivals_used = 0
     rejected: set[str] = set()  # freed once and not kept: not tried again
@@ -209,7 +212,7 @@ def _refine(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFra
         # with its own likelihood-ratio test, those the fitted values give an effect that
         # the data ask for, whether or not what gave it moved by Z_GATE of its own standard
         # errors (identify.fit.mf_score): in one test a weak one rode along with a strong
-        # one (a short TTC session's Mx: QSX6 at score 3.9 beside PPMX1)
+        # one (a short TTC session's Mx: QSX6, score 4.5, truth 0, beside PPMX1)
         for kind in ("moved", "score"):
             if kind == "moved":
                 moved = {n: float(result.parameters[n]) for n in result.free
