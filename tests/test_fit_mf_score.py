@@ -16,7 +16,7 @@ import pytest
 from scipy.stats import chi2
 
 from identify.fit.mf_rivals import chi2_scale
-from identify.fit.mf_score import score_added, step_drop
+from identify.fit.mf_score import column_gains, score_added
 from identify.fit.mf_stages import stage_problem
 from identify.fit.optimize import fit
 from identify.io.tir import read_tir
@@ -72,13 +72,14 @@ def test_a_held_coefficient_the_data_ask_for_is_named(truth, held):
     assert set(scored) == {"PEX4"}
     assert scored["PEX4"] > 5 * chi2.ppf(0.95, 1)  # 25.0: not a borderline case
     # the score statistic is the likelihood-ratio one to first order: freeing PEX4 and
-    # solving again lowers the objective by about as much, on the same scale
+    # solving again lowers the objective by about as much, on the same scale (a model
+    # nonlinear in PEX4: the step's prediction is 5 % short of the solve)
     free = stage_problem("Fx0", table, start, free={"Fx0": [*result.free, "PEX4"]}, hold={})
     refit = fit(free.problem, starts=free.problem.x0()[None, :])
     xb = np.array([result.parameters[n] for n in sp.problem.free])
     se = np.array([result.stderr[n] for n in sp.problem.free])
     lr = (result.wls - refit.wls) / chi2_scale(sp.problem, xb, se)
-    assert scored["PEX4"] == pytest.approx(lr, rel=0.2)
+    assert scored["PEX4"] == pytest.approx(lr, rel=0.1)  # 24.95 against 26.27 measured
 
 
 def test_no_coefficient_is_named_when_the_tyre_lacks_its_effect(truth):
@@ -92,24 +93,20 @@ def test_excluded_coefficients_are_not_tested(held):
     assert score_added(result, sp, "Fx0", table, start, None, exclude=("PEX4",)) == {}
 
 
-def test_the_step_drop_is_zero_at_an_optimum_and_the_cost_difference_on_a_line():
-    """step_drop on a problem linear in its coefficients: from the least-squares optimum 0,
-    from any other point exactly the fall of r^T r to the optimum."""
-    import lmfit
-
-    from identify.fit.problem import FitProblem
-
+def test_the_column_gain_is_zero_at_an_optimum_and_the_cost_difference_on_a_line():
+    """column_gains on a model linear in its coefficients, y = a + b x: the gain of freeing b
+    beside a is exactly the fall of r^T r from the best constant to the best line (r at the
+    best constant), and 0 when r is already the line's residual; a column that lies in the
+    span of the free ones gains nothing."""
     rng = np.random.default_rng(3)
     x = np.linspace(0.0, 1.0, 50)
     y = 1.0 + 2.0 * x + 0.1 * rng.standard_normal(x.size)
-    params = lmfit.Parameters()
-    params.add("a", value=0.0)
-    params.add("b", value=0.0)
-    problem = FitProblem("line", "a + b x", params, lambda v: v["a"] + v["b"] * x, y,
-                         np.full(x.size, 1.0), objective="wls")
-    best = np.polyfit(x, y, 1)[::-1]
-    assert step_drop(problem, best) == pytest.approx(0.0, abs=1e-12)
-    r0 = problem.residuals(np.zeros(2))
-    rb = problem.residuals(best)
-    # to the finite-difference Jacobian's error (relative step 1e-6; 3e-8 measured)
-    assert step_drop(problem, np.zeros(2)) == pytest.approx(r0 @ r0 - rb @ rb, rel=1e-6)
+    ones, col = np.ones((x.size, 1)), x[:, None]
+    r_const = ones[:, 0] * y.mean() - y
+    line = np.polyfit(x, y, 1)
+    r_line = np.polyval(line, x) - y
+    gain = column_gains(ones, col, r_const)
+    assert gain[0] == pytest.approx(r_const @ r_const - r_line @ r_line, rel=1e-12)
+    both = np.column_stack([ones, col])
+    assert column_gains(both, col, r_line)[0] == 0.0
+    assert column_gains(ones, col, r_line)[0] == pytest.approx(0.0, abs=1e-20)

@@ -101,11 +101,14 @@ def _solve(problem, x0: np.ndarray, solved: list[Solved]
     return True, x, float(r @ r), 1
 
 
-def chi2_scale(problem, xb: np.ndarray, se: np.ndarray) -> float:
+def chi2_scale(problem, xb: np.ndarray, se: np.ndarray, jac: np.ndarray | None = None
+               ) -> float:
     """s^2 x the median ratio of the variances ``se``^2 to the iid ones at ``xb``: an objective
-    difference divided by it is chi^2 on the scale of the reported intervals."""
+    difference divided by it is chi^2 on the scale of the reported intervals. ``jac``: the
+    Jacobian of ``problem``'s weighted residuals at ``xb``, when the caller has it."""
     r = problem.residuals(xb)
     s2 = residual_variance(0.5 * float(r @ r), r.size, xb.size)
-    iid = np.sqrt(np.diag(covariance(residual_jacobian(problem, xb), r)))
+    jac = residual_jacobian(problem, xb) if jac is None else jac
+    iid = np.sqrt(np.diag(covariance(jac, r)))
     ok = np.isfinite(iid) & (iid > 0)
     return s2 * (float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0)

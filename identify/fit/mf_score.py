@@ -31,23 +31,30 @@ from scipy.stats import chi2
 from identify.fit.engine import residual_jacobian
 from identify.fit.mf_problem import StageProblem, stage_problem
 from identify.fit.mf_rivals import chi2_scale
-from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 
-__all__ = ["SCORE_LEVEL", "score_added", "step_drop"]
+__all__ = ["SCORE_LEVEL", "column_gains", "score_added"]
 
 SCORE_LEVEL = 0.95
 """A held coefficient is re-fitted when its score statistic exceeds this quantile of chi^2
 with one degree of freedom (3.84)."""
+NULL_REL = 1e-12
+"""A column whose part orthogonal to the free ones has a squared norm below this fraction of
+its own adds nothing (its gain is 0)."""
 
 
-def step_drop(problem: FitProblem, x: np.ndarray) -> float:
-    """How much one Gauss-Newton step from ``x`` would lower r^T r (the stage's ``wls``): the
-    squared norm of the residuals' projection on the Jacobian's columns."""
-    r = problem.residuals(x)
-    jac = residual_jacobian(problem, x)
-    step = np.linalg.lstsq(jac, -r, rcond=None)[0]
-    return float(np.sum((jac @ step) ** 2))
+def column_gains(base: np.ndarray, new: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """For each column of ``new`` (n, m): how much more one Gauss-Newton step would lower
+    r^T r with it free beside the columns of ``base`` (n, k) than with ``base`` alone, i.e.
+    (q . r)^2 / (q . q), q the part of the column orthogonal to ``base`` (exact for a model
+    linear in its coefficients; 0 where nothing is left, NULL_REL). One least-squares solve
+    for all columns, instead of a step with each."""
+    rhs = np.column_stack([r, new])
+    rest = rhs - base @ np.linalg.lstsq(base, rhs, rcond=None)[0]
+    r_perp, q = rest[:, 0], rest[:, 1:]
+    qq = np.einsum("ij,ij->j", q, q)
+    ok = qq > NULL_REL * np.einsum("ij,ij->j", new, new)
+    return np.where(ok, (q.T @ r_perp) ** 2 / np.where(ok, qq, 1.0), 0.0)
 
 
 def score_added(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
@@ -57,7 +64,9 @@ def score_added(result: FitResult, sp: StageProblem, stage: str, trailer: pd.Dat
     identifiability screen at ``result``'s values frees, that ``result`` held, that are not in
     ``exclude``, and whose freeing one Gauss-Newton step says would lower the objective beyond
     the SCORE_LEVEL point of chi^2(1) (see module). ``params``: the values the stage started
-    from; ``free``: the stage's candidate list (stage_problem); ``sp``: ``result``'s problem."""
+    from; ``free``: the stage's candidate list (stage_problem); ``sp``: ``result``'s problem.
+    One Jacobian with every such coefficient free gives all the statistics
+    (:func:`column_gains`)."""
     values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
     wide = stage_problem(stage, trailer, values, free=free, like=sp)
     if wide is None:
@@ -66,18 +75,16 @@ def score_added(result: FitResult, sp: StageProblem, stage: str, trailer: pd.Dat
     if not names:
         return {}
     base = list(sp.problem.free)
+    both = stage_problem(stage, trailer, values, free={stage: [*base, *names]}, hold={},
+                         like=sp).problem
+    x = both.x0()
+    jac = residual_jacobian(both, x)
+    jb = jac[:, [both.free.index(n) for n in base]]
     xb = np.array([values[n] for n in base])
     se = np.array([result.stderr.get(n, np.nan) for n in base])
-    scale = chi2_scale(sp.problem, xb, se)
+    scale = chi2_scale(sp.problem, xb, se, jac=jb)
     if not scale > 0:
         return {}
-    without = step_drop(sp.problem, xb)
+    gains = column_gains(jb, jac[:, [both.free.index(n) for n in names]], both.residuals(x))
     needed = chi2.ppf(SCORE_LEVEL, 1)
-    out = {}
-    for name in names:
-        trial = stage_problem(stage, trailer, values, free={stage: [*result.free, name]}, hold={},
-                              like=sp)
-        score = (step_drop(trial.problem, trial.problem.x0()) - without) / scale
-        if score > needed:
-            out[name] = score
-    return out
+    return {n: float(g / scale) for n, g in zip(names, gains) if g / scale > needed}
