@@ -294,6 +294,8 @@ def coverage_tables(records: list[dict]) -> dict:
     widths = [_half_width(c) / abs(c["value"]) for rec in records for c in rec["coefs"]
               if _identifiable(c) and c["value"] != 0]
     n_ident = _median([r["identifiable"] for r in rows], 0)
+    beyond = beyond_chance(per)
+    band = Z95 * math.sqrt(0.95 * 0.05 / max(pooled_n, 1))
     return {"seeds": seeds, "per_coefficient": per, "failing": failing, "why": why,
             "diagnosis": diagnosis,
             "per_seed": rows, "seeds_all_inside": sum(r["all"] for r in rows),
@@ -303,9 +305,8 @@ def coverage_tables(records: list[dict]) -> dict:
             "p_seed_all_inside": 0.95 ** n_ident,
             "median_half_width": _median(widths),
             "a_met": not failing, "b_met": sum(r["all"] for r in rows) >= 0.9 * seeds,
-            "beyond_chance": beyond_chance(per),
-            "c_met": not beyond_chance(per) and pooled_in / max(pooled_n, 1) >= 0.95 - Z95
-            * math.sqrt(0.95 * 0.05 / max(pooled_n, 1))}
+            "beyond_chance": beyond,
+            "c_met": not beyond and pooled_in / max(pooled_n, 1) >= 0.95 - band}
 
 
 def compare_widths(before: list[dict], after: list[dict]) -> dict:
