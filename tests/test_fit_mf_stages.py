@@ -17,6 +17,7 @@ import pytest
 from identify.fit.limits import table_limits
 from identify.fit.mf_constraints import validity_grid
 from identify.fit.mf_stage_defs import STAGES
+from identify.fit.mf_data import both_signs
 from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_problem
 from identify.fit.optimize import fit
 from identify.fit.run import FitSettings
@@ -469,3 +470,17 @@ def test_a_second_pass_solves_the_stages_whose_inputs_a_later_stage_moved(truth,
     assert "PKX3" in one.held["Fx0"]
     for stage, held in one.held.items():
         assert held.items() <= two.held[stage].items(), stage
+
+
+def test_a_zero_sweep_off_zero_is_no_second_sign(truth):
+    """A real drive/brake run's "0 deg" sweep sits a few tenths of a degree off zero (the
+    slip-angle channel's offset). Beside sweeps at 3 and 6 deg, one at -0.4 deg is no second
+    sign (RBY3 stays held as for slip angles of one sign: counted by any sample beyond 0.25
+    deg, it was freed), one at -3 deg is; a single stray sample is none either."""
+    for alphas, one_sign in (((-0.4, 3.0, 6.0), True), ((-3.0, 3.0, 6.0), False)):
+        data = _simulate(truth, _sweeps(combined_alpha_deg=alphas))
+        fy = stage_problem("Fy", data, truth)
+        assert (fy.held.get("RBY3") == "data: slip angles of one sign only") is one_sign
+    a = np.deg2rad(np.r_[np.full(500, 3.0), np.full(500, 6.0), -5.0])
+    assert not both_signs(a, np.deg2rad(0.25))
+    assert both_signs(np.r_[a, np.deg2rad(np.full(60, -2.0))], np.deg2rad(0.25))

@@ -45,6 +45,9 @@ FREE_MIN_SPEED = 1.0
 """[m/s] free-rolling points below this speed are not used for Re = Vx/omega."""
 CAMBER_SPREAD = np.deg2rad(0.5)
 """[rad] the data cover camber when gamma spans more than this."""
+SIGN_SHARE = 0.25
+"""Slip counts as of both signs (:func:`both_signs`) when the shorter side reaches this fraction
+of the longer one's extent, each side's extent its 0.5 % or 99.5 % quantile."""
 
 
 DERIVED = ("Re", "Rl")
@@ -220,6 +223,22 @@ def sweep_ids(frame: pd.DataFrame, fnomin: float) -> np.ndarray:
     return out
 
 
+def both_signs(x: np.ndarray, pure: float) -> bool:
+    """Whether the slip ``x`` (alpha [rad] or kappa [-]) covers both signs: each side's extent
+    (the 0.5 % and 99.5 % quantiles of the finite values) beyond ``pure`` and at least
+    SIGN_SHARE of the other side's. A real drive/brake run's "0 deg" sweep sits a few tenths of
+    a degree off zero (the slip-angle channel's offset), which beside sweeps at 3 and 6 deg is
+    no second sign for a shift such as RBY3 to be told from a shape: counted by any sample
+    beyond the pure-slip threshold (0.25 deg), a sweep 0.4 deg off zero freed RBY3 on such a
+    design; a stray sample counted as well."""
+    x = np.asarray(x, dtype=float)
+    x = x[np.isfinite(x)]
+    if x.size == 0:
+        return False
+    neg, pos = -float(np.quantile(x, 0.005)), float(np.quantile(x, 0.995))
+    return min(neg, pos) > max(pure, SIGN_SHARE * max(neg, pos))
+
+
 def levels(x: np.ndarray, resolution: float) -> int:
     """Number of distinct levels of ``x`` (values closer than ``resolution`` merge)."""
     x = np.sort(np.asarray(x, dtype=float)[np.isfinite(x)])
@@ -245,7 +264,7 @@ class Coverage:
     ----------
     loads, pressures, speeds : int   numbers of distinct levels
     camber : bool                    gamma varies by more than CAMBER_SPREAD
-    kappa_sign, alpha_sign : bool    slip of both signs present
+    kappa_sign, alpha_sign : bool    slip of both signs present (:func:`both_signs`)
     """
 
     loads: int
@@ -264,8 +283,8 @@ class Coverage:
                    pressures=levels(frame["p"].to_numpy(float), PRESSURE_RESOLUTION),
                    speeds=levels(frame["Vx"].to_numpy(float), SPEED_RESOLUTION),
                    camber=bool(g.size and np.ptp(g) > CAMBER_SPREAD),
-                   kappa_sign=bool(np.any(k > PURE_KAPPA) and np.any(k < -PURE_KAPPA)),
-                   alpha_sign=bool(np.any(a > PURE_ALPHA) and np.any(a < -PURE_ALPHA)))
+                   kappa_sign=both_signs(k, PURE_KAPPA),
+                   alpha_sign=both_signs(a, PURE_ALPHA))
 
     def missing(self, needs: tuple[str, ...]) -> str | None:
         """Why the data cannot identify a coefficient with ``needs``, or None."""
