@@ -26,8 +26,8 @@ Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channe
 for :mod:`identify.io.trailer` (temperatures and radii become optional columns of the tidy
 table). Every unusable file gives one problem naming the file (and the channel when there is
 one): not a MATLAB v5/v7/v7.3 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
-channel without a unit in a file that lists units. The channel table is :mod:`identify.io.ttc_names`, the ``.dat`` reader
-:mod:`identify.io.ttc_dat`.
+channel without a unit in a file that lists units. The channel table is
+:mod:`identify.io.ttc_names`, the ``.dat`` reader :mod:`identify.io.ttc_dat`.
 """
 from __future__ import annotations
 
