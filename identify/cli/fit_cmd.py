@@ -29,6 +29,7 @@ from rich.table import Table
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
 from identify.core.errors import FitError, InputError, MfidError
+from identify.fit.status import POOR_FIT, POORLY_IDENTIFIED
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
 from identify.fit.mcmc import BUDGET_S
 from identify.fit.mcmc_steps import ChainProgress
@@ -164,8 +165,8 @@ def summary_table(run: FitRun) -> Table:
                        ("points", "right"), ("status", "left"), (".tir", "center")):
         table.add_column(name, justify=just, no_wrap=True)
     table.add_column("key coefficients", overflow="fold")
-    colour = {"FAILED": "[red]FAILED[/red]",
-              "poorly identified": "[yellow]poorly identified[/yellow]"}
+    colour = {"FAILED": "[red]FAILED[/red]", POOR_FIT: f"[red]{POOR_FIT}[/red]",
+              POORLY_IDENTIFIED: f"[yellow]{POORLY_IDENTIFIED}[/yellow]"}
     for r in run.summary_rows():
         table.add_row(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
                       colour.get(r.status_cell, r.status_cell), r.tir_cell, r.key_coefficients)

@@ -20,6 +20,7 @@ from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
 from identify.fit.covariance import t_quantile
+from identify.fit.status import FAILED
 
 
 def _float(x: Any, missing: float = math.nan) -> float:
@@ -213,6 +214,14 @@ class FitResult:
                                             when the optimum is the least-squares one: how
                                             much the conditions cost (identify.fit.
                                             identifiability.problems)
+    noise_floor_pct : float                 the error the measurements' own scatter allows
+                                            [%] (identify.fit.status.noise_floor); NaN
+                                            where the points hold no estimate (a table)
+    floor_source : str                      where the floor comes from
+    fit_status : str                        the fit's status (identify.fit.status:
+                                            ok, poorly identified, poor fit, failed),
+                                            weighing its error against the floor and its
+                                            identifiability; "" before it is assessed
     """
 
     relation: str
@@ -251,6 +260,9 @@ class FitResult:
     conditional: Mapping[str, str] = field(default_factory=dict)
     profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     unconstrained_wls: float = math.nan
+    noise_floor_pct: float = math.nan
+    floor_source: str = ""
+    fit_status: str = field(default="", compare=False)  # derived by assess()
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -285,8 +297,11 @@ class FitResult:
 
     @property
     def status_text(self) -> str:
-        """"failed" (did not converge), "poorly identified" or "ok"."""
-        return self.identification if self.converged else "failed"
+        """The fit's status (identify.fit.status.STATUSES): :attr:`fit_status` once assessed,
+        else "failed" (did not converge), "poorly identified" or "ok"."""
+        if not self.converged:
+            return FAILED
+        return self.fit_status or self.identification
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict in the fit.json schema."""
@@ -314,6 +329,8 @@ class FitResult:
             "conditional": dict(self.conditional),
             "profile": {k: [_num(a), _num(b)] for k, (a, b) in self.profile.items()},
             "unconstrained_wls": _num(self.unconstrained_wls),
+            "noise_floor_pct": _num(self.noise_floor_pct), "floor_source": self.floor_source,
+            "fit_status": self.status_text,
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -331,7 +348,8 @@ class FitResult:
         TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
         errors, as intervals were before it was recorded); a null one is infinite.
         ``rivals``, ``conditional`` and ``profile`` default to empty,
-        ``unconstrained_wls`` to NaN.
+        ``unconstrained_wls`` to NaN, ``noise_floor_pct`` to NaN and ``fit_status`` to ""
+        (the status then follows the identification, as before it was recorded).
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -368,7 +386,10 @@ class FitResult:
                                 for k, v in (d.get("conditional") or {}).items()},
                    profile={str(k): (_float(b[0]), _float(b[1]))
                             for k, b in (d.get("profile") or {}).items()},
-                   unconstrained_wls=_float(d.get("unconstrained_wls")))
+                   unconstrained_wls=_float(d.get("unconstrained_wls")),
+                   noise_floor_pct=_float(d.get("noise_floor_pct")),
+                   floor_source=str(d.get("floor_source") or ""),
+                   fit_status=str(d.get("fit_status") or ""))
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -388,8 +409,11 @@ class FitResult:
 
     def report(self) -> str:
         """Plain-text summary (parameters, errors, search statistics)."""
+        floor = (f" (noise floor {self.noise_floor_pct:.3g} %)"
+                 if math.isfinite(self.noise_floor_pct) else "")
         lines = [f"{self.relation} [{self.form}], objective {self.objective}: "
-                 f"total thesis error {self.error_total_pct:.3f} %"
+                 f"total thesis error {self.error_total_pct:.3f} %{floor}, "
+                 f"status {self.status_text}"
                  f" ({'converged' if self.converged else 'NOT converged: ' + self.message})",
                  f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value",
                  f"  standard errors: {self.covariance}"
@@ -405,5 +429,5 @@ class FitResult:
         if self.active_constraints:
             lines.append("  active constraints: " + ", ".join(self.active_constraints))
         for why in self.reasons:
-            lines.append(f"  {self.identification}: {why}")
+            lines.append(f"  {self.status_text}: {why}")
         return "\n".join(lines)

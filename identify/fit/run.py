@@ -26,6 +26,7 @@ from identify.fit.coverage import StageCoverage
 from identify.fit.forms import FormChoice
 from identify.fit.mcmc import BUDGET_S, MAX_STEPS
 from identify.fit.result import FitResult
+from identify.fit.status import FAILED
 from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
@@ -207,9 +208,11 @@ class Provenance:
 
 
 def failures(results: Sequence[FitResult]) -> tuple[str, ...]:
-    """``relation[form]: message`` of every fit that did not converge (fit.json's
-    ``failed``)."""
-    return tuple(f"{r.relation}[{r.form}]: {r.message}" for r in results if not r.converged)
+    """``relation[form]: why`` of every fit whose status is failed (identify.fit.status: it
+    did not converge, or the model misses the data grossly): fit.json's ``failed``."""
+    return tuple(f"{r.relation}[{r.form}]: "
+                 + (r.message if not r.converged else (r.reasons[0] if r.reasons else FAILED))
+                 for r in results if r.status_text == FAILED)
 
 
 @dataclass(frozen=True)
@@ -280,7 +283,8 @@ class FitRun:
 
     @property
     def poorly_identified(self) -> tuple[str, ...]:
-        """``relation/form`` of every converged fit whose status is "poorly identified"."""
+        """``relation/form`` of every converged fit whose coefficients are not all identified
+        (identification "poorly identified", whatever its status)."""
         return tuple(r.name for r in self.results
                      if r.converged and r.identification != "ok")
 

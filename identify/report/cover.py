@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from identify.core.jsonsafe import json_safe
 from identify.core.version import __version__
+from identify.fit.status import OK, POOR_FIT
 from identify.io.fitdir import FitDir
 from identify.report import tables as T
 from identify.report.layout import (
@@ -98,8 +99,8 @@ def cover(fd: FitDir) -> list[Page]:
                    [0.07, 0.11, 0.08, 0.05, 0.12, 0.05, 0.52], fontsize=fs,
                    title="Every fit: total thesis error (mean of the per-pressure errors); "
                          "x* = the form the data (or --form) chose",
-                   colours=[RED if not r.converged else ORANGE if r.status_cell != "ok"
-                            else "black" for r in part],
+                   colours=[RED if r.status_cell in ("FAILED", POOR_FIT)
+                            else ORANGE if r.status_cell != OK else "black" for r in part],
                    align=["left", "left", "right", "right", "left", "left", "left"])
         if not rows:
             tax.text(0, 0.8, "no fits", fontsize=9, transform=tax.transAxes)
