@@ -11,6 +11,7 @@ import pandas as pd
 from matplotlib.lines import Line2D
 
 from identify.fit.result import FitResult
+from identify.fit.status import OK
 from identify.io.fitdir import FitDir
 from identify.report import tables as T
 from identify.report.curves import (
@@ -25,6 +26,7 @@ from identify.report.curves import (
 from identify.report.layout import (
     GREY,
     MARKERS,
+    ORANGE,
     PAGE,
     RED,
     STYLES,
@@ -102,8 +104,12 @@ def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
     if choice is not None and fit.form in (choice.simpler, choice.richer):
         sub += (f". Form {'chosen' if fit.form == choice.form else 'not chosen'} "
                 f"({'--form' if choice.overridden else 'by the data'}): {choice.reason}")
-    if fit.converged and fit.identification != "ok":
-        sub += f". POORLY IDENTIFIED: {'; '.join(fit.reasons)}"
+    if math.isfinite(fit.noise_floor_pct):
+        sub += (f"; noise floor {T.fmt_pct(fit.noise_floor_pct)} % ({fit.floor_source}, "
+                f"error {fit.error_total_pct / fit.noise_floor_pct:.3g} x floor)"
+                if fit.noise_floor_pct > 0 else "")
+    if fit.converged and fit.status_text != OK:
+        sub += f". {fit.status_text.upper()}: {'; '.join(fit.reasons)}"
     fig = new_page(f"MF stage {fit.form}" if is_mf else f"Relation {T.label(fit)}", sub)
     unit = _unit(rows)
     quantity = str(rows["quantity"].iloc[0]) if len(rows) else fit.relation
@@ -171,12 +177,14 @@ def _param_table(ax, prow, fit, more: int = 0) -> None:
         title += f"   ({more} more on the next page)"
     table = [[r.name, T.fmt(r.value, 6), T.fmt(r.stderr, 3), T.fmt(r.lo95, 4),
               T.fmt(r.hi95, 4), _bounds_text(r.lower, r.upper),
-              "AT BOUND" if r.at_bound else "not ident." if r.unidentified else "",
+              ("ARB. BOUND" if r.bound_kind != "physical" else "phys. bound") if r.at_bound
+              else "not ident." if r.unidentified else "",
               "yes" if r.in_tir else ""] for r in prow]
     draw_table(ax, ["parameter", "value", "std. error", "95 % low", "95 % high", "bounds",
                     "flag", ".tir"], table,
                [0.16, 0.14, 0.11, 0.12, 0.12, 0.21, 0.09, 0.05], fontsize=7.5, title=title,
-               colours=[RED if r.at_bound or r.unidentified else "black" for r in prow],
+               colours=[RED if (r.at_bound and r.bound_kind != "physical") or r.unidentified
+                        else ORANGE if r.at_bound else "black" for r in prow],
                align=["left", "right", "right", "right", "right", "left", "left", "left"])
     if not prow:
         ax.text(0, 0.8, "no free parameters", fontsize=8, transform=ax.transAxes)
