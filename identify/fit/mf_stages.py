@@ -572,6 +572,7 @@ def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd
                  tol=MF_SOLVE)
     return dataclasses.replace(solved, n_starts=result.n_starts,
                                starts_at_best=result.starts_at_best,
+                               held={**result.held, **why},
                                message=f"{solved.message} (held, not bounded by the data: "
                                        f"{', '.join(hits)})"), again, spent + solved.nfev
 
@@ -584,15 +585,22 @@ def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.Dat
                 + (["omega"] if STAGES[stage].quantity in mf_data.DERIVED else [])]
 
 
+SPEED_STAGES = ("My", "vertical", "geometry")
+"""The stages whose equations read the speed (QSY3, QSY4; Q_V1, Q_V2): for the others, sweeps
+at other speeds repeat the same conditions (identify.fit.status.noise_floor)."""
+
+
 def _with_floor(result: FitResult, sp: StageProblem, trailer: pd.DataFrame,
                 fnomin: float) -> FitResult:
     """``result`` with the noise floor of its points (identify.fit.status.noise_floor): the
-    scatter of repeated sweeps and of neighbouring samples along each sweep."""
+    scatter of repeated sweeps (at every speed but in SPEED_STAGES) and of neighbouring
+    samples along each sweep."""
     col = (sp.points.col if sp.points is not None else
            {c: trailer.iloc[sp.rows][c].to_numpy(float)
             for c in ("Fz", "kappa", "alpha", "gamma", "Vx")})
     floor = noise_floor(result.measured, result.predicted, result.pressure_bar,
-                        sp.problem.sweeps, conditions=col, fnomin=fnomin)
+                        sp.problem.sweeps, conditions=col, fnomin=fnomin,
+                        by_speed=result.form in SPEED_STAGES)
     return dataclasses.replace(result, noise_floor_pct=floor.pct, floor_source=floor.source)
 
 

@@ -113,7 +113,7 @@ def _levels(v: np.ndarray, resolution: float) -> np.ndarray:
 
 
 def _repeat_ss(measured: np.ndarray, sweeps: np.ndarray, inv: np.ndarray, n_groups: int,
-               conditions: Mapping[str, np.ndarray], fnomin: float
+               conditions: Mapping[str, np.ndarray], fnomin: float, by_speed: bool
                ) -> tuple[np.ndarray, np.ndarray]:
     """Per pressure group: (sum of squared deviations of the repeated points from their
     common curve, sum of the squared measurements of those points). Zeros where no
@@ -125,7 +125,8 @@ def _repeat_ss(measured: np.ndarray, sweeps: np.ndarray, inv: np.ndarray, n_grou
     A sweep's condition is the mean of its load, camber, speed and held slip; its swept
     variable is the slip it spans more of (alpha [deg] against 100 kappa). Sweeps of one
     pressure group whose conditions fall on the same levels (load within 5 % of FNOMIN,
-    camber 0.5 deg, speed 1 m/s, held slip 0.5 deg or 0.01) are repeats; along the swept
+    camber 0.5 deg, held slip 0.5 deg or 0.01, and speed 1 m/s where the fitted model
+    depends on the speed, ``by_speed``) are repeats; along the swept
     slip their points share bins (0.25 deg, 0.0025: the sweep binning's widths), and in
     every bin holding points of two or more repeats the common curve is a straight line
     (the mean when the bin's points sit at one slip, as binned sweeps do)."""
@@ -157,7 +158,7 @@ def _repeat_ss(measured: np.ndarray, sweeps: np.ndarray, inv: np.ndarray, n_grou
         group_of_sweep, by_alpha.astype(np.int64),
         _levels(mean(conditions["Fz"]), 0.05 * fnomin),
         _levels(mean(np.rad2deg(conditions["gamma"])), 0.5),
-        _levels(mean(conditions["Vx"]), 1.0),
+        _levels(mean(conditions["Vx"]), 1.0) if by_speed else np.zeros(n_sw, np.int64),
         _levels(held, 0.5)], axis=1)
     _, cell_of_sweep = np.unique(keys, axis=0, return_inverse=True)
     cell = cell_of_sweep.ravel()[sw_inv]
@@ -195,7 +196,7 @@ def _repeat_ss(measured: np.ndarray, sweeps: np.ndarray, inv: np.ndarray, n_grou
 def noise_floor(measured: np.ndarray, predicted: np.ndarray, pressure_bar: np.ndarray,
                 sweeps: np.ndarray | None,
                 conditions: Mapping[str, np.ndarray] | None = None,
-                fnomin: float = math.nan) -> Floor:
+                fnomin: float = math.nan, by_speed: bool = True) -> Floor:
     """The noise floor [%] of a fit's points (module docstring), as its thesis error: per
     pressure, 100 sqrt(n s^2 / sum A^2), the mean over pressures.
 
@@ -214,6 +215,11 @@ def noise_floor(measured: np.ndarray, predicted: np.ndarray, pressure_bar: np.nd
     sweeps : ndarray (n,) or None        sweep number of every point (None: no floor)
     conditions : mapping, optional       see above
     fnomin : float                       nominal load [N] (load levels of the repeats)
+    by_speed : bool                      the fitted model depends on the speed: sweeps at
+                                         other speeds are no repeats (False: the MF force
+                                         and moment stages but My, whose equations have no
+                                         speed, so that what the speed changes in the data
+                                         is as far beyond them as noise)
     """
     if sweeps is None or np.size(measured) < 3:
         return Floor(math.nan, "")
@@ -229,7 +235,7 @@ def noise_floor(measured: np.ndarray, predicted: np.ndarray, pressure_bar: np.nd
                          np.nan)
     repeat = np.full(G, np.nan)
     if conditions is not None and math.isfinite(fnomin) and fnomin > 0:
-        ss, yy = _repeat_ss(measured, sweeps, inv, G, conditions, fnomin)
+        ss, yy = _repeat_ss(measured, sweeps, inv, G, conditions, fnomin, by_speed)
         repeat = np.where(yy > 0, ss / np.where(yy > 0, yy, 1.0), np.nan)
     both = np.fmax(neighbour, repeat)
     if not np.all(np.isfinite(both)):
