@@ -154,3 +154,20 @@ def test_data_starts_of_an_fsae_tyre():
     assert got["PKY1"] == pytest.approx(-50000.0 / 650.0, rel=0.05)
     params.update(PDY1=2.0, PKY1=-60.0)
     assert data_starts(table, params) == {}
+
+
+def test_sweeps_at_other_speeds_repeat_a_speedless_model():
+    """Two sweeps at 25 and 70 km/h, 150 N apart: repeats for a stage without speed terms
+    (the MF forces), not for one with them (My, the radii)."""
+    rng = np.random.default_rng(4)
+    alpha, truth, sweep, y = _sweeps(2, 300, rng, 10.0, offsets=[-75.0, 75.0])
+    n = y.size
+    cond = {"Fz": np.full(n, 3000.0), "alpha": alpha, "kappa": np.zeros(n),
+            "gamma": np.zeros(n), "Vx": np.where(sweep == 0, 6.9, 19.4)}
+    model = truth + 100.0
+    speedless = S.noise_floor(y, model, np.ones(n), sweep, conditions=cond, fnomin=3000.0,
+                              by_speed=False)
+    with_speed = S.noise_floor(y, model, np.ones(n), sweep, conditions=cond, fnomin=3000.0)
+    assert speedless.source == "repeated sweeps"
+    assert with_speed.source == "neighbouring samples"
+    assert with_speed.pct < 0.2 * speedless.pct
