@@ -115,7 +115,7 @@ def test_physical_and_arbitrary_ends():
     assert bound_kinds("DREFF") == (PHYSICAL, ARBITRARY)     # sign; 2 is a range
     # magnitude bounds mirror with the sign: PKY1 < 0 has (-150, -1)
     assert bound_kinds("PKY1", -20.0) == (ARBITRARY, ARBITRARY)
-    assert bound_kinds("PPY5") == (ARBITRARY, PHYSICAL)
+    assert bound_kinds("PPY5") == (PHYSICAL, PHYSICAL)  # (1 + PPY5 dpi) > 0 up to dpi = 1
 
 
 def test_widening_keeps_signs_and_grows_ranges():

@@ -50,9 +50,14 @@ PHYSICAL_ENDS: Mapping[str, tuple[bool, bool]] = {
     # curvatures: E <= 1 (beyond it the curve folds back on itself)
     "PEX1": (False, True), "PEY1": (False, True), "REX1": (False, True),
     "REY1": (False, True), "QEZ1": (False, True),
-    # signs of the pressure trends the thesis measured and bounds (docs/relations.md):
-    # camber thrust and camber torque fall, rolling resistance falls with pressure
-    "PPY5": (False, True), "PPZ2": (False, True), "QSY8": (False, True),
+    # pressure terms, the thesis's ranges (docs/relations.md): a factor (1 + PPX1 dpi + ...)
+    # of a stiffness or a friction turns negative at dpi = -1/3 for +-3 (two thirds of the
+    # nominal pressure), and (1 + PPY5 dpi) of the camber stiffness at dpi = 1 for -1; the
+    # signs are the trends the thesis measured (camber thrust, camber torque and rolling
+    # resistance fall with pressure)
+    **{n: (True, True) for n in ("PPX1", "PPX2", "PPX3", "PPX4", "PPY1", "PPY2", "PPY3",
+                                 "PPY4", "PPZ1", "PPMX1", "QSY7")},
+    "PPY5": (True, True), "PPZ2": (True, True), "QSY8": (True, True),
 }
 """Coefficient -> (lower end physical, upper end physical); every other end is arbitrary."""
 

@@ -522,7 +522,9 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
     most MAX_WIDENINGS times; a coefficient still at an arbitrary end then is held at its
     start value ``params[name]`` (the data do not bound it: its value would be the range's,
     not the data's) and the others solved again. Returns the result, its problem and the
-    model evaluations spent."""
+    model evaluations spent. A solve with widened bounds that does not converge within
+    MAX_NFEV (coefficients running off along a flat valley: a TTC session's PPY5 to -37,
+    PKY4 to 70) is not taken: the coefficients it widened are held instead."""
     spent = 0
     for _ in range(MAX_WIDENINGS):
         hits = arbitrary_hits(result.at_bound, result.parameters, result.bounds)
@@ -540,6 +542,10 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
         solved = fit(again.problem, starts=again.problem.x0()[None, :], max_nfev=MAX_NFEV,
                      tol=MF_SOLVE)
         spent += solved.nfev
+        if not solved.converged:  # runs off within its budget: not bounded by the data
+            _say(progress, f"{label}: the solve with widened bounds stopped at its budget")
+            return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress,
+                                   spent)
         moved = ", ".join(f"{n} to [{wide[n][0]:.4g}, {wide[n][1]:.4g}]" for n in hits)
         result = dataclasses.replace(
             solved, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
@@ -558,8 +564,8 @@ def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd
     """The stage solved again with the coefficients ``hits`` (name -> the side of the
     arbitrary bound they ran to after every widening) held at their start values."""
     why = {n: f"runs to its arbitrary {side} bound {result.bounds[n][side == 'upper']:.4g} "
-              f"after {MAX_WIDENINGS} widenings: the data do not bound it; held at its "
-              "start value" for n, side in hits.items()}
+              "and beyond when widened: the data do not bound it; held at its start value"
+              for n, side in hits.items()}
     _say(progress, f"{label}: {', '.join(hits)} not bounded by the data: held at the start")
     free = [n for n in result.free if n not in hits]
     values = {**params, **{n: float(result.parameters[n]) for n in free}}
