@@ -154,6 +154,8 @@ def test_data_starts_of_an_fsae_tyre():
     assert got["PKY1"] == pytest.approx(-50000.0 / 650.0, rel=0.05)
     params.update(PDY1=2.0, PKY1=-60.0)
     assert data_starts(table, params) == {}
+    # free-rolling points of other runs (Fx = 0 at kappa = 0) are no friction sample: no PDX1
+    assert "PDX1" not in data_starts(table.assign(Fx=0.0), params)
 
 
 def test_sweeps_at_other_speeds_repeat_a_speedless_model():

@@ -7,7 +7,9 @@ cornering stiffness 20 Fz0). The global search of a stage looks within +/-50 % o
 stiffness of 50-150 Fz0 at a few hundred newtons) or a truck tyre lies outside. Four numbers
 are read off the data near the nominal load FNOMIN (within :data:`LOAD_BAND` of it):
 
-* PDY1, PDX1: the friction, the 99th percentile of |Fy|/Fz (|Fx|/Fz) of the pure-slip points;
+* PDY1, PDX1: the friction, the 99th percentile of |Fy|/Fz (|Fx|/Fz) of the pure-slip points
+  beyond the linear range (|alpha| > :data:`SMALL_ALPHA`, |kappa| > :data:`SMALL_KAPPA`: the
+  free-rolling points of the other runs carry no friction);
 * PKY1: the cornering stiffness Kya/FNOMIN, the slope dFy/dalpha of a straight line through
   the points within :data:`SMALL_ALPHA` of zero slip at zero camber (the MF's Kya at FNOMIN
   is PKY1 FNOMIN with the defaults PKY2 = 1, PKY4 = 2), with its sign (the axis convention);
@@ -73,14 +75,18 @@ def _estimates(trailer: pd.DataFrame, fnomin: float) -> dict[str, float]:
     lateral = near & (np.abs(kappa) <= PURE_KAPPA)
     if "Fy" in trailer:
         fy = trailer["Fy"].to_numpy(float)
-        out["PDY1"] = _friction(fy[lateral], fz[lateral])
+        # the friction where the force saturates: beyond the linear range (a cornering run's
+        # free-rolling points at zero slip are no friction sample)
+        past = lateral & (np.abs(alpha) > SMALL_ALPHA)
+        out["PDY1"] = _friction(fy[past], fz[past])
         lin = lateral & flat & (np.abs(alpha) <= SMALL_ALPHA)
         # the slope per unit load, so that the loads within the band average out
         out["PKY1"] = _slope(alpha[lin], fy[lin] / fz[lin])
     longitudinal = near & (np.abs(alpha) <= PURE_ALPHA)
     if "Fx" in trailer:
         fx = trailer["Fx"].to_numpy(float)
-        out["PDX1"] = _friction(fx[longitudinal], fz[longitudinal])
+        past = longitudinal & (np.abs(kappa) > SMALL_KAPPA)
+        out["PDX1"] = _friction(fx[past], fz[past])
         lin = longitudinal & flat & (np.abs(kappa) <= SMALL_KAPPA)
         out["PKX1"] = _slope(kappa[lin], fx[lin] / fz[lin])
     return out
