@@ -1,6 +1,7 @@
 """``mfid fit``: check -> load -> extract -> fit -> .tir, fit.json, CSVs -> PDF report.
 
-Exit codes: 0 success; 1 a fit failed (did not converge, constraint infeasible): the outputs
+Exit codes: 0 success; 1 a fit failed (did not converge, the model misses the data grossly,
+constraint infeasible: status failed, identify.fit.status): the outputs
 are still written, complete and marked as failed (fit.json "failed", a red line on the
 report's cover) so that the reason can be inspected, and the reason is printed; 2 a usage error
 or bad input (one line on stderr); 130 interrupted (SIGINT), 143 terminated (SIGTERM): every
@@ -328,7 +329,7 @@ def fit_command(
         fail(exc)
     _print_outputs(run, report)
     if run.failed:
-        failure = FitError("fit did not converge: " + "; ".join(run.failed))
+        failure = FitError("fit failed: " + "; ".join(run.failed))
         if _STATE.get("debug"):
             raise failure
         err_console.print(f"error: {failure}", markup=False)
