@@ -102,7 +102,7 @@ from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.fit.status import noise_floor
 from identify.model.modes import FIT_MODE
-from identify.model.parameters import defaults
+from identify.model.parameters import bounds, defaults, spec
 
 __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
            "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
@@ -562,13 +562,19 @@ def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd
                     params: Mapping[str, float], hits: Mapping[str, str], label: str,
                     progress: Progress | None, spent: int) -> tuple[FitResult, StageProblem, int]:
     """The stage solved again with the coefficients ``hits`` (name -> the side of the
-    arbitrary bound they ran to after every widening) held at their start values."""
+    arbitrary bound they ran to after every widening) held at their start values (the
+    parameter table's default where the start itself is at the table's bound: a later pass
+    starts from the pass before, which may have ended there)."""
     why = {n: f"runs to its arbitrary {side} bound {result.bounds[n][side == 'upper']:.4g} "
               "and beyond when widened: the data do not bound it; held at its start value"
               for n, side in hits.items()}
     _say(progress, f"{label}: {', '.join(hits)} not bounded by the data: held at the start")
     free = [n for n in result.free if n not in hits]
     values = {**params, **{n: float(result.parameters[n]) for n in free}}
+    for n in hits:  # a start an earlier pass left at the bound is no start: the default
+        lo, hi = bounds(n, values[n])
+        if not lo < values[n] < hi:
+            values[n] = float(spec(n).default)
     again = stage_problem(stage, trailer, values, free={stage: list(result.free)},
                           hold={**{n: w for n, w in sp.held.items()}, **why}, like=sp)
     again = dataclasses.replace(again, held={**sp.held, **why})
@@ -695,6 +701,9 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
             result, sp, wider_nfev = _widened(result, sp, stage, trailer, params, label,
                                               progress)
             new_nfev += wider_nfev
+            # what it held as unbounded by the data, at the value it held it at
+            params.update({n: float(result.parameters[n]) for n in result.held
+                           if n in result.parameters})
             result = canonical_signs(result, params)
             result = canonical_even(result)
             if screen:  # what rests on coefficients held since the re-fit with them failed
