@@ -123,9 +123,12 @@ def test_widening_keeps_signs_and_grows_ranges():
     assert widen(-150.0, -1.0, "lower") == (-150.0 - 3 * 149.0, -1.0)
     assert widen(-150.0, -1.0, "upper") == (-150.0, -0.25)  # towards 0, never across
     assert widen(0.5, 3.0, "lower") == (0.125, 3.0)
-    hits = arbitrary_hits(("PKY1", "PEY1"), {"PKY1": -150.0, "PEY1": 1.0},
-                          {"PKY1": (-150.0, -1.0), "PEY1": (-10.0, 1.0)})
-    assert hits == {"PKY1": "lower"}  # PEY1 = 1 is physics
+    hits = arbitrary_hits(("PKY1", "PEY1", "Q_FZ2", "PDY1"),
+                          {"PKY1": -150.0, "PEY1": 1.0, "Q_FZ2": 99.99998, "PDY1": 2.9},
+                          {"PKY1": (-150.0, -1.0), "PEY1": (-10.0, 1.0),
+                           "Q_FZ2": (1e-4, 100.0), "PDY1": (0.5, 3.0)})
+    # PEY1 = 1 is physics; a solver's hair inside the bound is at it
+    assert hits == {"PKY1": "lower", "Q_FZ2": "upper"}
 
 
 def test_start_bounds_take_a_start_beyond_an_arbitrary_end():

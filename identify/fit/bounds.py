@@ -24,7 +24,8 @@ from collections.abc import Mapping
 from identify.model.parameters import bounds, spec
 
 __all__ = ["PHYSICAL", "ARBITRARY", "PHYSICAL_ENDS", "MAX_WIDENINGS", "WIDEN_FACTOR",
-           "bound_kinds", "start_bounds", "widen", "side_at", "arbitrary_hits"]
+           "bound_kinds", "start_bounds", "widen", "side_at", "near_bound", "arbitrary_hits",
+           "AT_BOUND_RTOL"]
 
 PHYSICAL = "physical"
 ARBITRARY = "arbitrary"
@@ -107,13 +108,28 @@ def side_at(value: float, lo: float, hi: float) -> str:
     return "lower" if abs(value - lo) <= abs(value - hi) else "upper"
 
 
-def arbitrary_hits(at_bound, parameters: Mapping[str, float],
+AT_BOUND_RTOL = 1e-6
+"""A value within this fraction of its range from a bound is at it (a solver stops a hair
+inside a bound it runs to)."""
+
+
+def near_bound(value: float, lo: float, hi: float) -> bool:
+    """Whether ``value`` is at ``lo`` or ``hi`` (within AT_BOUND_RTOL of the finite range)."""
+    span = hi - lo if math.isfinite(lo) and math.isfinite(hi) else max(abs(value), 1.0)
+    tol = AT_BOUND_RTOL * span
+    return value <= lo + tol or value >= hi - tol
+
+
+def arbitrary_hits(free, parameters: Mapping[str, float],
                    bounds_of: Mapping[str, tuple[float, float]]) -> dict[str, str]:
-    """Coefficients of ``at_bound`` that sit at an arbitrary end -> that side."""
+    """Coefficients of ``free`` at an arbitrary end of their bounds (:func:`near_bound`) ->
+    that side."""
     out = {}
-    for n in at_bound:
+    for n in free:
         lo, hi = bounds_of.get(n, (-math.inf, math.inf))
         v = float(parameters[n])
+        if not near_bound(v, lo, hi):
+            continue
         side = side_at(v, lo, hi)
         if bound_kinds(n, v)[0 if side == "lower" else 1] == ARBITRARY:
             out[n] = side

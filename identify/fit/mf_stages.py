@@ -63,7 +63,7 @@ from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.fit import mf_data
-from identify.fit.bounds import MAX_WIDENINGS, arbitrary_hits, widen
+from identify.fit.bounds import MAX_WIDENINGS, arbitrary_hits, near_bound, widen
 from identify.fit.engine import MF_SOLVE, residual_jacobian, residual_variance
 from identify.fit.limits import table_limits, union_limits
 from identify.fit.mcmc import run_mcmc
@@ -527,7 +527,7 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
     PKY4 to 70) is not taken: the coefficients it widened are held instead."""
     spent = 0
     for _ in range(MAX_WIDENINGS):
-        hits = arbitrary_hits(result.at_bound, result.parameters, result.bounds)
+        hits = arbitrary_hits(result.free, result.parameters, result.bounds)
         if not hits or not result.converged:
             return result, sp, spent
         wide = dict(sp.wide)
@@ -552,7 +552,7 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
             rivals=result.rivals,
             message=f"{solved.message} (arbitrary bounds widened: {moved})")
         sp = again
-    hits = arbitrary_hits(result.at_bound, result.parameters, result.bounds)
+    hits = arbitrary_hits(result.free, result.parameters, result.bounds)
     if hits and result.converged:
         return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress, spent)
     return result, sp, spent
@@ -572,8 +572,7 @@ def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd
     free = [n for n in result.free if n not in hits]
     values = {**params, **{n: float(result.parameters[n]) for n in free}}
     for n in hits:  # a start an earlier pass left at the bound is no start: the default
-        lo, hi = bounds(n, values[n])
-        if not lo < values[n] < hi:
+        if near_bound(values[n], *bounds(n, values[n])):
             values[n] = float(spec(n).default)
     again = stage_problem(stage, trailer, values, free={stage: list(result.free)},
                           hold={**{n: w for n, w in sp.held.items()}, **why}, like=sp)
