@@ -328,6 +328,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             sg = td.segmentation
             _say(progress, f"segment: {', '.join(td.segmented_runs)}: {sg.kept} of "
                            f"{sg.samples} samples kept in {sg.counts().get('sweep', 0)} sweeps")
+        if td.mz_turnaround:
+            _say(progress, f"turn-arounds: Mz of {td.mz_turnaround} samples at slip-angle "
+                           "turn-arounds left out (the rig's steering transient)")
         quality["trailer"] = td.to_dict()
         trailer = _mf_trailer(td, float(tyre.nominal_load_N), settings, progress)
         coverage = mf_coverage(trailer, float(tyre.nominal_load_N), unavailable=td.unavailable)
