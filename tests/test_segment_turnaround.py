@@ -68,3 +68,10 @@ def test_prepare_trailer_takes_mz_out_at_turnarounds_only():
     pd.testing.assert_frame_equal(td.table.drop(columns="Mz"), frame.drop(columns="Mz"))
     assert (frame["Mz"] == 1.0).all()  # the input is not modified
     assert td.to_dict()["mz_turnaround_samples"] == mask.sum()
+
+
+def test_the_report_says_how_many_mz_samples_were_left_out():
+    from identify.report.trailer_pages import segment_lines
+    lines = segment_lines({"trailer": {"segmentation": None, "mz_turnaround_samples": 42}})
+    assert any("turn-around" in line and "42 samples" in line for line in lines)
+    assert not any("turn-around" in line for line in segment_lines({"trailer": {}}))

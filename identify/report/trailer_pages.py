@@ -47,8 +47,12 @@ def segment_lines(quality: Mapping[str, Any]) -> list[str]:
     """The segmentation as text: runs, sample counts, segments per kind, levels, filters."""
     trailer = quality.get("trailer") or {}
     seg = trailer.get("segmentation")
+    turned = trailer.get("mz_turnaround_samples") or 0
+    turn = ([f"Mz left out at slip-angle turn-arounds (the rig's steering transient): "
+             f"{turned} samples"] if turned else [])
     if not seg:
-        return ["No run was segmented (only continuous session logs, TTC .mat/.dat, are)."]
+        return ["No run was segmented (only continuous session logs, TTC .mat/.dat, are).",
+                *turn]
     kinds: dict[str, int] = {}
     for s in seg.get("segments") or ():
         kinds[s["kind"]] = kinds.get(s["kind"], 0) + 1
@@ -65,7 +69,7 @@ def segment_lines(quality: Mapping[str, Any]) -> list[str]:
     for f in seg.get("filters") or ():
         state = "" if f["applied"] else f" (not applied: {f['note']})"
         lines.append(f"  {f['name']}: {f['removed']} removed, {f['remaining']} left{state}")
-    return lines
+    return lines + ([""] + turn if turn else [])
 
 
 def warning_rows(quality: Mapping[str, Any]) -> list[list[str]]:
