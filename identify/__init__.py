@@ -10,7 +10,8 @@ one stage each, in layers (import-linter contract in pyproject.toml): ``core`` <
 _API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report", "discover_folder",
         "read_tir", "write_tir", "evaluate", "simulate_folder", "MeasurementSet", "FitRun",
         "FitResult", "FitSettings", "MCMCSummary", "TirFile", "DiscoveryRun", "Report",
-        "MfidError", "InputError", "FitError")
+        "MfidError", "InputError", "FitError", "analyse_vehicle", "read_vehicle", "VehicleResult",
+        "VehicleSpec", "VehicleOptions")
 
 __all__ = ["__version__", *_API]
 

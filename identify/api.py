@@ -17,6 +17,9 @@ example is docs/api.md (a test runs it).
 ``write_tir``          values -> a complete MF 6.1/6.2 .tir
 ``evaluate``           the forward model at arrays of operating points -> dict of arrays
 ``simulate_folder``    a simulated measurement folder with known truth
+``analyse_vehicle``    a .tir on a car at front/rear pressures -> ``VehicleResult`` (handling
+                       diagram, understeer gradient, frequency response, ride; docs/vehicle.md)
+``read_vehicle``       a vehicle file (TOML) -> ``VehicleSpec``; ``"default"``: the default sedan
 =====================  ==========================================================================
 """
 from __future__ import annotations
@@ -40,11 +43,15 @@ from identify.report.pdf import Report, write_report
 from identify.simulate import simulate_folder
 from identify.workflows.discover import DiscoveryRun, discover_folder
 from identify.workflows.fit import fit_folder as _fit_folder
+from identify.workflows.vehicle import analyse_vehicle
+from identify.vehicle.analysis import VehicleOptions, VehicleResult
+from identify.vehicle.spec import VehicleSpec, read_vehicle
 
 __all__ = ["load_folder", "fit_folder", "read_fit", "plot_fit", "write_report",
            "discover_folder", "read_tir", "write_tir", "evaluate", "simulate_folder",
            "MeasurementSet", "FitRun", "FitResult", "FitSettings", "MCMCSummary", "TirFile",
-           "DiscoveryRun", "Report", "MfidError", "InputError", "FitError", "__version__"]
+           "DiscoveryRun", "Report", "MfidError", "InputError", "FitError", "__version__",
+           "analyse_vehicle", "read_vehicle", "VehicleResult", "VehicleSpec", "VehicleOptions"]
 
 
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",

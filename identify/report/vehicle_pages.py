@@ -207,8 +207,9 @@ def _table_page(res: VehicleResult) -> Page:
               / base.figures["ride_body_acceleration_rms_mps2"] - 1) * 100
         lines.append(f"{s.label} against {base.label}: K {dk:+.4f} deg/(m/s^2), "
                      f"body acc. RMS {da:+.1f} %")
-    notes = [(s.label, n) for s in res.settings for n in s.validity_notes]
-    lines += ["", "Validity (.tir ranges: pressure, load, slip angle, camber):"]
+    notes = [("tyre", n) for n in res.tyre.get("notes") or ()]
+    notes += [(s.label, n) for s in res.settings for n in s.validity_notes]
+    lines += ["", "Validity (.tir ranges: pressure, load, slip angle, camber; default keys):"]
     if notes:
         for label, note in notes[:14]:
             lines += wrap(f"  {label}: ", note, 80)

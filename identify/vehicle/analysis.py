@@ -218,15 +218,16 @@ def _validity(vr: ValidityRange, spec: VehicleSpec, pf: float, pr: float, ay: np
         bad_load = (loads < vr.load_N[0]) | (loads > vr.load_N[1])
         slips = np.stack([sol.alpha_left, sol.alpha_right])
         bad_slip = (slips < vr.slip_angle_rad[0]) | (slips > vr.slip_angle_rad[1])
-        for what, bad, rng, unit, scale in (
-                ("wheel loads", bad_load, vr.load_N, "N", 1.0),
-                ("wheel slip angles", bad_slip, vr.slip_angle_rad, "deg", math.pi / 180)):
+        for what, bad, rng, unit, scale, fmt in (
+                ("wheel loads", bad_load, vr.load_N, "N", 1.0, ".0f"),
+                ("wheel slip angles", bad_slip, vr.slip_angle_rad, "deg", math.pi / 180,
+                 ".1f")):
             point = bad.any(axis=0)
             flag |= point
             if point.any():
                 first = float(ay[point].min())
                 notes.append(f"{name} {what} leave the .tir's "
-                             f"{_range_text(rng, scale, unit, '.3g')} from ay = {first:.2f} "
+                             f"{_range_text(rng, scale, unit, fmt)} from ay = {first:.2f} "
                              "m/s^2 on: that part of the handling curve is extrapolated")
     if _outside(v.static_wheel_load("front"), vr.load_N) or _outside(
             v.static_wheel_load("rear"), vr.load_N):

@@ -133,7 +133,7 @@ def _wheels(tyre: AxleTyre, ax: AxleSetup, fz_l, fz_r, alpha, p):
             res = a - target + ax.c_fy * fy[:n] - ax.c_mz * mz[:n]
             slope = 1.0 + (ax.c_fy * (fy[n:] - fy[:n]) - ax.c_mz * (mz[n:] - mz[:n])) / _H
             a = a - res / np.maximum(slope, 0.05)
-            if np.all(np.abs(res) < 1e-13):
+            if np.all(np.abs(res) < 1e-12):
                 break
     fy, mz = wheel_lateral(tyre, fz, a, side, camber, pp)
     n = alpha.size
@@ -253,36 +253,45 @@ def handling_points(tyre: AxleTyre, v: Vehicle, ay, p_front, p_rear
 
 
 def max_lateral_acceleration(tyre: AxleTyre, v: Vehicle, p_front, p_rear,
-                             ay_high: float = 3.0 * G, iterations: int = 34
+                             ay_high: float = 3.0 * G, coarse: int = 16, iterations: int = 14
                              ) -> tuple[np.ndarray, np.ndarray]:
     """The largest steady-state lateral acceleration [m/s^2] per pressure pair, and the axle
     that limits it ("front"/"rear"); NaN and "none" where both axles still carry their share
-    at ``ay_high``. Bisection on ay; each trial compares each axle's peak force at that ay's
-    wheel loads with the force the axle must carry."""
+    at ``ay_high``.
+
+    Each trial ay compares each axle's peak force at that ay's wheel loads with the force the
+    axle must carry; the first failing ay of a ``coarse`` grid on [0, ay_high] brackets the
+    limit, ``iterations`` bisections narrow it (to ay_high / (coarse - 1) / 2^iterations).
+    """
     p_front, p_rear = (np.asarray(x, float).ravel() for x in np.broadcast_arrays(
         np.asarray(p_front, float), np.asarray(p_rear, float)))
     front, rear = axle_setups(v)
     m, a, b, wb = v.mass_kg, v.a, v.b, v.wheelbase_m
 
-    def margins(ay):
+    def margins(ay, pf, pr):
         out = []
-        for ax, share, p in ((front, b, p_front), (rear, a, p_rear)):
+        for ax, share, p in ((front, b, pf), (rear, a, pr)):
             fz_l, fz_r = wheel_loads(v, ax.axle, ay)
             peak, _ = axle_peak(tyre, ax, fz_l, fz_r, p)
-            out.append(peak - m * ay * share / wb)
+            out.append(peak.reshape(np.shape(ay)) - m * ay * share / wb)
         return out
 
-    lo = np.zeros_like(p_front)
-    hi = np.full_like(p_front, ay_high)
-    mf, mr = margins(hi)
-    never = (mf >= 0) & (mr >= 0)
+    n = p_front.size
+    grid = np.linspace(0.0, ay_high, coarse)
+    ays = np.broadcast_to(grid, (n, coarse))
+    mf, mr = margins(ays, p_front[:, None], p_rear[:, None])
+    ok = (mf >= 0) & (mr >= 0)
+    never = ok.all(axis=1)
+    first_bad = np.where(never, coarse - 1, np.argmin(ok, axis=1))
+    lo = grid[np.maximum(first_bad - 1, 0)]
+    hi = grid[first_bad]
     for _ in range(iterations):
         mid = 0.5 * (lo + hi)
-        mf, mr = margins(mid)
-        ok = (mf >= 0) & (mr >= 0)
-        lo = np.where(ok, mid, lo)
-        hi = np.where(ok, hi, mid)
-    mf, mr = margins(hi)
+        mf, mr = margins(mid, p_front, p_rear)
+        good = (mf >= 0) & (mr >= 0)
+        lo = np.where(good, mid, lo)
+        hi = np.where(good, hi, mid)
+    mf, mr = margins(hi, p_front, p_rear)
     limiting = np.where(never, "none", np.where(mf < mr, "front", "rear"))
     return np.where(never, np.nan, lo), limiting
 

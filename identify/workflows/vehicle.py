@@ -73,6 +73,45 @@ def _spec(vehicle: str | Path | VehicleSpec | None) -> VehicleSpec:
     return read_vehicle(vehicle)
 
 
+UNIDENTIFIED_MARK = "default, not identified"
+"""The comment mfid's .tir writer puts on a key the data did not determine."""
+_KEY_GROUPS = (
+    (("PKY1", "PKY2", "PDY1"), "lateral-force keys (PKY1, PKY2, PDY1)",
+     "the handling figures describe the default tyre's, not this tyre's"),
+    (("PPY1", "PPY2"), "cornering-stiffness pressure keys (PPY1, PPY2)",
+     "the handling figures' change with pressure is the defaults'"),
+    (("LATERAL_STIFFNESS", "PCFY3"), "lateral-stiffness keys (LATERAL_STIFFNESS, PCFY3)",
+     "the relaxation lengths, and with them the frequency responses' tyre lag, are the "
+     "defaults'"),
+    (("PFZ1",), "vertical-stiffness pressure key (PFZ1)",
+     "the ride's change with pressure is the default's"),
+)
+
+
+def unidentified_keys(path: str | Path, defaults_used: Iterable[str]) -> set[str]:
+    """Keys of a .tir that hold no identified value: those the reader filled with defaults and
+    those mfid's writer marked "default, not identified by these data"."""
+    keys = set(defaults_used)
+    try:
+        lines = Path(path).read_text("utf-8", errors="replace").splitlines()
+    except OSError:
+        return keys
+    for line in lines:
+        name, sep, rest = line.partition("=")
+        if sep and UNIDENTIFIED_MARK in rest:
+            keys.add(name.strip().upper())
+    return keys
+
+
+def tyre_notes(unidentified: set[str]) -> list[str]:
+    """What the vehicle figures cannot say because the .tir's keys are defaults."""
+    notes = []
+    for keys, what, consequence in _KEY_GROUPS:
+        if any(k in unidentified for k in keys):
+            notes.append(f"the .tir's {what}: default values, not identified; {consequence}")
+    return notes
+
+
 def analyse_vehicle(tir: str | Path, vehicle: str | Path | VehicleSpec | None = None,
                     pressures: Iterable[str | tuple[float, float]] | None = None, *,
                     out: str | Path | None = None, pdf: bool = True,
@@ -111,9 +150,11 @@ def analyse_vehicle(tir: str | Path, vehicle: str | Path | VehicleSpec | None = 
     spec = _spec(vehicle)
     settings = _pressures(pressures)
     tirfile = read_tir(tir)
-    tyre = MfTyre(tirfile.params(), damping_given="VERTICAL_DAMPING" not in
-                  tirfile.defaults_used, vx=options.speed_kmh / 3.6)
-    info = {"path": str(tir), "sha256": tirfile.sha256, "fittyp": tirfile.fittyp}
+    unidentified = unidentified_keys(tir, tirfile.defaults_used)
+    tyre = MfTyre(tirfile.params(), damping_given="VERTICAL_DAMPING" not in unidentified,
+                  vx=options.speed_kmh / 3.6)
+    info = {"path": str(tir), "sha256": tirfile.sha256, "fittyp": tirfile.fittyp,
+            "notes": tyre_notes(unidentified)}
     result = analyse(tyre, spec, settings, options, tyre_info=info, version=__version__)
     if out is not None:
         write_vehicle_outputs(result, out, pdf=pdf)
