@@ -66,7 +66,8 @@ def parse_pressures(text: str) -> tuple[float, float]:
         if not (math.isfinite(value) and 0.5 <= value <= 10.0):
             raise InputError(None, f"{text!r}: {value:g} bar is not a tyre pressure (0.5-10 "
                                    "bar gauge)", key="--pressures")
-    return front * BAR, rear * BAR
+    # to the millipascal: 2.3 bar is 230000 Pa, not 229999.99999999997
+    return round(front * BAR, 3), round(rear * BAR, 3)
 
 
 @dataclass(frozen=True)
