@@ -31,6 +31,11 @@ def _colours(n: int) -> list:
 
 
 def _footer(fig, res: VehicleResult) -> None:
+    notes = res.tyre.get("notes") or ()
+    if notes:
+        what = "; ".join(n.split(":")[0].replace("the .tir's ", "") for n in notes)
+        fig.text(0.04, 0.042, f"Default values, not identified, in the .tir: {what} (the "
+                 "figures page says what follows)", fontsize=7, color=RED)
     tyre = Path(str(res.tyre.get("path", "tyre"))).name
     fig.text(0.04, 0.02, f"{tyre} on {res.spec.vehicle.name} - mfid {res.version}",
              fontsize=7, color=GREY)
@@ -207,19 +212,30 @@ def _table_page(res: VehicleResult) -> Page:
               / base.figures["ride_body_acceleration_rms_mps2"] - 1) * 100
         lines.append(f"{s.label} against {base.label}: K {dk:+.4f} deg/(m/s^2), "
                      f"body acc. RMS {da:+.1f} %")
-    notes = [("tyre", n) for n in res.tyre.get("notes") or ()]
-    notes += [(s.label, n) for s in res.settings for n in s.validity_notes]
-    lines += ["", "Validity (.tir ranges: pressure, load, slip angle, camber; default keys):"]
-    if notes:
-        for label, note in notes[:14]:
-            lines += wrap(f"  {label}: ", note, 80)
-        if len(notes) > 14:
-            lines.append(f"  ... {len(notes) - 14} more in vehicle.json")
-    else:
-        lines.append("  every setting stays inside the .tir's ranges on its whole handling "
+    lines.append("")
+    n_top = len(lines)
+    text_block(fig.add_axes((0.52, 0.06, 0.45, top_text)), lines, fontsize=7)
+    # each note once, with the settings it concerns
+    grouped: dict[str, list[str]] = {}
+    for n in res.tyre.get("notes") or ():
+        grouped.setdefault(n, []).append("tyre")
+    for st in res.settings:
+        for n in st.validity_notes:
+            grouped.setdefault(n, []).append(st.label.replace(" bar", ""))
+    notes = ["Validity (.tir ranges: pressure, load, slip angle, camber; default keys):"]
+    for n, who in grouped.items():
+        head = ("every setting" if len(who) == len(res.settings) and who[0] != "tyre"
+                else ", ".join(who))
+        notes += wrap(f"  - {head}: ", n, 88)
+    if len(grouped) == 0:
+        notes.append("  every setting stays inside the .tir's ranges on its whole handling "
                      "curve")
-    text_block(fig.add_axes((0.52, 0.06, 0.45, top_text)), lines, fontsize=7,
-               colour=RED if notes else "black")
+    line_h = 7 * 1.45 / 72 / 8.27  # text_block's line height as a fraction of the page
+    room = max(int(top_text / line_h) - n_top, 2)
+    if len(notes) > room:
+        notes = notes[:room - 1] + ["  ... more in vehicle.json (validity_notes)"]
+    text_block(fig.add_axes((0.52, 0.06, 0.45, top_text - n_top * line_h)), notes,
+               fontsize=7, colour=RED if grouped else "black")
     _footer(fig, res)
     return ("vehicle: figures", fig)
 
