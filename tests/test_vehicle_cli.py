@@ -150,3 +150,13 @@ def test_default_sedan_and_seven_settings_take_under_20_s(tmp_path):
     assert result.exit_code == 0, result.output
     assert time.process_time() - t0 < 20.0
     assert len(json.loads((tmp_path / "o" / "vehicle.json").read_text())["settings"]) == 7
+
+
+def test_fit_with_a_bad_vehicle_file_stops_before_fitting(tmp_path):
+    bad = tmp_path / "car.toml"
+    bad.write_text(default_vehicle_text().replace("mass_kg = 1660.0", "mass_kg = 0.0"))
+    result = _run("fit", ROOT / "measurements" / "thesis-225-50R17", "--out", tmp_path / "fits",
+                  "--reports", tmp_path / "reports", "--vehicle", bad)
+    assert result.exit_code == 2
+    assert "vehicle.mass_kg: impossible value 0" in " ".join(result.output.split())
+    assert not (tmp_path / "fits").exists() and not (tmp_path / "reports").exists()
