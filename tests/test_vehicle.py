@@ -250,7 +250,7 @@ class SaturatingTyre:
 def test_max_lateral_acceleration_is_mu_g_without_load_transfer(bundled):
     """Centre of gravity on the ground: no load transfer; with the same peak friction front and
     rear the limit is mu_peak g. Closed-form tyre to 1e-4; the bundled tyre (its mu_peak at the
-    static load and pressure from the forward model on a 0.0005 rad grid) to 1 % (the two
+    static load and pressure from the forward model on a 0.0005 rad grid) to 0.1 % (the two
     wheels of an axle do not reach their peaks at quite the same axle slip angle)."""
     v = replace(default_vehicle().vehicle, cg_height_m=0.0)
     ay, limiting = steady.max_lateral_acceleration(SaturatingTyre(), v, 2.5e5, 2.5e5)
@@ -264,7 +264,8 @@ def test_max_lateral_acceleration_is_mu_g_without_load_transfer(bundled):
         # the right wheel is the left one mirrored: the axle's peak friction is the mean of
         # the .tir's positive and negative peaks (they differ by its zero-slip offsets)
         mu_peak = (fy.max() - fy.min()) / 2 / fz
-        assert a_max == pytest.approx(mu_peak * G, rel=0.01)
+        # issue 47 asks for 1 %; the 0.01 rad slip grid's parabolic peak does far better
+        assert a_max == pytest.approx(mu_peak * G, rel=1e-3)
     assert np.all(np.diff(ay) < 0)  # this tyre's friction falls with pressure (PPY3 < 0)
 
 
