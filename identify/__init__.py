@@ -7,9 +7,10 @@ one stage each, in layers (import-linter contract in pyproject.toml): ``core`` <
 ``workflows`` < ``cli`` | ``api``.
 """
 
-_API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report", "discover_folder",
-        "read_tir", "write_tir", "evaluate", "simulate_folder", "MeasurementSet", "FitRun",
-        "FitResult", "FitSettings", "MCMCSummary", "TirFile", "DiscoveryRun", "Report",
+_API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report",
+        "discover_folder", "read_tir", "write_tir", "evaluate", "simulate_folder",
+        "MeasurementSet", "FitRun", "FitResult", "FitSettings", "MCMCSummary", "TirFile",
+        "DiscoveryRun", "Report",
         "MfidError", "InputError", "FitError")
 
 __all__ = ["__version__", *_API]
