@@ -82,5 +82,10 @@ def test_evaluate_takes_the_saved_tir_file(run, tmp_path):
     np.testing.assert_array_equal(out["Fy"], same["Fy"])
 
 
+def test_a_measurement_set_has_a_short_repr_and_fits_in_memory():
+    folder = mfid.load_folder(THESIS)
+    assert len(repr(folder)) <= 2000 and "thesis-225-50R17" in repr(folder)
+
+
 def test_the_api_is_listed():
     assert "fit" in dir(mfid) and "FitRun" in dir(mfid) and "evaluate" in dir(mfid)
