@@ -160,3 +160,16 @@ def test_fit_with_a_bad_vehicle_file_stops_before_fitting(tmp_path):
     assert result.exit_code == 2
     assert "vehicle.mass_kg: impossible value 0" in " ".join(result.output.split())
     assert not (tmp_path / "fits").exists() and not (tmp_path / "reports").exists()
+
+
+def test_a_tyre_that_pushes_the_wrong_way_is_refused(tmp_path):
+    text = Path(default_tir_path()).read_text()
+    assert "PKY1                      = -29.8592" in text
+    bad = tmp_path / "wrong_sign.tir"
+    bad.write_text(text.replace("PKY1                      = -29.8592",
+                                "PKY1                      = 29.8592"))
+    result = _run("vehicle", bad, "--pressures", "2.5/2.5", "--out", tmp_path / "o")
+    assert result.exit_code == 2
+    assert "cornering stiffness at the vehicle's static wheel loads is not positive" in \
+        " ".join(result.output.split())
+    assert not (tmp_path / "o").exists()

@@ -270,6 +270,10 @@ def analyse(tyre: AxleTyre, spec: VehicleSpec,
     c_r = steady.axle_cornering_stiffness(tyre, rear_ax, fz_r, pr)
     t_f = steady.axle_cornering_stiffness(tyre, front_ax.rigid(), fz_f, pf)
     t_r = steady.axle_cornering_stiffness(tyre, rear_ax.rigid(), fz_r, pr)
+    if not (np.all(t_f > 0) and np.all(t_r > 0)):
+        raise InputError((tyre_info or {}).get("path"), "the tyre's cornering stiffness at the "
+                         "vehicle's static wheel loads is not positive in ISO-W signs (a "
+                         "positive slip angle must give a negative Fy): no car can corner on it")
     eps_ay = 0.01
     f0, r0 = steady.handling_points(tyre, v, eps_ay, pf, pr)
     k_two_track = (f0.alpha - r0.alpha) / eps_ay
