@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from identify.core.errors import InputError
 from identify.core.names import name_problem
@@ -274,7 +275,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         The folder or file is malformed, or an output cannot be written (exit 2 from the
         CLI).
     """
-    with _Chains(settings, out_root, chain_progress) as chains:
+    with _Chains(settings, out_root, chain_progress) as chains, _one_blas_thread():
         run = _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
                           command, chains, out_root=out_root)
         _say(progress, f"write: {Path(out_root) / run.tyre.id} ({len(run.points)} points)")
@@ -296,9 +297,18 @@ def fit_measurements(source: str | Path | MeasurementSet, *,
     summarised in the results but their samples are not kept (``save_chains`` is off).
     """
     settings = dataclasses.replace(settings, save_chains=False)
-    with _Chains(settings, ".", chain_progress) as chains:
+    with _Chains(settings, ".", chain_progress) as chains, _one_blas_thread():
         return _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
                            command, chains, out_root=None)
+
+
+def _one_blas_thread():
+    """One BLAS thread for the whole fit: its linear algebra is on small dense matrices
+    (Jacobians of a few thousand rows and tens of columns), where a second thread gains
+    nothing and, on a machine busy with other work, makes each decomposition wait for a
+    core: the profile intervals' SVDs and the jackknife's eigendecompositions ran two orders
+    of magnitude slower with two threads than with one on a loaded two-core machine."""
+    return threadpool_limits(limits=1, user_api="blas")
 
 
 def _fit_folder(source, settings: FitSettings, progress: Progress | None,
