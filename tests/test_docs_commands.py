@@ -51,14 +51,15 @@ def options_table(cmd) -> str:
     for p in cmd.params:
         if p.name == "help":
             continue
-        if p.param_type_name == "argument":
-            name = p.name.upper() + (" ..." if p.nargs == -1 else "")
+        argument = p.param_type_name == "argument"
+        if argument:  # named as in the usage line, its type in the value column
+            name = (p.metavar or p.name.upper()) + (" ..." if p.nargs == -1 else "")
         else:
             name = ", ".join(f"`{o}`" for o in [*p.opts, *p.secondary_opts])
         flag = getattr(p, "is_flag", False)
-        shown = p.metavar or p.display_type(ctx).strip("<>")
-        value = "" if flag else _cell(re.sub(r"^list\[(\w+)\]$", r"\1", shown).lower()
-                                      if not p.metavar else shown)
+        typed = re.sub(r"^list\[(\w+)\]$", r"\1", p.display_type(ctx).strip("<>"))
+        shown = typed.lower() if argument or not p.metavar else p.metavar
+        value = "" if flag else _cell(shown)
         rows.append(f"| {name} | {value} | {_cell(p.help or '')} | {_default(p)} |")
     return "\n".join(rows) + "\n"
 
