@@ -78,6 +78,10 @@ LOAD_WINDOW = 15
 """Samples of the running median of the load before its steps are looked for (measured loads
 are noisy: the raw sample-to-sample change would split sweeps everywhere)."""
 
+ZERO_ALPHA = np.deg2rad(0.5)
+"""[rad] A slip-ratio sweep whose median slip angle is below this is at a set slip angle of
+zero (the measured angle of a real rig wanders by a few tenths of a degree)."""
+
 SEGMENT_GAP = 10
 """Sample intervals of a time jump that ends a sweep inside a segment of identify.segment (a
 few samples dropped by a filter do not)."""
@@ -151,6 +155,12 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     if tests and "run" in df:
         first_run = df.groupby("sweep", sort=False)["run"].first().astype(str)
         test = first_run.map(lambda r: tests.get(r))
+        # a combined-slip test's slip-ratio sweeps at a set slip angle of zero are pure
+        # drive/brake sweeps (the TTC drive/brake file holds 0, -3 and -6 deg): ``mfid fit``
+        # fits Fx0 on them, and so is the longitudinal force tested here
+        set_alpha = df.groupby("sweep", sort=False)["alpha"].median().abs()
+        pure = (test == "combined") & f["moves_kappa"] & (set_alpha < ZERO_ALPHA)
+        test = test.where(~pure, "braking_driving")
         kinds = kinds.where(~test.isin(known), test)
     df["kind"] = df["sweep"].map(kinds)
     df["shape"] = df["sweep"].map(sweep_shapes(df, f))
