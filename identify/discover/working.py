@@ -17,8 +17,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
-from identify.discover.design import folds
+from identify.discover.design import folds, levels
 from identify.discover.drift import DRIFT_KEY, with_drift
 from identify.discover.floor import table_floor_sigma
 from identify.discover.library import Candidate, Library
@@ -263,6 +264,20 @@ def renoise(w: Working) -> None:
         w.fold_errors = None
 
 
+def load_levels(fz: np.ndarray, sweeps: np.ndarray | None = None) -> np.ndarray:
+    """Each point's load level [N]: its sweep's mean load (the point's own load without
+    sweeps), clustered (:func:`identify.discover.design.levels`) and replaced by the level's
+    mean. A measured load wanders along a sweep: rounded point by point, a cell held a few
+    points of one sweep and a moment's error there read thousands of per cent."""
+    fz = np.asarray(fz, dtype=float)
+    if sweeps is not None and np.size(sweeps) == fz.size:
+        fz = pd.Series(fz).groupby(np.asarray(sweeps)).transform("mean").to_numpy()
+    lv = levels(fz)
+    out = pd.Series(fz).groupby(lv).transform("mean").to_numpy(dtype=float, copy=True)
+    out[lv < 0] = np.nan
+    return out
+
+
 def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
     """Error per condition cell: pressure x load x camber class [%] (thesis metric; for
     moments relative to the cell's range, :func:`by_range`), and ``rms`` [unit of the
@@ -271,7 +286,7 @@ def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
     fz = np.asarray(problem.extra.get("Fz_N", np.full(n, np.nan)), dtype=float)
     g = np.asarray(problem.extra.get("gamma_deg", np.zeros(n)), dtype=float)
     gcls = np.where(g < -0.5, "<0", np.where(g > 0.5, ">0", "0"))
-    fzr = np.round(fz, -1)
+    fzr = np.round(load_levels(fz, problem.sweeps), -1)
     out = []
     keys = sorted({(float(a), float(b), str(c)) for a, b, c in
                    zip(problem.pressure_bar, fzr, gcls)}, key=lambda t: (t[0], t[1], t[2]))
