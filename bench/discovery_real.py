@@ -59,6 +59,7 @@ def summary(d: dict) -> dict:
     """What a discovery.json says: accepted effects, pressure keys of Fy among them,
     untestable candidates, base convergence per problem."""
     accepted = d.get("accepted", [])
+    problems = d.get("base", {}).get("problems", [])
     keys = sorted({k for a in accepted for k in a["coefficients"]})
     first = d["steps"][0]["candidates"] if d.get("steps") else []
     return {"accepted": [f"{a['name']} ({a['problem']})" for a in accepted],
@@ -70,8 +71,8 @@ def summary(d: dict) -> dict:
             "testable": sorted(f"{r['name']} ({r['problem']})" for r in first
                                if r["testable"]),
             "converged": {p["name"]: bool(p.get("converged")) and bool(p.get("stationary"))
-                          for p in d.get("problems", [])},
-            "heldout": {p["name"]: p.get("heldout_scheme") for p in d.get("problems", [])},
+                          for p in problems},
+            "heldout": {p["name"]: p.get("heldout_scheme") for p in problems},
             "conclusion": d.get("conclusion", "")}
 
 
