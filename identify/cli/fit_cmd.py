@@ -269,7 +269,7 @@ def fit_command(
         help="Do not average trailer samples over one wheel revolution before the bins: for a "
              "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
              "ratio) when the ripple is the wheel's load variation, which the forces follow "
-             "(docs/intervals.md, 'A published tyre as the truth')."),
+             "(docs/intervals.md, 'What the averaging does')."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
     vehicle: str | None = typer.Option(
         None, "--vehicle", metavar="FILE.toml",

@@ -80,12 +80,12 @@ class FitSettings:
                            the forces do not follow); off, the raw samples go to the bins,
                            which average the ripple over the passes through each bin without
                            bending a curve that changes within a revolution (docs/intervals.md,
-                           "A published tyre as the truth")
+                           "What the averaging does to the tightest intervals")
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
-                           PASS_GAIN; numbers in README ("fit") and docs/intervals.md
+                           PASS_GAIN (docs/commands.md, "mfid fit")
     """
 
     seed: int = 0
