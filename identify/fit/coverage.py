@@ -100,11 +100,11 @@ class StageCoverage:
         return span > (max(self.cambers) - min(self.cambers)) + SWEPT_CAMBER_DEG
 
     def camber_text(self, fmt: str = ".1f") -> str:
-        """The cambers [deg]: ``"-8.0..8.0 swept"`` for a swept camber, else the levels
+        """The cambers [deg]: ``"-8.0 .. 8.0 swept"`` for a swept camber, else the levels
         (``"-4.0 0.0 4.0"``); "-" without points."""
         if self.camber_swept:
             lo, hi = self.camber_deg
-            return f"{lo:{fmt}}..{hi:{fmt}} swept"
+            return f"{lo:{fmt}} .. {hi:{fmt}} swept"
         return " ".join(format(v, fmt) for v in self.cambers) or "-"
 
     @property
@@ -252,14 +252,14 @@ def coverage_text(table: Sequence[StageCoverage]) -> list[str]:
     """The coverage table as printable lines: one per stage (loads in kN, pressures in kPa,
     cambers in deg, slip ranges), then one line per skipped stage saying why."""
     lines = [f"{'stage':<9}{'points':>8}  {'loads [kN]':<24}{'p [kPa]':<18}"
-             f"{'camber [deg]':<16}{'alpha [deg]':<15}{'kappa':<15}identifiable"]
+             f"{'camber [deg]':<19}{'alpha [deg]':<15}{'kappa':<15}identifiable"]
     for c in table:
         if c.skipped:
             lines.append(f"{c.stage:<9}{c.points:>8}  skipped")
             continue
         lines.append(
             f"{c.stage:<9}{c.points:>8}  {_join(c.loads, 1e-3, '.1f'):<24}"
-            f"{_join(c.pressures, 1e-3, '.0f'):<18}{c.camber_text():<16}"
+            f"{_join(c.pressures, 1e-3, '.0f'):<18}{c.camber_text():<19}"
             f"{_join(c.alpha_deg, 1, '.1f', '..'):<15}{_join(c.kappa, 1, '.2f', '..'):<15}"
             f"{len(c.identifiable)}/{len(c.identifiable) + len(c.not_identifiable)}")
     lines += [f"skipped {c.stage}: {c.skipped}" for c in table if c.skipped]
