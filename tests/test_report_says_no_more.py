@@ -123,6 +123,8 @@ def test_parameter_table_heading_is_short():
              "LS +/-2.11 s.e. (staged sweep jackknife)", "MCMC 2.5-97.5 %"]
     assert interval_title(kinds) == ("LS +/-2.11-2.19 s.e. (staged sweep jackknife), "
                                      "LS profile (staged sweep jackknife), MCMC 2.5-97.5 %")
+    assert interval_title(kinds[:4]) == ("LS +/-2.11-2.19 s.e., LS profile (staged sweep "
+                                         "jackknife)")
     assert interval_title(["LS +/-2.04 s.e."] * 3) == "LS +/-2.04 s.e."
 
 

@@ -114,6 +114,9 @@ def fit_pages(fd: FitDir, fit: FitResult) -> tuple[list[Page], str]:
             part = rows[sel].reset_index(drop=True)
             _plot_fit(ax, rax, part, _joined(part, fx), fx, pcol, quantity, unit,
                       pressures=i == 0, title=f"{_SWEEP_NAME[fx]} ({int(sel.sum())} points)")
+            if i:  # the first panel of each row names the quantity
+                ax.set_ylabel("")
+                rax.set_ylabel("")
     else:
         ax = fig.add_axes((0.09, 0.47, 0.39, 0.37))
         rax = fig.add_axes((0.56, 0.47, 0.40, 0.37))
@@ -171,26 +174,35 @@ def _bounds_text(lo: float, hi: float) -> str:
     return f"[{a}, {b}]"
 
 
-_LS = re.compile(r"LS \+/-([0-9.eE+-]+) s\.e\.(.*)")
+_LS = re.compile(r"LS \+/-([0-9.eE+-]+) s\.e\.")
+_SUFFIX = re.compile(r"(.*?)( \([^()]*\))")
 
 
 def interval_title(kinds: Sequence[str]) -> str:
     """The kinds of 95 % interval of a parameter table in one short phrase: the
-    least-squares ones of one covariance merged into one entry with the range of their
-    quantiles (``LS +/-2.11-2.19 s.e. (staged sweep jackknife)``), the others as they are."""
+    least-squares ones merged into one entry with the range of their quantiles
+    (``LS +/-2.11-2.19 s.e.``), a covariance they all share named once at the end
+    (``LS +/-2.11-2.19 s.e., LS profile (staged sweep jackknife)``)."""
+    split = []
+    for kind in dict.fromkeys(kinds):
+        m = _SUFFIX.fullmatch(kind)
+        split.append((m.group(1), m.group(2)) if m else (kind, ""))
+    suffixes = {suffix for _, suffix in split}
+    shared = suffixes.pop() if len(suffixes) == 1 else ""
     quantiles: dict[str, list[float]] = {}
     other: list[str] = []
-    for kind in kinds:
-        m = _LS.fullmatch(kind)
+    for base, suffix in split:
+        tail = "" if shared else suffix
+        m = _LS.fullmatch(base)
         if m:
-            quantiles.setdefault(m.group(2), []).append(float(m.group(1)))
-        elif kind not in other:
-            other.append(kind)
+            quantiles.setdefault(tail, []).append(float(m.group(1)))
+        elif base + tail not in other:
+            other.append(base + tail)
     parts = []
-    for suffix, q in quantiles.items():
+    for tail, q in quantiles.items():
         lo, hi = f"{min(q):.3g}", f"{max(q):.3g}"
-        parts.append(f"LS +/-{lo if lo == hi else lo + '-' + hi} s.e.{suffix}")
-    return ", ".join(sorted(parts) + sorted(other))
+        parts.append(f"LS +/-{lo if lo == hi else lo + '-' + hi} s.e.{tail}")
+    return ", ".join(sorted(parts) + sorted(other)) + shared
 
 
 def interval_digits(lo: float, hi: float, digits: int = 4, most: int = 10) -> int:
@@ -202,9 +214,9 @@ def interval_digits(lo: float, hi: float, digits: int = 4, most: int = 10) -> in
 
 
 def _param_table(ax, prow, fit, more: int = 0) -> None:
-    title = "Parameters (free): 95 % interval " + interval_title([r.interval for r in prow])
+    title = "Free parameters, 95 % interval: " + interval_title([r.interval for r in prow])
     if more:
-        title += f"   ({more} more on the next page)"
+        title += f" (+{more} on the next page)"
     table = [[r.name, T.fmt(r.value, max(6, interval_digits(r.lo95, r.hi95))),
               T.fmt(r.stderr, 3), T.fmt(r.lo95, interval_digits(r.lo95, r.hi95)),
               T.fmt(r.hi95, interval_digits(r.lo95, r.hi95)), _bounds_text(r.lower, r.upper),
