@@ -39,3 +39,4 @@ def test_every_api_name_resolves_under_both_package_names():
         assert getattr(identify, name) is getattr(mfid, name), name
     assert mfid.__version__ == identify.__version__
     assert "fit_folder" in dir(identify)
+    assert mfid.fit is identify.api.fit and "fit" in dir(mfid)

@@ -143,7 +143,8 @@ def _fit_options(command: str) -> set[str]:
 
 
 def test_batch_takes_every_fit_option_of_fit():
-    fit_only = {"--nominal-pressure", "--nominal-load"}  # a single characteristics CSV
+    # a single characteristics CSV; a vehicle on which to put the one fitted tyre
+    fit_only = {"--nominal-pressure", "--nominal-load", "--vehicle"}
     batch_only = {"--workers", "--scheduler", "--retries", "--force"}
     assert _fit_options("fit") - fit_only == _fit_options("batch") - batch_only
 

@@ -33,6 +33,8 @@ from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
 from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
+from identify.workflows.vehicle import add_vehicle_to_fit
+from identify.vehicle.spec import read_vehicle
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
 
@@ -246,6 +248,11 @@ def fit_command(
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
+    vehicle: str | None = typer.Option(
+        None, "--vehicle", metavar="FILE.toml",
+        help="Also put the fitted tyre on a car: a vehicle file (docs/vehicle.md) or "
+             "'default' (the default sedan); writes OUT/<id>/vehicle/ and adds the vehicle "
+             "pages to the report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
     (and extraction.json) and the PDF report REPORTS/<id>.pdf.
@@ -257,7 +264,10 @@ def fit_command(
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
                                no_segment, no_revolution_average)
+    if vehicle is not None:
+        command += " " + shlex.join(["--vehicle", vehicle])
     try:
+        vehicle_spec = None if vehicle is None else read_vehicle(vehicle)
         # the settings as mfid batch makes them (the options are shared and checked there),
         # plus mfid fit's own
         settings = shared.fit_settings(
@@ -275,6 +285,9 @@ def fit_command(
                              nominal_pressure_Pa=nominal_pressure,
                              nominal_load_N=nominal_load, command=command,
                              chain_progress=progress.chain)
+            if vehicle_spec is not None:
+                progress("vehicle: handling and ride of the fitted tyre")
+                add_vehicle_to_fit(run.fit_dir, run.tir_path, vehicle_spec)
             report = None
             if not no_report:
                 progress("report: PDF")
