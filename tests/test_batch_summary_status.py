@@ -118,6 +118,13 @@ def test_a_later_batch_keeps_the_rows_of_tyres_it_did_not_touch(folders, tmp_pat
     assert (after["folder"] == str(bad)).sum() == 1
     overview = PdfReader(reports / "batch_summary.pdf").pages[0].extract_text()
     assert "Batch summary: 3 tyres" in overview and "s1" in overview
+    # a kept tyre whose fit directory has gone is not vouched for
+    import shutil
+    shutil.rmtree(out / "s1")
+    run_batch([folders / "s2"], out_root=out, reports=None, settings=settings, workers=1)
+    last = pd.read_csv(out / "batch_summary.csv", dtype=str, keep_default_na=False)
+    gone = last[last["tyre"] == "s1"]
+    assert list(gone["task"]) == ["missing"] and "fit directory is missing" in gone.iloc[0].message
 
 
 def test_repeated_folder_is_fitted_once_and_only_the_duplicate_id_is_refused(folders,

@@ -3,7 +3,7 @@ the MF stages' points (not widened by the Flatplank relations' loads and cambers
 coefficient whose 95 % interval holds 0 is marked, and numbers carry FIT_DIGITS significant
 digits, with which the written file reproduces the fit.
 
-A small simulated folder fitted with ``--only MF,camber,CFz`` (a few seconds): the camber
+A small simulated folder fitted with ``--only MF,camber`` (a few seconds): the camber
 relations' Flatplank points reach +-10 deg, the MF stages' +-6 deg.
 """
 from __future__ import annotations
@@ -31,7 +31,7 @@ def run(tmp_path_factory):
     simulate_folder(read_tir(default_tir_path()).params(), root / "m", seed=1, grid="small",
                     tyre_id="m1")
     return fit_folder(root / "m", out_root=root / "fits",
-                      settings=FitSettings(only=("MF", "camber", "CFz")))
+                      settings=FitSettings(only=("MF", "camber")))
 
 
 def _lines(run) -> dict[str, str]:

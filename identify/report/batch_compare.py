@@ -187,7 +187,8 @@ def _overview(entries: Sequence[BatchEntry]) -> list[Page]:
     for i, part in enumerate(parts):
         fig = new_page(f"Batch summary: {len(entries)} tyres",
                        "status of every folder (ok, failed: a fit did not converge, bad input, "
-                       "lost: its worker died too often, up to date: not refitted); its fits "
+                       "lost: its worker died too often, up to date: not refitted, missing: "
+                       "the fit directory of an earlier batch is gone); its fits "
                        "by status as mfid fit gives them (each fit on the pages 'Fits of "
                        "every tyre')")
         ax = fig.add_axes((0.04, 0.08, 0.92, 0.80))

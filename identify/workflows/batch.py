@@ -280,8 +280,11 @@ def _earlier_entries(out_root: Path, current: Sequence[BatchEntry]) -> list[Batc
             continue
         seen.add(key)
         fd = _fit_dir(out_root, row.tyre) if row.tyre and row.relation else None
-        message = "" if fd is not None else row.message
-        out.append(BatchEntry(row.tyre, row.folder, row.task, message, fd))
+        task, message = row.task, "" if fd is not None else row.message
+        if fd is None and row.relation:  # its fits are gone: the summary cannot vouch for them
+            task = "missing"
+            message = f"{out_root / row.tyre}: its fit directory is missing or unreadable"
+        out.append(BatchEntry(row.tyre, row.folder, task, message, fd))
     return out
 
 
