@@ -28,9 +28,8 @@ from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
-from identify.core.errors import FitError, InputError, MfidError
+from identify.core.errors import FitError, MfidError
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
-from identify.fit.mcmc import BUDGET_S
 from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
@@ -231,14 +230,7 @@ def fit_command(
     mcmc: shared.McmcOption = False,
     mcmc_ar1: shared.McmcAr1Option = False,
     mcmc_max_steps: shared.McmcMaxStepsOption = None,
-    mcmc_budget: float | None = typer.Option(
-        None, "--mcmc-budget", metavar="SECONDS",
-        help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
-             f"(default {BUDGET_S:g}; 'inf' for none). The chains run after the fits, cheapest "
-             "first; each may use the budget left divided by the chains left, so time a chain "
-             "does not need goes to the later ones. A chain stops at 50 autocorrelation "
-             "times, the step cap or its share, whichever comes first; stopped early, it says "
-             "converged = false and a warning names it with its steps and tau."),
+    mcmc_budget: shared.McmcBudgetOption = None,
     seed: shared.SeedOption = 0,
     only: shared.OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     nominal_pressure: float | None = typer.Option(
@@ -250,26 +242,11 @@ def fit_command(
     fittyp: shared.FittypOption = 61,
     form: shared.FormOption = [],  # noqa: B006
     hold: shared.HoldOption = [],  # noqa: B006
-    bin_alpha: float | None = typer.Option(
-        None, "--bin-alpha", metavar="DEG",
-        help="Bin width \\[deg] of dense slip-angle sweeps of trailer data: every sweep with at "
-             "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
-             "docs/procedures.md, 'Sweep binning', states the effect)."),
-    bin_kappa: float | None = typer.Option(
-        None, "--bin-kappa", metavar="K",
-        help="Bin width [-] of dense slip-ratio sweeps (default 0.0025)."),
-    no_bin: bool = typer.Option(False, "--no-bin",
-                                help="Fit every trailer sample: no sweep binning."),
-    no_segment: bool = typer.Option(
-        False, "--no-segment",
-        help="Fit trailer runs with a warm-up (logged test programmes such as a TTC session) "
-             "on all their samples, not on their quasi-steady sweeps only."),
-    no_revolution_average: bool = typer.Option(
-        False, "--no-revolution-average",
-        help="Do not average trailer samples over one wheel revolution before the bins: for a "
-             "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
-             "ratio) when the ripple is the wheel's load variation, which the forces follow "
-             "(docs/intervals.md, 'What the averaging does')."),
+    bin_alpha: shared.BinAlphaOption = None,
+    bin_kappa: shared.BinKappaOption = None,
+    no_bin: shared.NoBinOption = False,
+    no_segment: shared.NoSegmentOption = False,
+    no_revolution_average: shared.NoRevolutionAverageOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
     vehicle: str | None = typer.Option(
         None, "--vehicle", metavar="FILE.toml",
@@ -291,28 +268,13 @@ def fit_command(
         command += " " + shlex.join(["--vehicle", vehicle])
     try:
         vehicle_spec = None if vehicle is None else read_vehicle(vehicle)
-        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
-            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
-            if v is not None}
-        # the settings as mfid batch makes them, plus mfid fit's own; fit_settings checks the
-        # shared options first, mfid fit's own are checked below
+        # the settings as mfid batch makes them (the options are shared and checked there),
+        # plus mfid fit's own
         settings = shared.fit_settings(
             seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
-            fittyp=fittyp, form=form, hold=hold,
-            mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
-                           if math.isinf(mcmc_budget) else mcmc_budget),
-            segment=not no_segment, revolution_average=not no_revolution_average, **bins)
-        if mcmc_budget is not None and not mcmc:
-            raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
-        if mcmc_budget is not None and not mcmc_budget > 0:
-            raise InputError(None, f"--mcmc-budget must be a positive number of seconds (or "
-                                   f"inf), not {mcmc_budget:g}", key="--mcmc-budget")
-        if no_bin and (bin_alpha is not None or bin_kappa is not None):
-            raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
-                             key="--no-bin")
-        for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
-            if width is not None and not width > 0:
-                raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
+            fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
+            bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
+            no_revolution_average=no_revolution_average)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

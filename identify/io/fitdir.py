@@ -28,6 +28,7 @@ from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
 from identify.fit.sources import KeySource
 from identify.io.atomic import atomic_path, atomic_write_text
 from identify.io.tir import format_tir, read_tir
+from identify.io.tir.write import FIT_DIGITS
 
 __all__ = [
     "CSV_COLUMNS",
@@ -269,7 +270,8 @@ def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
     run = dataclasses.replace(run, fit_dir=fit_dir)
     texts = {run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
                                       comment_lines=_tir_comment(run),
-                                      sources=dict(run.key_sources) or None),
+                                      sources=dict(run.key_sources) or None,
+                                      digits=FIT_DIGITS),
              run.csv_path: points.to_csv(index=False, lineterminator="\n"),
              run.json_path: json_text(run.to_dict())}
     if extraction is not None:

@@ -37,7 +37,7 @@ def coverage_rows(coverage) -> list[list[str]]:
             continue
         n = len(c.identifiable) + len(c.not_identifiable)
         rows.append([c.stage, str(c.points), _values(c.loads, 1e-3, ".1f"),
-                     _values(c.pressures, 1e-3, ".0f"), _values(c.cambers, 1, ".1f"),
+                     _values(c.pressures, 1e-3, ".0f"), c.camber_text(),
                      _values(c.alpha_deg, 1, ".1f", " .. "), _values(c.kappa, 1, ".2f", " .. "),
                      f"{len(c.identifiable)}/{n}"])
     return rows
@@ -97,7 +97,7 @@ def trailer_pages(fd: FitDir) -> list[Page]:
     if coverage:
         draw_table(ax, ["stage", "points", "loads [kN]", "p [kPa]", "camber [deg]",
                         "alpha [deg]", "kappa", "identifiable"], coverage_rows(coverage),
-                   [0.08, 0.07, 0.22, 0.13, 0.12, 0.13, 0.13, 0.09], fontsize=7.5,
+                   [0.08, 0.07, 0.20, 0.12, 0.15, 0.13, 0.13, 0.09], fontsize=7.5,
                    title="Coverage of the MF stages (before fitting)",
                    align=["left", "right", "left", "left", "left", "left", "left", "right"])
     else:
