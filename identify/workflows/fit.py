@@ -50,6 +50,8 @@ __all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names
 
 ChainProgressFn = Callable[[str, ChainProgress], None]
 """Called with a chain's name (``MF_Fy0``, ``CFy_relaxation``) and where it stands."""
+TrailerRows = Callable[[pd.DataFrame], np.ndarray]
+"""The loaded trailer table -> a boolean mask of the rows to fit."""
 
 GEOMETRY_INPUTS = ("VERTICAL_STIFFNESS", "PFZ1")
 """.tir keys the MF geometry stage holds: a plan entry writing them is fitted before the MF
@@ -253,12 +255,15 @@ def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
-               command: str = "", chain_progress: ChainProgressFn | None = None) -> FitRun:
+               command: str = "", chain_progress: ChainProgressFn | None = None,
+               trailer_rows: TrailerRows | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
-    it stops.
+    it stops. ``trailer_rows`` (the loaded trailer table -> a boolean mask) fits only the trailer
+    samples it marks, as if the others had never been measured (they are dropped before the
+    segmentation): the held-out fits of a real-data benchmark (bench/realdata.py).
 
     Returns
     -------
@@ -275,11 +280,22 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """
     with _Chains(settings, out_root, chain_progress) as chains:
         return _fit_folder(source, out_root, settings, progress, nominal_pressure_Pa,
-                           nominal_load_N, command, chains)
+                           nominal_load_N, command, chains, trailer_rows)
+
+
+def _only_rows(mset, trailer_rows: TrailerRows | None):
+    """``mset`` with only the trailer rows ``trailer_rows`` marks (``mset`` when None)."""
+    if trailer_rows is None or mset.trailer is None or not len(mset.trailer):
+        return mset
+    keep = np.asarray(trailer_rows(mset.trailer), dtype=bool)
+    if keep.shape != (len(mset.trailer),):
+        raise ValueError(f"trailer_rows gave {keep.shape} for {len(mset.trailer)} rows")
+    return dataclasses.replace(mset, trailer=mset.trailer[keep].reset_index(drop=True))
 
 
 def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | None,
-                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains) -> FitRun:
+                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains,
+                trailer_rows: TrailerRows | None = None) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -287,8 +303,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     overrides = TA.form_overrides(settings.forms)
     hold = TA.hold_names(settings.hold)
     _say(progress, f"load: {source}")
-    mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
-                       nominal_load_N=nominal_load_N)
+    mset = _only_rows(load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
+                                  nominal_load_N=nominal_load_N), trailer_rows)
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
