@@ -43,6 +43,7 @@ from identify.io.folder import load_folder
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
+from identify.fit.pressure_holdout import pressure_holdout
 from identify.workflows.sweep_bins import mf_table, segment_settings
 from identify.workflows.trailer_prep import prepare_trailer
 
@@ -336,6 +337,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                             if k in ef.result.parameters})
 
     coverage: tuple = ()
+    holdout: dict = {}  # the pressure page's record (identify.fit.pressure_holdout)
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
@@ -367,6 +369,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             _say(progress, "MF 95 % intervals: profiles of the objective (refits with each "
                            "coefficient held)")
             mf = profile_intervals(trailer, mf, progress)
+            if settings.pressure_holdout:
+                holdout = pressure_holdout(trailer, mf, progress=progress).to_dict()
             fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:
@@ -422,7 +426,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
-                 data_quality=quality)
+                 data_quality=quality, pressure_holdout=holdout)
     _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
 
