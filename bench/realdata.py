@@ -433,8 +433,10 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
             sweeps = sweep_ids(table, float(mset.manifest.tyre.nominal_load_N))
         folds = sweep_folds(sweeps, n_folds, seed)
         rec["heldout_kind"] = f"held-out sweeps ({n_folds} seeded folds, seed {seed})"
-    if max_folds is not None:
-        folds = folds[:max_folds]
+    if max_folds is not None and len(folds) > max_folds:  # a seeded choice of them
+        pick = np.random.default_rng(seed).choice(len(folds), max_folds, replace=False)
+        rec["folds_left_out"] = [f.name for k, f in enumerate(folds) if k not in pick]
+        folds = [folds[k] for k in sorted(pick)]
     rec.pop("_segments", None)
     held: dict[str, dict] = {}
     for v in models:
@@ -542,7 +544,10 @@ def tables(rec: dict) -> str:
             lines.append(f"| {v} | " + " | ".join(cells) + " |")
     held = rec.get("heldout", {})
     if held:
-        lines += ["", f"Held-out error ({rec.get('heldout_kind')}): mean over folds of the "
+        skipped = rec.get("folds_left_out")
+        lines += ["", f"Held-out error ({rec.get('heldout_kind')}"
+                      + (f"; folds not run: {', '.join(skipped)}" if skipped else "")
+                      + "): mean over folds of the "
                       "pooled % on the held-out samples [pooled over all held-out samples] "
                       "(in-sample % of the full fit on the same samples):", "",
                   "| variant | folds | " + " | ".join(CHANNELS) + " |",
@@ -610,7 +615,10 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="variants to run (default: all; the default pipeline always)")
     ap.add_argument("--folds", type=int, default=3,
                     help="held-out sweep folds of a single-pressure set (default 3)")
-    ap.add_argument("--seed", type=int, default=0, help="seed of the held-out sweep folds")
+    ap.add_argument("--seed", type=int, default=0,
+                    help="seed of the held-out sweep folds and of the --max-folds choice")
+    ap.add_argument("--max-folds", type=int, metavar="N",
+                    help="hold out at most N folds per set (a seeded choice; --quick: 2)")
     ap.add_argument("--published", action="append", default=[], metavar="SET=TIR",
                     help="also evaluate this .tir on the samples of SET (repeatable)")
     ap.add_argument("--work", type=Path, help="scratch folder (default: a temporary one)")
@@ -649,7 +657,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         for s in sets:
             rec = judge_set(s, work, variants, n_folds=a.folds, seed=a.seed,
-                            max_folds=2 if a.quick else None,
+                            max_folds=a.max_folds or (2 if a.quick else None),
                             published=published.get(s.name, []), say=say)
             records.append(rec)
             print("\n" + tables(rec), flush=True)
