@@ -112,3 +112,22 @@ def test_one_pressure_level_has_nothing_to_hold_out(case):
     ph = pressure_holdout(table, mf)
     assert ph.levels == () and "1 pressure level" in ph.skipped
     assert not math.isnan(ph.seconds)
+
+
+@pytest.mark.parametrize("fittyp", [61, 62])
+def test_the_radii_stages_kept_do_not_enter_the_forces(fittyp):
+    """The refit keeps the vertical and geometry stages' values: they do not move Fx, Fy, Mz,
+    Mx at a given slip, load and pressure (else the held-out prediction would carry them)."""
+    from identify.fit.mf_stage_defs import STAGES
+
+    truth = {**read_tir(default_tir_path()).params(), "FITTYP": float(fittyp)}
+    other = dict(truth)
+    for stage in ("vertical", "geometry"):
+        for n in STAGES[stage].coefficients:
+            other[n] = 1.5 * truth[n] + 0.1
+    t = _fy0_table(truth).assign(kappa=0.05, gamma=np.deg2rad(3.0))
+    cols = [t[c].to_numpy() for c in ("Fz", "kappa", "alpha", "gamma", "Vx")]
+    a = evaluate(truth, *cols, p=t["p"].to_numpy(), mode=FIT_MODE)
+    b = evaluate(other, *cols, p=t["p"].to_numpy(), mode=FIT_MODE)
+    for q in ("Fx", "Fy", "Mz", "Mx"):
+        np.testing.assert_array_equal(a[q], b[q])

@@ -220,16 +220,17 @@ def full_report(full_fit, tmp_path_factory):
 def test_report_with_mf_mcmc_flags_and_appendix(full_report, tmp_path):
     titles = list(full_report.pages)
     # cover, 4 MF stages (Fy0 with 24 parameters continues on a second page), 2 relation
-    # pages, 5 MF slip pages, MCMC posterior + traces, data quality and the list of flags,
-    # input appendix
+    # pages, 5 MF slip pages, the pressure prediction page, MCMC posterior + traces, data
+    # quality and the list of flags, input appendix
     assert titles[0] == "cover"
     assert titles[1:6] == ["MF [Fx0]", "MF [Fy0]", "MF [Fy0] parameters", "MF [Mz0]",
                            "MF [Mx]"]
     assert titles[6:8] == ["CFx [linear_load]", "CFx [quadratic_load]"]
     assert titles[8:13] == ["MF Fy - alpha", "MF Fx - kappa", "MF Mz - alpha", "MF Mx - gamma",
                             "MF Friction ellipse"]
-    assert titles[13:15] == ["MCMC CFx [linear_load] posterior", "MCMC CFx [linear_load] traces"]
-    assert titles[15:] == ["data quality", "data flags", "inputs"]
+    assert titles[13] == "pressure prediction"
+    assert titles[14:16] == ["MCMC CFx [linear_load] posterior", "MCMC CFx [linear_load] traces"]
+    assert titles[16:] == ["data quality", "data flags", "inputs"]
     assert full_report.notes == ()
     _check_pages(full_report.path, len(titles), tmp_path)
 
