@@ -330,8 +330,11 @@ def _tir_params(path: Path) -> dict[str, float]:
 
 
 def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int, seed: int,
-              max_folds: int | None, published: Sequence[Path], say) -> dict:
-    """Import, fit and judge one set (see the module notes); the record of the set."""
+              max_folds: int | None, published: Sequence[Path], say,
+              reuse: bool = False) -> dict:
+    """Import, fit and judge one set (see the module notes); the record of the set. ``reuse``:
+    the import and the full fits a former run left in ``work`` are taken as they are (their
+    times are then unknown), only what is missing is made."""
     from identify.io.folder import load_folder
     from identify.workflows.fit import fit_folder
 
@@ -342,8 +345,12 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         rec["skipped"] = "no trailer files"
         return rec
     meas = work / name / "measurement"
-    say(f"{name}: import {len(files)} file(s)")
-    wall, cpu, code, out = mfid("import", *map(str, files), "--out", str(meas))
+    if reuse and (meas / "tyre.toml").is_file():
+        say(f"{name}: the import in {meas} reused")
+        wall, cpu, code, out = math.nan, math.nan, 0, ""
+    else:
+        say(f"{name}: import {len(files)} file(s)")
+        wall, cpu, code, out = mfid("import", *map(str, files), "--out", str(meas))
     rec["import"] = {"seconds": wall, "cpu_seconds": cpu, "exit": code}
     if code != 0:
         rec["import"]["output"] = out
@@ -366,9 +373,14 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         # makes both, as a user's fit does: its wall time is the one a user waits)
         args += list(VARIANTS[v]) + ([] if v == "default"
                                      else ["--no-report", "--no-pressure-holdout"])
-        say(f"{name}: fit {v}")
-        wall, cpu, code, out = mfid(*args)
         fj_path = out_dir / tyre_id / "fit.json"
+        if reuse and fj_path.is_file():
+            say(f"{name}: the fit {v} in {out_dir} reused")
+            wall, cpu, code, out = math.nan, math.nan, 1 if json.loads(
+                fj_path.read_text()).get("failed") else 0, ""
+        else:
+            say(f"{name}: fit {v}")
+            wall, cpu, code, out = mfid(*args)
         fj = json.loads(fj_path.read_text()) if fj_path.is_file() else {}
         fits[v] = {"seconds": wall, "cpu_seconds": cpu, "exit": code, "report": v == "default",
                    "failed": fj.get("failed", []), "stages": _stages(fj)}
@@ -447,7 +459,7 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
             t0 = time.perf_counter()
             keep = ~fold.rows
             try:
-                run = fit_folder(meas, out_root=work / name / "heldout" / v,
+                run = fit_folder(meas, out_root=work / name / f"heldout-{os.getpid()}" / v,
                                  settings=variant_settings(v),
                                  trailer_rows=lambda t, keep=keep: keep)
             except Exception as exc:  # recorded: a fold the pipeline cannot fit is a finding
@@ -612,17 +624,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--quick", action="store_true",
                     help="default and --no-segment only, at most two held-out folds")
     ap.add_argument("--variants", nargs="+", choices=list(VARIANTS),
-                    help="variants to run (default: all; the default pipeline always)")
+                    help="variants to run (default: all; the default pipeline always, except "
+                         "with --reuse: a part of a former run)")
     ap.add_argument("--folds", type=int, default=3,
                     help="held-out sweep folds of a single-pressure set (default 3)")
     ap.add_argument("--seed", type=int, default=0,
                     help="seed of the held-out sweep folds and of the --max-folds choice")
     ap.add_argument("--max-folds", type=int, metavar="N",
-                    help="hold out at most N folds per set (a seeded choice; --quick: 2)")
+                    help="hold out at most N folds per set (a seeded choice; --quick: 2; 0: "
+                         "no held-out error)")
     ap.add_argument("--published", action="append", default=[], metavar="SET=TIR",
                     help="also evaluate this .tir on the samples of SET (repeatable)")
     ap.add_argument("--work", type=Path, help="scratch folder (default: a temporary one)")
     ap.add_argument("--keep", action="store_true", help="keep the scratch folder")
+    ap.add_argument("--reuse", action="store_true",
+                    help="with --work: take the import and the full fits a former run left "
+                         "there (only the missing ones are made)")
     ap.add_argument("--out", type=Path, default=RESULTS,
                     help="folder of realdata.md and realdata.json (default bench/results)")
     a = ap.parse_args(argv)
@@ -637,7 +654,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"realdata: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
         return 2
     variants = list(a.variants or (QUICK_VARIANTS if a.quick else VARIANTS))
-    if "default" not in variants:
+    if "default" not in variants and not (a.reuse and a.variants):
         variants.insert(0, "default")
     published: dict[str, list[Path]] = {}
     for item in a.published:
@@ -657,8 +674,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         for s in sets:
             rec = judge_set(s, work, variants, n_folds=a.folds, seed=a.seed,
-                            max_folds=a.max_folds or (2 if a.quick else None),
-                            published=published.get(s.name, []), say=say)
+                            max_folds=(a.max_folds if a.max_folds is not None
+                                       else 2 if a.quick else None),
+                            published=published.get(s.name, []), say=say, reuse=a.reuse)
             records.append(rec)
             print("\n" + tables(rec), flush=True)
     finally:
