@@ -398,6 +398,13 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
             rec["_segments"] = seg["segments"] if seg else None
             rec["pressure_holdout"] = fj.get("pressure_holdout") or {}
     rec["fits"] = fits
+    default_json = work / name / "fits" / "default" / tyre_id / "fit.json"
+    if "default" not in fits and default_json.is_file():  # --reuse of a part: its levels
+        seg = (json.loads(default_json.read_text()).get("data_quality", {}).get("trailer")
+               or {}).get("segmentation")
+        if seg:
+            rec["segmentation"] = {"p_levels": [lv["value"] for lv in seg["levels"].get("p", [])]}
+            rec["_segments"] = seg["segments"]
 
     # pressure levels and the samples' groups
     seg = rec.get("segmentation")
