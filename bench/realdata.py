@@ -291,10 +291,9 @@ def mfid(*args: str) -> tuple[float, float, int, str]:
 
 
 def variant_settings(name: str):
-    """The FitSettings of a variant (as its ``mfid fit`` flags set them) for a held-out fold:
-    without the report's pressure hold-out."""
+    """The FitSettings of a variant (as its ``mfid fit`` flags set them)."""
     from identify.fit.run import FitSettings
-    s = FitSettings(pressure_holdout=False)  # the folds judge the fit, not the page
+    s = FitSettings()
     if name == "no-segment":
         return dataclasses.replace(s, segment=False)
     if name == "no-bin":
@@ -369,10 +368,9 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         out_dir = work / name / "fits" / v
         args = ["fit", str(meas), "--out", str(out_dir), "--reports", str(work / name / "reports"
                                                                             / v)]
-        # the variants are judged by their .tir: no report, no pressure hold-out (the default
-        # makes both, as a user's fit does: its wall time is the one a user waits)
-        args += list(VARIANTS[v]) + ([] if v == "default"
-                                     else ["--no-report", "--no-pressure-holdout"])
+        # the variants are judged by their .tir: no report (the default makes it, as a
+        # user's fit does: its wall time is the one a user waits)
+        args += list(VARIANTS[v]) + ([] if v == "default" else ["--no-report"])
         fj_path = out_dir / tyre_id / "fit.json"
         if reuse and fj_path.is_file():
             say(f"{name}: the fit {v} in {out_dir} reused")

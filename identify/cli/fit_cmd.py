@@ -176,7 +176,7 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
                      no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
                      mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
                      no_bin=False, no_segment=False, no_revolution_average=False,
-                     no_pressure_holdout=False) -> str:
+                     pressure_holdout=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -210,8 +210,8 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
         args.append("--no-bin")
     if no_revolution_average:
         args.append("--no-revolution-average")
-    if no_pressure_holdout:
-        args.append("--no-pressure-holdout")
+    if pressure_holdout:
+        args.append("--pressure-holdout")
     if bin_alpha is not None:
         args += ["--bin-alpha", f"{bin_alpha:g}"]
     if bin_kappa is not None:
@@ -271,11 +271,11 @@ def fit_command(
              "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
              "ratio) when the ripple is the wheel's load variation, which the forces follow "
              "(docs/intervals.md, 'A published tyre as the truth')."),
-    no_pressure_holdout: bool = typer.Option(
-        False, "--no-pressure-holdout",
-        help="Do not predict each pressure level of the MF fit by the stages fitted again "
-             "without it (the report's pressure page; a local refit of the force and moment "
-             "stages per level)."),
+    pressure_holdout: bool = typer.Option(
+        False, "--pressure-holdout",
+        help="Predict each pressure level of the MF fit by the force and moment stages fitted "
+             "again without it (the report's pressure page): a local refit per level, which "
+             "can cost as much CPU as the MF fit itself."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
@@ -287,7 +287,7 @@ def fit_command(
     command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
-                               no_segment, no_revolution_average, no_pressure_holdout)
+                               no_segment, no_revolution_average, pressure_holdout)
     try:
         bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
             k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
@@ -300,7 +300,7 @@ def fit_command(
             mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
                            if math.isinf(mcmc_budget) else mcmc_budget),
             segment=not no_segment, revolution_average=not no_revolution_average,
-            pressure_holdout=not no_pressure_holdout, **bins)
+            pressure_holdout=pressure_holdout, **bins)
         if mcmc_budget is not None and not mcmc:
             raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
         if mcmc_budget is not None and not mcmc_budget > 0:

@@ -86,7 +86,8 @@ class FitSettings:
                            PASS_GAIN; numbers in README ("fit") and docs/intervals.md
     pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
                            again without it (identify.fit.pressure_holdout; the report's
-                           pressure page)
+                           pressure page); off by default: a refit per level can cost as
+                           much as the MF fit itself
     """
 
     seed: int = 0
@@ -105,7 +106,7 @@ class FitSettings:
     segment: bool = True
     revolution_average: bool = True
     mf_passes: int = 2
-    pressure_holdout: bool = True
+    pressure_holdout: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
@@ -132,8 +133,7 @@ RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
                                      "pressure_holdout": False}
 """Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
 pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
-budget before 9b39edb, every trailer sample fitted, no binning, before 631434a; no pressure
-hold-out before it was recorded)."""
+budget before 9b39edb, every trailer sample fitted, no binning, before 631434a)."""
 
 
 @dataclass(frozen=True)

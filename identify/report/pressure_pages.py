@@ -5,7 +5,8 @@ identify.fit.pressure_holdout).
 A table (per level and force or moment stage: points, in-sample error, held-out error, their
 ratio) and a bar plot (per stage, the in-sample and held-out error of every level side by side).
 Where the hold-out was not computed, the page says why (one pressure level, or the fit was run
-with ``--no-pressure-holdout``); a fit without MF stages has no page.
+without ``--pressure-holdout``); a fit without MF stages has no page. The bars are on a
+logarithmic scale: a level the remaining ones cannot predict can be off by orders of magnitude.
 """
 from __future__ import annotations
 
@@ -59,7 +60,8 @@ def pressure_pages(fd: FitDir) -> list[Page]:
     if ph is None or not ph.levels:
         settings = fd.run.settings
         why = (ph.skipped if ph is not None and ph.skipped else
-               "not computed: the fit ran with --no-pressure-holdout" if settings is not None
+               "not computed: run mfid fit with --pressure-holdout to refit the force and "
+               "moment stages without each pressure level and predict it" if settings is not None
                and not settings.pressure_holdout else "not computed for this fit")
         fig = new_page(TITLE, "each measured pressure predicted by the model fitted without it")
         ax = fig.add_axes((0.04, 0.1, 0.92, 0.75))
@@ -109,7 +111,8 @@ def _bars(ax, ph: PressureHoldout) -> None:
         ax.bar(pos, ins, width * 0.45, color="white", edgecolor="black", hatch="///", lw=0.5,
                label="in-sample (full fit)" if i == 0 else None)
     ax.set_xticks(x, stages)
-    ax.set_ylabel("thesis error at the level [%]")
+    ax.set_yscale("log")
+    ax.set_ylabel("thesis error at the level [%] (log scale)")
     ax.set_title("held-out (coloured) and in-sample (hatched) error per level", fontsize=9)
-    ax.grid(axis="y", lw=0.3, alpha=0.6)
+    ax.grid(axis="y", which="both", lw=0.3, alpha=0.6)
     ax.legend(fontsize=7, loc="upper left")

@@ -36,8 +36,7 @@ def test_the_bench_judges_the_smallest_real_set(tmp_path):
     assert held["folds"] and all("heldout" in f for f in held["folds"])
     assert all(math.isfinite(v) for v in held["mean_pct"].values())
     assert set(rec["verdict"]) >= {"Fx", "Fy", "Mz"}
-    if len(rec["p_levels_Pa"]) >= 2:  # the pressure page of the default fit was made
+    if len(rec["p_levels_Pa"]) >= 2:
         assert rec["heldout_kind"] == "leave-one-pressure-out"
-        assert len(rec["pressure_holdout"]["levels"]) >= 2
     text = (tmp_path / "out" / "realdata.md").read_text()
     assert "Held-out error" in text and "Verdict" in text
