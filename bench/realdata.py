@@ -11,7 +11,9 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
    samples the fit kept): per force and moment (Fx, Fy, Mz, Mx) the pooled error
    100 RMS(model - measured) / RMS(measured) over every sample, and the project's metric (the
    thesis metric, /work/shared/spec/pressure-relations.md: the same ratio per pressure level,
-   then the plain mean over the levels). A freely rolling run's slip-ratio channel is taken as 0
+   then the plain mean over the levels; the levels found from every loaded sample's pressure by
+   :func:`pressure_levels`, independently of the segmentation judged). A freely rolling run's
+   slip-ratio channel is taken as 0
    there, as the fit takes it (identify.fit.mf_data.rolling_kappa);
 4. held-out error: where the set holds several pressure levels, leave-one-pressure-out (each
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
@@ -33,6 +35,7 @@ asks Fy, Mz and Fx of the default at most 0.8x the published fit's error on all 
     nice python bench/realdata.py                # every set under ../shared/realdata
     python bench/realdata.py --quick             # default and --no-segment, two folds at most
     python bench/realdata.py --sets DIR [DIR ...] [--published NAME=FILE.tir]
+    python bench/realdata.py --work W --reuse --variants no-bin   # a part, beside a former run
     make realdata
 
 The tables go to stdout and, with the records, to bench/results/realdata.{md,json}
@@ -83,7 +86,7 @@ the best one's."""
 NICE = 10
 """Niceness of the fits: the machine is shared."""
 PRESSURE_GAP = 5000.0
-"""[Pa] pressures closer than this are one level where no segmentation found the levels."""
+"""[Pa] pressures closer than this are one level (:func:`pressure_levels`)."""
 
 
 # ----- pure functions ---------------------------------------------------------------------
@@ -141,9 +144,9 @@ def nearest_level(p: np.ndarray, levels: Sequence[float]) -> np.ndarray:
 
 
 def pressure_levels(p: np.ndarray, gap: float = PRESSURE_GAP, share: float = 0.02) -> list[float]:
-    """Pressure levels [Pa] of samples whose levels no segmentation gave: the medians of the
-    groups of sorted pressures split at steps above ``gap``, keeping groups of at least
-    ``share`` of the samples (a transition between two levels is not one)."""
+    """Pressure levels [Pa] of the loaded samples: the medians of the groups of sorted
+    pressures split at steps above ``gap``, keeping groups of at least ``share`` of the samples
+    (a transition between two levels is not one; its samples go to the nearest level)."""
     x = np.sort(np.asarray(p, float)[np.isfinite(p)])
     if x.size == 0:
         return []
@@ -405,8 +408,9 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
             rec["_segments"] = seg["segments"]
 
     # pressure levels and the samples' groups
-    seg = rec.get("segmentation")
-    levels = (seg or {}).get("p_levels") or pressure_levels(table["p"].to_numpy(float))
+    # the judge's own levels, from every loaded sample: not the segmentation's (the thing
+    # judged), which can miss a level
+    levels = pressure_levels(table["p"].to_numpy(float))
     rec["p_levels_Pa"] = levels
     level = nearest_level(table["p"].to_numpy(float), levels)
 
@@ -524,7 +528,10 @@ def tables(rec: dict) -> str:
     lines.append(f"import: exit {imp.get('exit')}, {_f(imp.get('seconds'), '{:.1f}')} s; "
                  f"samples loaded {rec.get('samples', {}).get('loaded')}, evaluated "
                  f"{rec.get('samples', {}).get('evaluated')}; pressure levels [kPa] "
-                 + ", ".join(f"{p / 1e3:.1f}" for p in rec.get("p_levels_Pa", [])))
+                 + ", ".join(f"{p / 1e3:.1f}" for p in rec.get("p_levels_Pa", []))
+                 + ("; the default segmentation's: " + ", ".join(
+                     f"{p / 1e3:.1f}" for p in rec["segmentation"].get("p_levels", []))
+                    if rec.get("segmentation") else ""))
     if "fits" not in rec:
         return "\n".join(lines + [""])
     lines += ["", "All samples (pooled % / thesis % = mean over pressure levels); the fit's wall "
