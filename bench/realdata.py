@@ -19,10 +19,11 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
    removed samples predicted); else the sweeps of the default segmentation split into
    ``--folds`` seeded groups, each held out in turn. Each fold is fitted in this process with
-   :func:`identify.workflows.fit.fit_folder` (``trailer_rows``) for the default and every
-   variant. The held-out error of a variant is the mean over the folds of the pooled error on
-   the fold's samples (the thesis metric with a fold as the level); the pooled error over all
-   held-out samples is given too, and the in-sample error of the full fit on the same samples;
+   :func:`identify.workflows.fit.fit_measurements` (the loaded set without the fold's samples)
+   for the default and every variant. The held-out error of a variant is the mean over the
+   folds of the pooled error on the fold's samples (the thesis metric with a fold as the
+   level); the pooled error over all held-out samples is given too, and the in-sample error of
+   the full fit on the same samples;
 5. the verdict: per force and moment, whether the default's held-out error is the best or tied
    (at most ``TIE`` times the best variant's);
 6. where the segmentation leaves samples out: the samples per kind of segment (warm-up,
@@ -338,7 +339,7 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
     the import and the full fits a former run left in ``work`` are taken as they are (their
     times are then unknown), only what is missing is made."""
     from identify.io.folder import load_folder
-    from identify.workflows.fit import fit_folder
+    from identify.workflows.fit import fit_measurements
 
     name = folder.name
     files = trailer_files(folder)
@@ -467,10 +468,10 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
                 "samples)")
             t0 = time.perf_counter()
             keep = ~fold.rows
-            try:
-                run = fit_folder(meas, out_root=work / name / f"heldout-{os.getpid()}" / v,
-                                 settings=variant_settings(v),
-                                 trailer_rows=lambda t, keep=keep: keep)
+            try:  # in memory: the fold's samples never measured, nothing written
+                run = fit_measurements(
+                    dataclasses.replace(mset, trailer=table[keep].reset_index(drop=True)),
+                    settings=variant_settings(v))
             except Exception as exc:  # recorded: a fold the pipeline cannot fit is a finding
                 per_fold.append({"fold": fold.name, "error": f"{type(exc).__name__}: {exc}"})
                 continue

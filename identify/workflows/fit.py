@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from identify.core.errors import InputError
 from identify.core.names import name_problem
@@ -33,26 +34,25 @@ from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_profile import profile_intervals
 from identify.fit.mf_uncertainty import propagate
 from identify.fit.plan import PLAN, RELATION_NAMES
+from identify.fit.pressure_holdout import pressure_holdout
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
 from identify.fit.sources import DEFAULT, FITTED, KeySource
 from identify.io.atomic import atomic_path
-from identify.io.fitdir import write_fit_dir
-from identify.io.folder import load_folder
+from identify.io.fitdir import rows_of, write_fit_dir
+from identify.io.folder import MeasurementSet, load_folder
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
-from identify.fit.pressure_holdout import pressure_holdout
 from identify.workflows.sweep_bins import mf_table, segment_settings
 from identify.workflows.trailer_prep import prepare_trailer
 
-__all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
+__all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "fit_measurements",
+           "only_names"]
 
 ChainProgressFn = Callable[[str, ChainProgress], None]
 """Called with a chain's name (``MF_Fy0``, ``CFy_relaxation``) and where it stands."""
-TrailerRows = Callable[[pd.DataFrame], np.ndarray]
-"""The loaded trailer table -> a boolean mask of the rows to fit."""
 
 GEOMETRY_INPUTS = ("VERTICAL_STIFFNESS", "PFZ1")
 """.tir keys the MF geometry stage holds: a plan entry writing them is fitted before the MF
@@ -256,15 +256,12 @@ def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
-               command: str = "", chain_progress: ChainProgressFn | None = None,
-               trailer_rows: TrailerRows | None = None) -> FitRun:
+               command: str = "", chain_progress: ChainProgressFn | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
-    it stops. ``trailer_rows`` (the loaded trailer table -> a boolean mask) fits only the trailer
-    samples it marks, as if the others had never been measured (they are dropped before the
-    segmentation): the held-out fits of a real-data benchmark (bench/realdata.py).
+    it stops.
 
     Returns
     -------
@@ -279,37 +276,62 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         The folder or file is malformed, or an output cannot be written (exit 2 from the
         CLI).
     """
-    with _Chains(settings, out_root, chain_progress) as chains:
-        return _fit_folder(source, out_root, settings, progress, nominal_pressure_Pa,
-                           nominal_load_N, command, chains, trailer_rows)
+    with _Chains(settings, out_root, chain_progress) as chains, _one_blas_thread():
+        run = _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
+                          command, chains, out_root=out_root)
+        _say(progress, f"write: {Path(out_root) / run.tyre.id} ({len(run.points)} points)")
+        return write_fit_dir(run, Path(out_root) / run.tyre.id, points=run.points,
+                             extraction=run.extraction)
 
 
-def _only_rows(mset, trailer_rows: TrailerRows | None):
-    """``mset`` with only the trailer rows ``trailer_rows`` marks (``mset`` when None)."""
-    if trailer_rows is None or mset.trailer is None or not len(mset.trailer):
-        return mset
-    keep = np.asarray(trailer_rows(mset.trailer), dtype=bool)
-    if keep.shape != (len(mset.trailer),):
-        raise ValueError(f"trailer_rows gave {keep.shape} for {len(mset.trailer)} rows")
-    return dataclasses.replace(mset, trailer=mset.trailer[keep].reset_index(drop=True))
+def fit_measurements(source: str | Path | MeasurementSet, *,
+                     settings: FitSettings = FitSettings(), progress: Progress | None = None,
+                     nominal_pressure_Pa: float | None = None,
+                     nominal_load_N: float | None = None, command: str = "",
+                     chain_progress: ChainProgressFn | None = None) -> FitRun:
+    """Fit a measurement folder, a characteristics CSV or a loaded ``MeasurementSet`` in
+    memory: the same fit as :func:`fit_folder`, nothing written.
+
+    The run holds what a fit directory would: its results (each with its measured and
+    model points), the .tir values, ``points`` (the rows of measured_vs_model.csv) and
+    ``extraction``; :func:`identify.io.fitdir.write_fit_dir` writes them. MCMC chains are
+    summarised in the results but their samples are not kept (``save_chains`` is off).
+    """
+    settings = dataclasses.replace(settings, save_chains=False)
+    with _Chains(settings, ".", chain_progress) as chains, _one_blas_thread():
+        return _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
+                           command, chains, out_root=None)
 
 
-def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | None,
-                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains,
-                trailer_rows: TrailerRows | None = None) -> FitRun:
+def _one_blas_thread():
+    """One BLAS thread for the whole fit: its linear algebra is on small dense matrices
+    (Jacobians of a few thousand rows and tens of columns), where a second thread gains
+    nothing and, on a machine busy with other work, makes each decomposition wait for a
+    core: the profile intervals' SVDs and the jackknife's eigendecompositions ran two orders
+    of magnitude slower with two threads than with one on a loaded two-core machine."""
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _fit_folder(source, settings: FitSettings, progress: Progress | None,
+                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains, *,
+                out_root) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
                                f"{', '.join(RELATION_NAMES)}", key="--only")
     overrides = TA.form_overrides(settings.forms)
     hold = TA.hold_names(settings.hold)
-    _say(progress, f"load: {source}")
-    mset = _only_rows(load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
-                                  nominal_load_N=nominal_load_N), trailer_rows)
+    if isinstance(source, MeasurementSet):
+        mset = source
+    else:
+        _say(progress, f"load: {source}")
+        mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
+                           nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
-    chains.folder = Path(out_root) / tyre.id / "mcmc"
+    if out_root is not None:
+        chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
     key_sources: dict[str, KeySource] = TA.apply_tyre(tir, tyre)
@@ -426,9 +448,10 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
-                 data_quality=quality, pressure_holdout=holdout)
-    _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
-    return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
+                 data_quality=quality, pressure_holdout=holdout, points=points,
+                 extraction=extraction)
+    return dataclasses.replace(run, results=tuple(
+        dataclasses.replace(r, points=rows_of(points, r)) for r in run.results))
 
 
 def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:
