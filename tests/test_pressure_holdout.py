@@ -131,3 +131,22 @@ def test_the_radii_stages_kept_do_not_enter_the_forces(fittyp):
     b = evaluate(other, *cols, p=t["p"].to_numpy(), mode=FIT_MODE)
     for q in ("Fx", "Fy", "Mz", "Mx"):
         np.testing.assert_array_equal(a[q], b[q])
+
+
+def test_the_page_table_and_bars():
+    from matplotlib.figure import Figure
+
+    from identify.fit.pressure_holdout import LevelHoldout
+    from identify.report.pressure_pages import _bars, table_rows
+
+    ph = PressureHoldout((LevelHoldout(0.55, {"Fy0": 10, "Mx": 20}, {"Fy0": 2.0, "Mx": 40.0},
+                                       {"Fy0": 5.0, "Mx": 44.0}, 1.0, True),
+                          LevelHoldout(0.83, {"Fy0": 12}, {"Fy0": 3.0}, {"Fy0": 9000.0}, 1.0,
+                                       False)), method="m", seconds=2.0)
+    assert table_rows(ph) == [["0.55", "Fy0", "10", "2.00", "5.00", "2.50"],
+                              ["0.55", "Mx", "20", "40.00", "44.00", "1.10"],
+                              ["0.83", "Fy0", "12", "3.00", "9000.00", "3000.00"]]
+    ax = Figure().add_subplot()
+    _bars(ax, ph)
+    assert ax.get_yscale() == "log"  # 2 % beside 9000 % stays readable
+    assert [t.get_text() for t in ax.get_xticklabels()] == ["Fy0", "Mx"]
