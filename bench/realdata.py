@@ -144,15 +144,28 @@ def nearest_level(p: np.ndarray, levels: Sequence[float]) -> np.ndarray:
     return out
 
 
-def pressure_levels(p: np.ndarray, gap: float = PRESSURE_GAP, share: float = 0.02) -> list[float]:
-    """Pressure levels [Pa] of the loaded samples: the medians of the groups of sorted
-    pressures split at steps above ``gap``, keeping groups of at least ``share`` of the samples
-    (a transition between two levels is not one; its samples go to the nearest level)."""
+def pressure_levels(p: np.ndarray, gap: float = PRESSURE_GAP, share: float = 0.02,
+                    dense: float = 0.005) -> list[float]:
+    """Pressure levels [Pa] of the loaded samples: in a histogram of bins ``gap``/2 wide, each
+    run of bins holding at least ``dense`` of the samples is a level (its median) when it holds
+    at least ``share`` of them. A pressure changed slowly between two levels (a ramp, or the
+    tyre warming) leaves sparse bins between them, which split the levels, where a split at
+    gaps between the sorted values would chain them into one."""
     x = np.sort(np.asarray(p, float)[np.isfinite(p)])
     if x.size == 0:
         return []
-    cut = np.flatnonzero(np.diff(x) > gap) + 1
-    return [float(np.median(g)) for g in np.split(x, cut) if g.size >= share * x.size]
+    width = gap / 2
+    edges = x[0] + width * np.arange(int((x[-1] - x[0]) // width) + 2)
+    counts, _ = np.histogram(x, bins=edges)
+    full = np.r_[False, counts >= dense * x.size, False]
+    starts = np.flatnonzero(~full[:-1] & full[1:])  # first dense bin of each run
+    stops = np.flatnonzero(full[:-1] & ~full[1:])  # one past its last
+    levels = []
+    for a, b in zip(starts, stops):
+        sel = x[(x >= edges[a]) & (x <= edges[b])]
+        if sel.size >= share * x.size:
+            levels.append(float(np.median(sel)))
+    return levels
 
 
 @dataclass(frozen=True)

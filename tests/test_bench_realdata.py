@@ -36,13 +36,20 @@ def test_pressure_folds_partition_the_samples_by_nearest_level():
     assert folds[1].rows.tolist() == [False, False, True, True, True, False]
 
 
-def test_pressure_levels_without_a_segmentation_skip_a_transition():
+def test_pressure_levels_split_at_a_slow_pressure_change():
     rng = np.random.default_rng(0)
     p = np.r_[55e3 + 300 * rng.standard_normal(500), 83e3 + 300 * rng.standard_normal(500),
               np.linspace(56e3, 82e3, 5)]  # a few samples of the pressure change
     levels = R.pressure_levels(p)
     assert len(levels) == 2
     assert levels[0] == pytest.approx(55e3, abs=100) and levels[1] == pytest.approx(83e3, abs=100)
+    # a ramp between the levels with no step above the gap (the sorted values chain) still
+    # leaves two levels; a level of fewer than 2 % of the samples is none
+    ramp = np.r_[p[:1000], np.linspace(55.5e3, 82.5e3, 20)]
+    assert np.max(np.diff(np.sort(ramp))) < R.PRESSURE_GAP
+    assert len(R.pressure_levels(ramp)) == 2
+    assert len(R.pressure_levels(np.r_[ramp, np.full(15, 110e3)])) == 2
+    assert R.pressure_levels(np.full(10, 8e4)) == [8e4]
 
 
 def test_sweep_folds_deal_every_sweep_once_and_are_seeded():
