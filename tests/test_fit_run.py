@@ -314,7 +314,8 @@ def test_settings_provenance_and_tyre_round_trip():
     # a record without a setting predates it: it says what that fit ran with
     old = FitSettings.from_dict({"seed": 1})
     assert old == FitSettings(seed=1, mf_passes=1, segment=False, mcmc_reparam=False,
-                              mcmc_budget_s=None, bin_alpha_deg=None, bin_kappa=None)
+                              mcmc_budget_s=None, bin_alpha_deg=None, bin_kappa=None,
+                              pressure_holdout=False)
     assert FitSettings.from_dict(FitSettings(seed=1).to_dict()) == FitSettings(seed=1)
     p = Provenance.now(command="mfid fit x", seed=3, settings=s,
                        checksums={"b.csv": "2" * 64, "a.csv": "1" * 64}, folder="m")

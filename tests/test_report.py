@@ -221,14 +221,16 @@ def test_report_with_mf_mcmc_flags_and_appendix(full_report, tmp_path):
     titles = list(full_report.pages)
     # cover, 4 MF stages (Fy0 with 24 parameters continues on a second page), 2 relation
     # pages, 4 MF slip pages (no combined slip was measured: no friction ellipse, and a note
-    # says so), MCMC posterior + traces, data quality and the list of flags, input appendix
+    # says so), the pressure prediction page, MCMC posterior + traces, data quality and the
+    # list of flags, input appendix
     assert titles[0] == "cover"
     assert titles[1:6] == ["MF [Fx0]", "MF [Fy0]", "MF [Fy0] parameters", "MF [Mz0]",
                            "MF [Mx]"]
     assert titles[6:8] == ["CFx [linear_load]", "CFx [quadratic_load]"]
     assert titles[8:12] == ["MF Fy - alpha", "MF Fx - kappa", "MF Mz - alpha", "MF Mx - gamma"]
-    assert titles[12:14] == ["MCMC CFx [linear_load] posterior", "MCMC CFx [linear_load] traces"]
-    assert titles[14:] == ["data quality", "data flags", "inputs"]
+    assert titles[12] == "pressure prediction"
+    assert titles[13:15] == ["MCMC CFx [linear_load] posterior", "MCMC CFx [linear_load] traces"]
+    assert titles[15:] == ["data quality", "data flags", "inputs"]
     assert len(full_report.notes) == 1
     assert full_report.notes[0].startswith("friction-ellipse page left out: no combined-slip")
     _check_pages(full_report.path, len(titles), tmp_path)

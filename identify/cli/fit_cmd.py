@@ -9,6 +9,8 @@ is left.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import math
 import shlex
 import signal
@@ -176,7 +178,8 @@ def summary_table(run: FitRun) -> Table:
 def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                      no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
                      mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
-                     no_bin=False, no_segment=False, no_revolution_average=False) -> str:
+                     no_bin=False, no_segment=False, no_revolution_average=False,
+                     pressure_holdout=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -210,6 +213,8 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
         args.append("--no-bin")
     if no_revolution_average:
         args.append("--no-revolution-average")
+    if pressure_holdout:
+        args.append("--pressure-holdout")
     if bin_alpha is not None:
         args += ["--bin-alpha", f"{bin_alpha:g}"]
     if bin_kappa is not None:
@@ -247,6 +252,11 @@ def fit_command(
     no_bin: shared.NoBinOption = False,
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
+    pressure_holdout: bool = typer.Option(
+        False, "--pressure-holdout",
+        help="Predict each pressure level of the MF fit by the force and moment stages fitted "
+             "again without it (the report's pressure page): a local refit per level, which "
+             "can cost as much CPU as the MF fit itself."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
     vehicle: str | None = typer.Option(
         None, "--vehicle", metavar="FILE.toml",
@@ -263,7 +273,7 @@ def fit_command(
     command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
-                               no_segment, no_revolution_average)
+                               no_segment, no_revolution_average, pressure_holdout)
     if vehicle is not None:
         command += " " + shlex.join(["--vehicle", vehicle])
     try:
@@ -275,6 +285,7 @@ def fit_command(
             fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
             bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
             no_revolution_average=no_revolution_average)
+        settings = dataclasses.replace(settings, pressure_holdout=pressure_holdout)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported

@@ -86,6 +86,10 @@ class FitSettings:
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
                            PASS_GAIN (docs/commands.md, "mfid fit")
+    pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
+                           again without it (identify.fit.pressure_holdout; the report's
+                           pressure page); off by default: a refit per level can cost as
+                           much as the MF fit itself
     """
 
     seed: int = 0
@@ -104,6 +108,7 @@ class FitSettings:
     segment: bool = True
     revolution_average: bool = True
     mf_passes: int = 2
+    pressure_holdout: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
@@ -126,7 +131,8 @@ class FitSettings:
 
 RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
                                      "mcmc_reparam": False, "mcmc_budget_s": None,
-                                     "bin_alpha_deg": None, "bin_kappa": None}
+                                     "bin_alpha_deg": None, "bin_kappa": None,
+                                     "pressure_holdout": False}
 """Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
 pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
 budget before 9b39edb, every trailer sample fitted, no binning, before 631434a)."""
@@ -242,6 +248,10 @@ class FitRun:
                                       each with its count), the trailer runs segmented, their
                                       segmentation and the channels the fit could not use
                                       (``trailer``); empty when there is nothing to say
+    pressure_holdout : Mapping        each pressure level of the MF fit predicted by the stages
+                                      fitted again without it (identify.fit.
+                                      pressure_holdout.PressureHoldout.to_dict); empty when not
+                                      computed
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
@@ -258,6 +268,7 @@ class FitRun:
     form_choices: tuple[FormChoice, ...] = ()
     coverage: tuple[StageCoverage, ...] = ()
     data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    pressure_holdout: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
     points: Any = field(default=None, repr=False, compare=False)
@@ -403,7 +414,8 @@ class FitRun:
                     "forms": [c.to_dict() for c in self.form_choices]},
             "flags": [dict(f) for f in self.flags], "failed": list(self.failed),
             "coverage": [c.to_dict() for c in self.coverage],
-            "data_quality": dict(self.data_quality)})
+            "data_quality": dict(self.data_quality),
+            "pressure_holdout": dict(self.pressure_holdout)})
 
     @classmethod
     def from_dict(cls, doc: Any) -> FitRun:
@@ -446,10 +458,12 @@ class FitRun:
             coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
         with _entry("data_quality"):
             quality = dict(doc.get("data_quality") or {})
+        with _entry("pressure_holdout"):
+            holdout = dict(doc.get("pressure_holdout") or {})
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
                    failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
-                   coverage=coverage, data_quality=quality)
+                   coverage=coverage, data_quality=quality, pressure_holdout=holdout)
 
 
 class _entry:

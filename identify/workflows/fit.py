@@ -34,6 +34,7 @@ from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_profile import profile_intervals
 from identify.fit.mf_uncertainty import propagate
 from identify.fit.plan import PLAN, RELATION_NAMES
+from identify.fit.pressure_holdout import pressure_holdout
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
@@ -358,6 +359,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                             if k in ef.result.parameters})
 
     coverage: tuple = ()
+    holdout: dict = {}  # the pressure page's record (identify.fit.pressure_holdout)
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
@@ -392,6 +394,8 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
             _say(progress, "MF 95 % intervals: profiles of the objective (refits with each "
                            "coefficient held)")
             mf = profile_intervals(trailer, mf, progress)
+            if settings.pressure_holdout:
+                holdout = pressure_holdout(trailer, mf, progress=progress).to_dict()
             fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:
@@ -447,7 +451,8 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
-                 data_quality=quality, points=points, extraction=extraction)
+                 data_quality=quality, pressure_holdout=holdout, points=points,
+                 extraction=extraction)
     return dataclasses.replace(run, results=tuple(
         dataclasses.replace(r, points=rows_of(points, r)) for r in run.results))
 
