@@ -137,8 +137,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
     frame : DataFrame
         The trailer table.
     selection : str
-        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``
-        or ``"all"``
+        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``,
+        ``"rolling_runs"`` or ``"all"``
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, ``"Rl"``: rl; see quantity_values).
@@ -163,6 +163,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
     elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
         slip = (k > PURE_KAPPA) & ~rolling
         ok &= slip & bool(np.any(ok & slip & (a > PURE_ALPHA)))
+    elif selection == "rolling_runs":  # the freely rolling runs; every run without one
+        ok &= rolling if bool(np.any(ok & rolling)) else True
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

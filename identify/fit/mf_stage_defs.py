@@ -53,7 +53,11 @@ class StageDef:
                            that do not roll freely, when
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
-                           a slip-ratio sweep at zero slip angle pins it) or ``"all"``
+                           a slip-ratio sweep at zero slip angle pins it),
+                           ``"rolling_runs"`` (every point of the runs that roll freely --
+                           cornering and camber runs: no kappa sweep, no held slip ratio --
+                           and every point of the table when it has no such run: the Mx
+                           stage, see the note there) or ``"all"``
     coefficients : tuple of str   the stage's own coefficients, priority order
     """
 
@@ -91,7 +95,13 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
     StageDef("Fy", "Fy", "N", "kappa_slip", _names(
         "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
     StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
-    StageDef("Mx", "Mx", "N m", "all", _names(
+    # Mx on the runs that roll freely: its MF equation reads Fz, gamma and Fy, no Fx. On a
+    # real drive/brake run the measured Mx follows Fx at zero slip angle and camber, and the
+    # run carries a zero of its own (its Mx at zero forces is not the cornering run's); fitted
+    # on every point, the stage spends its coefficients on a coupling and an offset it cannot
+    # represent and misses the cornering and camber runs' Mx, which it can. A session of
+    # drive/brake runs only is fitted on all of them.
+    StageDef("Mx", "Mx", "N m", "rolling_runs", _names(
         "QSX1 QSX2 QSX3 QSX12 QSX13 QSX14 PPMX1 QSX4 QSX5 QSX6 QSX7 QSX8 QSX9 QSX10 QSX11")),
     StageDef("My", "My", "N m", "all", _names("QSY1 QSY2 QSY3 QSY4 QSY5 QSY6 QSY7 QSY8")),
 )}

@@ -51,10 +51,13 @@ def fmt(x: Any, digits: int = 4) -> str:
 
 
 def fmt_pct(x: Any) -> str:
-    """A percentage: 3 decimals below 100, 1 above; "n/a" when not finite."""
+    """A percentage: 3 decimals below 100, 1 above, 2 significant digits below 0.001 (a small
+    error is not written as 0.000); "n/a" when not finite."""
     v = num(x)
     if not math.isfinite(v):
         return "n/a"
+    if v != 0 and abs(v) < 0.0005:
+        return f"{v:.2g}"
     return f"{v:.3f}" if abs(v) < 100 else f"{v:.1f}"
 
 
