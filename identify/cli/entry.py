@@ -55,9 +55,9 @@ def main() -> None:
     for name in BLAS_THREADS:
         os.environ.setdefault(name, "1")
     try:
-        # Deferred import, after the handlers: importing identify.cli.app (typer, rich
-        # and the commands) takes a noticeable fraction of a second, and a Ctrl-C in that time must
-        # quit as any other does, not print a KeyboardInterrupt traceback.
+        # Deferred import, after the handlers: importing identify.cli.app (typer, rich and
+        # the commands) takes a noticeable fraction of a second, and a Ctrl-C in that time
+        # must quit as any other does, not print a KeyboardInterrupt traceback.
         from identify.cli.app import app
 
         app()
