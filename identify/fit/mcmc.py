@@ -32,8 +32,9 @@ dimension (bench/mcmc_chains.py prints each chain's tau of an ``mfid fit --mcmc`
 default; with AR(1) noise ``"de+laplace"`` is ``"de"`` (phi has no Laplace approximation
 here). emcee's DESnookerMove is not used: in emcee 3.1.6 it scales its step by the distance
 to the anchor walker (u = delta/sqrt(|delta|) instead of delta/|delta|) and so does not
-sample the target (a unit Gaussian in 19 dimensions comes out with variance 0.56 alone, 0.79 as 20 % of a mix with DE;
-tests/test_fit_mcmc.py checks the posterior width against a linear problem's exact one).
+sample the target (a unit Gaussian in 19 dimensions comes out with variance 0.56 alone,
+0.79 as 20 % of a mix with DE; tests/test_fit_mcmc.py checks the posterior width against a
+linear problem's exact one).
 """
 from __future__ import annotations
 

@@ -278,8 +278,8 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
         Fy0 exactly.
     pure_slip : bool
         Fy0 under JAX: the caller knows every point is at kappa == 0, where the prediction is
-        Fy0 alone; the combined-slip expression is not traced (its forward-mode Jacobian was
-        a fifth of a 2048-point chunk's: 0.52 -> 0.43 ms, one-off, 2026-11-24).
+        Fy0 alone; the combined-slip expression is not traced, and its forward-mode derivatives
+        are not paid for.
     """
     if stage == "geometry":
         return vertical._effective_radius(P, s, inputs["omega"], xp)
