@@ -44,12 +44,12 @@ def _mirror_outside(result: FitResult, c1: str) -> bool:
     False without a standard error): nearer 0 the mirrored point is within the optimum's own
     interval, and the two branches meet there.
 
-    A gate at 2 standard errors (before 2026-11-24) left the branch untried on the golden
-    tyre's TTC session at seed 1 (tests/test_fit_mf_other_tyre.py: PKX2 = 6.2 +- 3.7,
-    interval [-1.2, 13.5], truth -10), where the other branch fits as well (objective 0.9993
-    of the search's). It does not keep a solve at small c1 from ending as low as the optimum:
-    on tests/test_fit_mf_basins.py's Fx0 stage, PKX2 = -0.0021 +- 0.00038, it is tried and
-    ends at PKX2 ~ 0, chi^2 -1e-8; TAKE_CHI2 keeps the optimum, and the end is a rival in
+    A gate at 2 standard errors would leave the branch untried where c1 lies between one and
+    two standard errors from 0 and the other branch fits as well (the golden tyre's TTC
+    session at seed 1 in tests/test_fit_mf_other_tyre.py). The gate does not keep a solve at
+    small c1 from ending as low as the optimum: on tests/test_fit_mf_basins.py's Fx0 stage,
+    PKX2 a few standard errors from 0, the other branch is tried and ends at PKX2 ~ 0 as low
+    as the optimum; TAKE_CHI2 keeps the optimum, and the end is a rival in
     PKX2 alone."""
     lo, hi = result.interval(c1)
     mirror = -float(result.parameters[c1])
