@@ -80,20 +80,19 @@ class Tolerances:
         order of 2 noise_ftol, i.e. the parameters are within a small fraction of their
         standard errors of the optimum, where xtol/ftol at round-off let a solver crawl along
         a flat valley of noisy data for hundreds of evaluations. 0: off. Needs scipy >= 1.16
-        (least_squares' callback); ignored before.
+        (least_squares' callback); ignored by older versions.
     noise_window : int
     crawl_ftol : float
         A solve with ``noise_ftol`` > 0 that runs out of its budget while its cost still falls,
         but by less than crawl_ftol x s^2 over the last ``noise_window`` iterations (chi^2 by
         less than 2 crawl_ftol), is crawling along a valley the data do not determine: it is
         reported converged (status 7) at that point, with the drop in its message, instead of
-        failed. On a generated TTC session (bundled tyre, seed 4) the geometry stage's solve
-        fell by 0.013-0.05 s^2 per 5 iterations for 100 iterations along DREFF, FREFF, BREFF
-        (standard errors 7, 2 and 7 times their values) and ended at its budget: the stage
-        was reported FAILED and ``mfid fit`` exited 1 at a 0.63 % fit.
+        failed: a solve drifting along coefficients whose standard errors exceed their values
+        (e.g. the geometry stage's DREFF, FREFF, BREFF) would otherwise fail a
+        stage whose fit is as good as the data allow.
     qr_svd : bool
         Take the solver's SVDs through a QR decomposition (identify.fit.trf_svd: the same
-        steps to round-off, in 35-50 % of the SVDs' time); the MF stages' solves.
+        steps to round-off, without forming U); the MF stages' solves.
     dogleg_after : int
         A solve still going after this many evaluations of the trust-region reflective
         method goes on from there with scipy's dogleg method ("dogbox") for the rest of its
@@ -468,9 +467,8 @@ class _PolishStall:
     ``tol.polish_ftol`` (SLSQP's own ftol, absolute) over the last ``tol.noise_window``
     iterations at an iterate where every constraint holds to FEASIBLE_TOL. SLSQP's own test
     also asks its constraint violation to be below ftol, which a kink of a min-over-grid
-    margin can deny for good: on a generated TTC session (seed 2) the Fy stage's second
-    candidate reached its constrained optimum in 17 iterations and then stayed there, 2.7e-10
-    outside a margin, for its 300-iteration limit and a restart (3469 evaluations, 5 s).
+    margin can deny for good: a candidate at its constrained optimum, a hair outside a
+    margin, would stay there for SLSQP's whole iteration limit and a restart.
     ``feasible_margin`` z -> constraint values (None: no constraints)."""
 
     def __init__(self, tol: Tolerances, feasible_margin):

@@ -9,20 +9,19 @@ gradient, the identifiability screen and discovery all use it.
 
 JAX is an optional extra (``pip install mfid[fast]``). Without it, or with the environment
 variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits use finite
-differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
+differences (the same optimum, at more model evaluations). With JAX, a stage whose
 points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
 compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
 Each stage's compiled function is kept on disk (identify.fit.mf_jax_cache; ``MFID_JAX_CACHE``,
 default ``~/.cache/mfid/jax``; empty: none), which a later run loads without tracing or
-compiling: a stage's first call 0.013-0.03 s, where tracing, lowering and loading from JAX's
-compilation cache (used before) took 0.07-0.12 s. Without an entry a stage is traced and
-compiled, ~0.2-0.6 s (the first run only).
+compiling, at a fraction of the tracing's cost. Without an entry a stage is traced and
+compiled once, and stored.
 
-Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
+Cost (bench/fit_jacobian.py, bench/fit_cost.py --jacobian): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
 (the subsample search and the full-data polish, every refit, every pass): one trace and
-compile per stage (~0.4 s, then stored), then ~2-5 evaluations' time per Jacobian of up to 29
-columns, where two-point finite differences cost 1 + free coefficients evaluations.
+compile per stage (then stored), then a few evaluations' time per Jacobian, where two-point
+finite differences cost 1 + free coefficients evaluations.
 """
 from __future__ import annotations
 
@@ -103,7 +102,7 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
     """Whether a stage of ``n_points`` points and ``n_coefficients`` candidate coefficients
     uses the exact Jacobian (see ENV and MIN_WORK). JAX is imported only when the answer
     depends on it being installed: a run whose stages are all below MIN_WORK does not pay the
-    ~0.3 s import."""
+    JAX import."""
     if (os.environ.get(ENV, "").lower() != "jax"
             and n_points * (n_coefficients + 1) < MIN_WORK):
         return False
@@ -235,8 +234,9 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         exact = use_exact(n, len(coefficients))
     if not exact or not available():
         return None
-    # the held values the equations read, not all ~260 (tracing a slice per value cost the
-    # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
+    # the held values the equations read, not all ~260 (a slice per value in the traced
+    # function would cost every Jacobian call for values no equation reads); every value
+    # if that set misses one
     others = _read_others(stage, base, s, omega)
     fn = None
     fixed = np.array([float(base[k]) for k in others])
