@@ -7,9 +7,9 @@ The longitudinal slip stiffness is (docs/model.md, section 4)
 Over the loads of a trailer session (dfz within about +-0.5) two sets with the same value and
 slope at dfz = 0 -- PKX2 of either sign, PKX3 = PKX3' + (PKX2' - PKX2) / PKX1 -- draw nearly
 the same curve, and the search, which starts near the defaults (PKX2 > 0), does not reach the
-other. On a TTC session generated from the golden test tyre (tests/data/tir/testA_61.tir:
-PKX2 = -10, PKX3 = 0.5; seed 0) Fx0 ended at PKX2 = 12.4, PKX3 = -0.27, while the branch
-through the truth, PKX2 = -12.5, PKX3 = 0.57, fits the same points 18 lower in chi^2. After
+other, though the branch through the truth may fit the same points better (a TTC session
+generated from the golden test tyre, tests/data/tir/testA_61.tir with PKX2 = -10,
+PKX3 = 0.5: tests/test_fit_mf_other_tyre.py). After
 the global fit the stage is solved once more from the mirrored point; the lower end is the
 optimum, and the other, passed to identify.fit.mf_rivals, is a rival when within the 95 %
 region.

@@ -12,9 +12,10 @@ tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUB
 all of them, and a start that reaches an earlier start's end point or path stops there
 (MERGE_CHI2); only the distinct end points whose subsample objective is within CANDIDATE_RTOL
 of the best (at most MAX_CANDIDATES) go on. On large data each candidate is carried up a
-ladder of subsamples LADDER times larger each (:func:`ladder_sizes`; the optimum of 4096 of 93074
-noisy points can lie 15 % away in a flat direction, where the solver on all points crawls for
-over 100 evaluations; from the optimum of 16384 it took 14), and is then solved on every point
+ladder of subsamples LADDER times larger each (:func:`ladder_sizes`: a small subsample's
+optimum of many noisy points can lie far away in a flat direction, where the solver on all
+points would crawl for its whole budget, while each rung's optimum starts the next one close
+to its own), and is then solved on every point
 (identify.fit.optimize.fit: MF_SOLVE tolerances, MAX_NFEV evaluations, the constrained polish
 where a constraint is violated); the best of those is the stage's optimum.
 """
@@ -251,9 +252,9 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
     metric of its solver's Jacobian (||J (x - x_e)||^2 <= MERGE_CHI2 s^2, as a start's merge:
     a start stopped along a flat valley has its end's objective only to the solver's noise
     stop). The objective without identify.fit.optimize.BEST_ATOL: the search's objectives are
-    0.5 r^T r of weighted residuals, O(1e-5) on a TTC session, where 1e-8 took two basins 0.07
-    apart in chi^2 (the Fy stage of seed 2, RBY1 = 7.6 and 11.4: 3e5 apart in that metric)
-    for one."""
+    0.5 r^T r of weighted residuals, which can be far below it on large sessions, where an
+    absolute tolerance would take distinct basins for one (tests/test_fit_mf_basins.py keeps
+    two minima whose objectives differ by far less than BEST_ATOL)."""
     if abs(x_obj - obj) <= BEST_RTOL * abs(obj):
         return True
     scale = np.maximum(np.abs(end.x), 1e-3)

@@ -113,12 +113,11 @@ def _determined(jac: np.ndarray, steps: np.ndarray) -> np.ndarray:
     score by a singular value at the rounding level; it is no estimate of how the coefficient
     varies, and the stage's own covariance says so (no finite standard error, or a pair
     correlated above 0.99: identify.fit.identifiability). Carried downstream through the
-    stage's effect on the later stages' points, such steps swamped their jackknife: on a
-    generated TTC session (seed 9, Fx0 ending at PKX2 = -5e-5) Fx0's largest step in
-    column-scaled coefficients was 549 (Fy0's 0.06; Mz0's, which took Fx0's in, 1.5), and
-    23 of Mz0's 29 coefficients came out not identifiable (4 of 29 at PKX2 = 4e-4, where the
-    step was smaller). The later stages' intervals are then conditional on the value the fit left
-    along the undetermined direction, as they are on a held coefficient's."""
+    stage's effect on the later stages' points, such steps would swamp their jackknife
+    (an Fx0 fit ending at PKX2 ~ 0 would leave most of Mz0's coefficients, which take Fx0's
+    in, not identifiable). Without them, the later stages' intervals are conditional on the
+    value the fit left along the undetermined direction, as they are on a held
+    coefficient's."""
     Js, scale = engine.column_scaled(jac)
     _, sv, Vt = tall_svd(Js, full_matrices=False)  # the thin SVD without forming U
     null = Vt[sv ** 2 < UNDETERMINED_RCOND * sv[0] ** 2] if sv.size else Vt[:0]
