@@ -169,8 +169,8 @@ class FitProblem:
         object.__setattr__(self, "_group_den", np.bincount(index, self.measured ** 2,
                                                            minlength=levels.size))
         # the objective's weights, once: every residual evaluation multiplies by them (a
-        # pressure measured as all 0 gets an infinite weight, as before, without a warning
-        # for problems whose weights are never used)
+        # pressure measured as all 0 gets an infinite weight, without a warning for problems
+        # whose weights are never used)
         with np.errstate(divide="ignore"):
             weights = np.array(1.0 / np.asarray(self.sigma, dtype=float)
                                if self.sigma is not None
