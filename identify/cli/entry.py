@@ -55,9 +55,9 @@ def main() -> None:
     for name in BLAS_THREADS:
         os.environ.setdefault(name, "1")
     try:
-        # Deferred import, after the handlers: `import identify.cli.app` takes 0.24-0.35 s
-        # (python -c "import time; t=time.perf_counter(); import identify.cli.app; ..."),
-        # and a Ctrl-C in that time printed a KeyboardInterrupt traceback (issue 15).
+        # Deferred import, after the handlers: importing identify.cli.app (typer, rich and
+        # the commands) takes a noticeable fraction of a second, and a Ctrl-C in that time
+        # must quit as any other does, not print a KeyboardInterrupt traceback.
         from identify.cli.app import app
 
         app()

@@ -86,10 +86,9 @@ def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     kappa sweep and a median |kappa| at most FREE_KAPPA; an alpha sweep at a held slip ratio
     does not)."""
     # slip spans per run: pandas' own groupby quantiles and median (they skip NaN) over
-    # integer run codes, which then index the spans: a Python lambda per run and Series.map
-    # on the string run ids cost ~20 ms per call on a 14642-point table (2.5 ms now on a
-    # 14642-point table of 40 runs, 1.1 ms with the max/min spans before SPAN_QUANTILES;
-    # timeit, one run, one-off, 2026-11-24); callers that select often pass the result on
+    # integer run codes, which then index the spans, vectorised where a Python lambda per
+    # run and Series.map on the string run ids would loop in Python; callers that select
+    # often pass the result on
     codes, runs = pd.factorize(frame["run"], use_na_sentinel=False)
     groups = pd.DataFrame({"run": codes, **{c: frame[c].to_numpy(float)
                                             for c in ("alpha", "kappa", "gamma")}}
