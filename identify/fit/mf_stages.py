@@ -515,12 +515,13 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
 
 
 def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
-              params: Mapping[str, float], label: str, progress: Progress | None
-              ) -> tuple[FitResult, StageProblem, int]:
+              params: Mapping[str, float], label: str, progress: Progress | None,
+              starts: Mapping[str, float]) -> tuple[FitResult, StageProblem, int]:
     """``result`` with no free coefficient at an arbitrary bound (identify.fit.bounds): each
     arbitrary end the optimum reaches is widened and the stage solved again from there, at
     most MAX_WIDENINGS times; a coefficient still at an arbitrary end then is held at its
-    start value ``params[name]`` (the data do not bound it: its value would be the range's,
+    start value ``starts[name]``, the fit's start before any stage (the data do not bound it:
+    its value would be the range's,
     not the data's) and the others solved again. Returns the result, its problem and the
     model evaluations spent. A solve with widened bounds that does not converge within
     MAX_NFEV (coefficients running off along a flat valley: a TTC session's PPY5 to -37,
@@ -545,7 +546,7 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
         if not solved.converged:  # runs off within its budget: not bounded by the data
             _say(progress, f"{label}: the solve with widened bounds stopped at its budget")
             return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress,
-                                   spent)
+                                   spent, starts)
         moved = ", ".join(f"{n} to [{wide[n][0]:.4g}, {wide[n][1]:.4g}]" for n in hits)
         result = dataclasses.replace(
             solved, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
@@ -554,24 +555,28 @@ def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFr
         sp = again
     hits = arbitrary_hits(result.free, result.parameters, result.bounds)
     if hits and result.converged:
-        return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress, spent)
+        return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress, spent,
+                               starts)
     return result, sp, spent
 
 
 def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
                     params: Mapping[str, float], hits: Mapping[str, str], label: str,
-                    progress: Progress | None, spent: int) -> tuple[FitResult, StageProblem, int]:
+                    progress: Progress | None, spent: int, starts: Mapping[str, float]
+                    ) -> tuple[FitResult, StageProblem, int]:
     """The stage solved again with the coefficients ``hits`` (name -> the side of the
-    arbitrary bound they ran to after every widening) held at their start values (the
-    parameter table's default where the start itself is at the table's bound: a later pass
-    starts from the pass before, which may have ended there)."""
+    arbitrary bound they ran to after every widening) held at their values in ``starts``
+    (the fit's start before any stage: a later pass starts from the pass before, which may
+    have left them next to the bound), or the parameter table's default where that is at
+    the table's bound."""
     why = {n: f"runs to its arbitrary {side} bound {result.bounds[n][side == 'upper']:.4g} "
               "and beyond when widened: the data do not bound it; held at its start value"
               for n, side in hits.items()}
     _say(progress, f"{label}: {', '.join(hits)} not bounded by the data: held at the start")
     free = [n for n in result.free if n not in hits]
     values = {**params, **{n: float(result.parameters[n]) for n in free}}
-    for n in hits:  # a start an earlier pass left at the bound is no start: the default
+    for n in hits:  # the fit's start, not what an earlier pass left next to the bound
+        values[n] = float(starts.get(n, values[n]))
         if near_bound(values[n], *bounds(n, values[n])):
             values[n] = float(spec(n).default)
     again = stage_problem(stage, trailer, values, free={stage: list(result.free)},
@@ -652,6 +657,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
         _say(progress, f"MF start: {name} = {value:.4g} from the data (was "
                        f"{params[name]:.4g})")
     params.update(scaled)
+    starts = dict(params)  # what a coefficient the data do not bound is held at
     # the validity grid: where the .tir claims validity
     params.update(union_limits(table_limits(trailer), reach))
     spent: dict[str, tuple[float, int]] = {}  # seconds and evaluations of earlier passes
@@ -698,7 +704,7 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                                      solved)
                 new_nfev = result.nfev
             result, sp, wider_nfev = _widened(result, sp, stage, trailer, params, label,
-                                              progress)
+                                              progress, starts)
             new_nfev += wider_nfev
             # what it held as unbounded by the data, at the value it held it at
             params.update({n: float(result.parameters[n]) for n in result.held
