@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.io.common import file_problem, Problems
+from identify.io.common import BOOLEAN_CELLS, file_problem, Problems
 from identify.io.atomic import atomic_write_text
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
@@ -238,7 +238,8 @@ def _data(path: Path, body: str, first_line: int, width: int, names: list[str],
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
             frame = pd.read_csv(io.StringIO(body), sep=r"\s+", header=None, dtype=np.float64,
-                                index_col=False, names=list(range(width)), comment="!")
+                                index_col=False, names=list(range(width)), comment="!",
+                                na_values=BOOLEAN_CELLS)
         values = frame.to_numpy()
         if np.isfinite(values).all():
             if len(values) == 0:

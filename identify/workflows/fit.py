@@ -391,8 +391,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             choices.append(choice)
         ctx = dataclasses.replace(ctx, tir=_numeric(tir))  # later relations see the .tir
     if not results:
-        raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
-                                    f"of a known quantity{' for --only' if settings.only else ''}")
+        raise InputError(mset.path, _nothing_to_fit(mset, coverage, bool(settings.only)))
     chains.run_all(results, progress)  # after every fit: the budget is shared between them
     points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     TA.apply_limits(tir, key_sources, points)
@@ -409,6 +408,22 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                  data_quality=quality)
     _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
     return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
+
+
+def _nothing_to_fit(mset, coverage: tuple, only: bool) -> str:
+    """Why a folder gave no fit, naming what is too little and where: each trailer run's file
+    and samples, and the first stages' reasons for being skipped."""
+    known = f"no characteristics of a known quantity{' for --only' if only else ''}"
+    trailer = mset.trailer
+    if trailer is None or not len(trailer):
+        return f"nothing to fit: no trailer data and {known}"
+    files = {r.id: r.file for r in mset.manifest.runs}
+    counts = trailer.groupby("run", sort=False).size()
+    runs = ", ".join(f"{files.get(run, run)} ({n} sample(s))" for run, n in counts.items())
+    why = "; ".join(f"{c.stage}: {c.skipped}" for c in coverage if c.skipped)
+    shown = why if len(why) <= 300 else why[:297] + "..."
+    return (f"nothing to fit: too little trailer data for any Magic Formula stage in {runs}"
+            + (f" ({shown})" if shown else "") + f", and {known}")
 
 
 def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:
