@@ -9,7 +9,7 @@ import typer
 from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.cli.fit_cmd import StageProgress
-from identify.io.axes import AXES
+from identify.io.axes import AXES, axes_name
 from identify.workflows.import_session import import_session
 
 
@@ -79,6 +79,7 @@ def import_command(
     """
 
     try:
+        axes = axes_name(axes) or axes if axes is not None else None
         if axes is not None and axes not in AXES:
             raise InputError(None, f"unknown axis system '{axes}' (expected one of: "
                                    f"{', '.join(AXES)})", key="--axes")

@@ -25,7 +25,7 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
-__all__ = ["BOOLEAN_CELLS", "Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
+__all__ = ["BOOLEAN_CELLS", "CR_ONLY", "cr_only", "Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
            "open_text", "file_problem", "decode_problem", "read_utf8", "row_lines"]
 
@@ -138,6 +138,17 @@ def file_problem(path: str | Path, what: str = "file") -> str | None:
     return None
 
 
+#: The message for a text file whose lines end in CR alone (classic Mac OS text).
+CR_ONLY = ("its lines end in CR alone (classic Mac OS text): save it with LF or CRLF line "
+           "ends")
+
+
+def cr_only(text: str | bytes) -> bool:
+    """True when ``text`` has carriage returns between its lines and no line feed at all."""
+    cr, lf = ("\r", "\n") if isinstance(text, str) else (b"\r", b"\n")
+    return lf not in text and cr in text.rstrip(cr)
+
+
 def decode_problem(data: bytes, exc: UnicodeDecodeError) -> tuple[int, str]:
     """The 1-based line and a one-line message for a UTF-8 decoding error in ``data``."""
     line = data.count(b"\n", 0, exc.start) + 1
@@ -237,6 +248,9 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
         return None
     if "\x00" in first:
         problems.add(path, "binary data (NUL bytes), not a CSV text file", line=1)
+        return None
+    if cr_only(first):  # the csv module's own text would ask for "universal-newline mode"
+        problems.add(path, CR_ONLY, line=1)
         return None
     if first.strip() == "":
         problems.add(path, "empty file: expected a header line with the column names"

@@ -31,7 +31,7 @@ from identify.core.errors import InputError
 from identify.core.plausible import LARGEST, judge, judge_channel
 from identify.core.units import SI_UNITS
 from identify.io.atomic import atomic_write_text
-from identify.io.axes import AXES, to_iso_w
+from identify.io.axes import AXES, axes_name, to_iso_w
 from identify.io.common import Problems, check_declared
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.quirks import DataWarning, clean_run, unused_slip_warning
@@ -90,9 +90,11 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     start = problems.total
     ttc = ch.ttc
     c_names = sorted(n for n in ch.data if n in C_NAMES and not ttc)
+    declared = axes_name(ch.axes) or ch.axes  # an HDF5 attribute in any case
+    axes = axes_name(axes) or axes
     if axes is None:
-        axes = ch.axes or ("TYDEX-C" if c_names else "SAE" if ttc else "ISO-W")
-    elif ch.axes and ch.axes != axes:
+        axes = declared or ("TYDEX-C" if c_names else "SAE" if ttc else "ISO-W")
+    elif declared and declared != axes:
         problems.add(ch.file, f"the file declares axes '{ch.axes}', the manifest '{axes}'",
                      key=ch.run)
     if axes not in AXES:
