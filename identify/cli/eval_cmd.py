@@ -8,6 +8,7 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.outputs import Inputs, check_file_output
 from identify.io.points import read_points
 from identify.io.tir import read_tir
 from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
@@ -53,6 +54,7 @@ def eval_command(
             raise InputError(None, str(exc), key="--mode") from None
         if engine is Engine.fused and mfeval_call:
             raise InputError(None, "--mfeval-call needs --engine numpy", key="--engine")
+        check_file_output(output, Inputs.of(files=(tir, input)), key="--output")
         tirfile = read_tir(tir)
         points = read_points(input)
         if engine is Engine.fused:

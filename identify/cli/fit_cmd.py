@@ -15,6 +15,7 @@ import signal
 import time
 import warnings
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -35,6 +36,7 @@ from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
 from identify.io.fitdir import EXTRACTION_NAME
+from identify.io.outputs import check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.tables import mcmc_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -303,6 +305,12 @@ def fit_command(
         for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
             if width is not None and not width > 0:
                 raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
+        # the outputs before any work: never inside the measurement folder, never of the
+        # wrong kind (a --reports that is a file); those named by the tyre id once it is read
+        inputs = measurement_inputs(folder)
+        check_folder_output(out, inputs, key="--out")
+        if not no_report:
+            check_folder_output(reports, inputs, key="--reports")
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -312,7 +320,10 @@ def fit_command(
             run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
                              nominal_pressure_Pa=nominal_pressure,
                              nominal_load_N=nominal_load, command=command,
-                             chain_progress=progress.chain)
+                             chain_progress=progress.chain,
+                             check_outputs=partial(check_fit_outputs, out,
+                                                   None if no_report else reports,
+                                                   inputs=inputs))
             report = None
             if not no_report:
                 progress("report: PDF")

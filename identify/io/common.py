@@ -25,7 +25,8 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
-__all__ = ["BOOLEAN_CELLS", "CR_ONLY", "cr_only", "Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
+__all__ = ["BOOLEAN_CELLS", "CR_ONLY", "cr_only", "Problem", "Problems", "TOLERANCE",
+           "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
            "open_text", "file_problem", "decode_problem", "read_utf8", "row_lines"]
 

@@ -22,6 +22,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_text
+from identify.core.names import inside
 from identify.core.tyre import TyreInfo
 from identify.fit.result import FitResult
 from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
@@ -125,10 +126,11 @@ class FitDir:
         if own.is_file():
             return own
         recorded = result.mcmc.chain_file if result.mcmc is not None else None
-        if recorded:
-            for cand in (Path(recorded), self.path / Path(recorded).name,
+        if recorded:  # a path read from fit.json: only ever a file of this fit directory
+            named = inside(self.path, recorded)[0] if "\x00" not in recorded else None
+            for cand in (named, self.path / Path(recorded).name,
                          self.path / "mcmc" / Path(recorded).name):
-                if cand.is_file():
+                if cand is not None and "\x00" not in str(cand) and cand.is_file():
                     return cand
         return None
 

@@ -253,8 +253,13 @@ def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
-               command: str = "", chain_progress: ChainProgressFn | None = None) -> FitRun:
+               command: str = "", chain_progress: ChainProgressFn | None = None,
+               check_outputs: Callable[[str], None] | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
+
+    ``check_outputs`` is called with the tyre id as soon as it is known, before any fit: the
+    caller's check of the paths it will write (identify.io.outputs.check_fit_outputs), so that
+    a bad output path fails before the work, not after it.
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
@@ -275,11 +280,12 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """
     with _Chains(settings, out_root, chain_progress) as chains:
         return _fit_folder(source, out_root, settings, progress, nominal_pressure_Pa,
-                           nominal_load_N, command, chains)
+                           nominal_load_N, command, chains, check_outputs)
 
 
 def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | None,
-                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains) -> FitRun:
+                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains,
+                check_outputs: Callable[[str], None] | None = None) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -292,6 +298,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
+    if check_outputs is not None:
+        check_outputs(tyre.id)
     chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
