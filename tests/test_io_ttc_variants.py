@@ -13,7 +13,8 @@ from typer.testing import CliRunner
 
 from identify.cli.app import app
 from identify.io.common import Problems
-from identify.io.trailer import channels_to_tidy, read_channels
+from identify.core.errors import InputError
+from identify.io.trailer import channels_to_tidy, read_channels, read_trailer
 from identify.io.ttc import TTC_CHANNELS, read_ttc
 from tests.ttc_cases import _small_channels, import_refused
 
@@ -90,11 +91,16 @@ def test_variables_that_are_not_channels_are_left_out(tmp_path):
     assert set(run.data) == set(ch)
 
 
-def test_a_listed_channel_of_another_length_is_still_one_line(tmp_path):
+def test_a_listed_channel_of_another_length_is_left_out_and_a_required_one_is_missed(
+        tmp_path):
     ch = _small_channels()
     ch["FY"] = ch["FY"][:150]
     path = _mat(tmp_path / "B1run1.mat", ch)
-    assert _refused(path) == [f"{path}: FY: 150 samples, but ET has 200"]
+    run = _read(path)
+    assert "FY" not in run.data and "FX" in run.data
+    with pytest.raises(InputError) as err:
+        read_trailer(path)
+    assert str(err.value) == f"{path}: FY: missing required channel"
 
 
 def test_dat_names_in_another_case_or_padded(tmp_path):

@@ -63,8 +63,10 @@ def import_command(
         None, "--unloaded-radius", metavar="M",
         help="Unloaded radius [m] (default: the loaded radius RL extrapolated to zero load)."),
     units: list[str] = typer.Option([], "--units", metavar="CHANNEL=UNIT",
-                                    help="Units of channels the files do not give (plain CSV); "
-                                         "repeat or separate with commas."),
+                                    help="Units of channels the files do not give (plain CSV, "
+                                         "a TTC .mat without its channel struct: it replaces "
+                                         "the assumed TTC convention); repeat or separate "
+                                         "with commas."),
     axes: str | None = typer.Option(None, "--axes",
                                        help="Axis system of plain files: ISO-W (default), SAE "
                                             "or TYDEX-C (TTC files are SAE)."),

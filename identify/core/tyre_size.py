@@ -17,7 +17,7 @@ from __future__ import annotations
 import re
 from dataclasses import dataclass
 
-__all__ = ["TyreSize", "parse_tyre_size", "size_designation"]
+__all__ = ["TyreSize", "find_tyre_size", "parse_tyre_size", "size_designation"]
 
 _INCH = 0.0254
 _METRIC = re.compile(
@@ -95,3 +95,17 @@ def size_designation(width_m: float, aspect_ratio: float, rim_radius_m: float) -
     rim = f"{round(2 * rim_in) / 2:g}"
     text = f"{round(width_mm)}/{round(ratio_pct)} R{rim}"
     return text if parse_tyre_size(text) is not None else None
+
+
+def find_tyre_size(text: str) -> TyreSize | None:
+    """The first size designation inside a longer text (a TTC ``tireid`` such as
+    ``"Hoosier 20.5x7.0-13 -- Tire 37"``), or None: every run of one to three words is tried
+    with :func:`parse_tyre_size`, the longest first."""
+    words = str(text).replace(",", " ").split()
+    for start in range(len(words)):
+        for length in (3, 2, 1):
+            if start + length <= len(words):
+                size = parse_tyre_size(" ".join(words[start:start + length]))
+                if size is not None:
+                    return size
+    return None

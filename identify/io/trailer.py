@@ -45,7 +45,7 @@ from identify.io.trailer_channels import (
     canonical,
     read_channels,
 )
-from identify.io.ttc import TTC_TO_TYDEX
+from identify.io.ttc import TTC_TO_TYDEX, reader_notes
 from identify.io.ttc_rounds import TTC_OPTIONAL, sr_as_kappa, ttc_substitutes
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 
@@ -115,6 +115,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     cols: dict[str, np.ndarray] = {}
     names: dict[str, str] = {}
     notes = ttc_substitutes(ch, by_canon) if ttc else []
+    notes += [((name,), detail, action) for name, detail, action in reader_notes(ch.attrs)]
     for canon, (col, _, _, required) in CHANNELS.items():
         found = sorted(by_canon.get(canon, []),
                        key=lambda n: (n not in C_NAMES) if axes == "TYDEX-C" else 0)

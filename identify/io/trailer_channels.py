@@ -31,6 +31,7 @@ from identify.io.ttc import (
     is_ttc_dat,
     is_ttc_mat,
     is_ttc_naming,
+    UNITS_SOURCE,
     read_ttc,
 )
 from identify.io.tydex import TydexFile, is_tydex, read_tydex
@@ -201,6 +202,8 @@ def _to_si(path: Path, raw: RawRun, first_line: int | RowLines | None, manifest:
         dim = CHANNELS[canon][1] if canon else None
         declared = manifest.get(name) or (manifest.get(canon) if canon else None)
         in_file = raw.units.get(name) or None
+        if raw.attrs.get(UNITS_SOURCE) == "convention" and declared:
+            in_file = None  # an assumed unit yields to the one the user gives
         if declared and in_file and not same_unit(declared, in_file):
             problems.add(path, f"unit conflict: the manifest says '{declared}', the file says "
                                f"'{in_file}'", key=name)

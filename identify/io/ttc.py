@@ -7,7 +7,14 @@ The layout follows the public description of the TTC data (Calspan flat-belt mac
   (:data:`TTC_CHANNELS`), a struct ``channel`` whose cell arrays ``name`` and ``units`` give
   each channel's unit, and the strings ``source``, ``testid`` and ``tireid``;
 - ``.dat``: line 1 a title, line 2 the channel names, line 3 their units, data from line 4,
-  tab-separated.
+  tab-separated;
+- the older ``.mat`` layout (earlier rounds, and files converted by teams): the same vectors
+  without the ``channel`` struct. The units then follow the TTC convention
+  (:func:`convention_units`: SI, or USCS when the pressure is in psi), said in a warning;
+  the user's ``--units`` replace the assumed ones.
+
+A channel of another length than the time (an index vector assembled by hand) is left out
+with a warning and the rest of the file is read.
 
 Both come in SI (kph, N, N-m, kPa, cm, deg C) and USCS (mph, lbf, ft-lb, psi, in, deg F)
 variants; the units are read from the file and converted by :mod:`identify.core.units`. The
@@ -19,8 +26,8 @@ Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channe
 for :mod:`identify.io.trailer` (temperatures and radii become optional columns of the tidy
 table). Every unusable file gives one problem naming the file (and the channel when there is
 one): not a MATLAB v5/v7/v7.3 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
-channel without a unit. The channel table is :mod:`identify.io.ttc_names`, the ``.dat`` reader
-:mod:`identify.io.ttc_dat`.
+channel without a unit in a file that lists units. The channel table is
+:mod:`identify.io.ttc_names`, the ``.dat`` reader :mod:`identify.io.ttc_dat`.
 """
 from __future__ import annotations
 
@@ -45,10 +52,15 @@ from identify.io.ttc_names import (
 )
 
 __all__ = [
+    "READER_NOTES",
     "TTC_CHANNELS",
     "TTC_STRINGS",
     "TTC_TO_TYDEX",
     "TtcChannel",
+    "UNITS_SOURCE",
+    "convention_units",
+    "reader_note",
+    "reader_notes",
     "is_ttc_dat",
     "is_ttc_mat",
     "is_ttc_naming",
@@ -109,12 +121,20 @@ def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) ->
     if "ET" not in data:
         problems.add(path, "missing required channel (elapsed time)", key="ET")
         return None
-    n = data["ET"].size
-    for name, values in data.items():
-        if values.size != n:
-            problems.add(path, f"{values.size} samples, but ET has {n}", key=name)
     if problems.total > start:
         return None
+    n = data["ET"].size
+    notes = [attrs.pop(READER_NOTES)] if attrs.get(READER_NOTES) else []
+    for name in [k for k, v in data.items() if v.size != n]:
+        # a channel of another length than the time (an index vector such as RUN that was
+        # assembled by hand, a channel cut short): its samples cannot be matched to the
+        # others' times, so it is left out and the rest is read
+        notes.append(reader_note(name, f"{data[name].size} samples, but ET has {n}",
+                                 "channel left out"))
+        del data[name]
+        units.pop(name, None)
+    if notes:
+        attrs[READER_NOTES] = "\n".join(notes)
     long_names = {k: TTC_CHANNELS[k].long_name if k in TTC_CHANNELS else k for k in data}
     return RawRun(run or path.stem, data, units, long_names, {"axes": "SAE", **attrs})
 
@@ -214,11 +234,57 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     if not data:
         problems.add(path, "no channel vectors in the .mat file")
         return None
-    if not units:
-        problems.add(path, "no 'channel' struct with the channel units (name, units)",
-                     key="channel")
-        return None
     attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
+    if not units:  # the older layout: no channel struct, the units follow a convention
+        units, note = convention_units(data)
+        attrs[UNITS_SOURCE] = "convention"
+        attrs[READER_NOTES] = reader_note("channel", note, "units assumed")
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
+
+
+#: ``attrs`` key of a run read here: what the reader decided about the file, one line each
+#: (channels left out, units taken by convention); the trailer loader gives them as warnings.
+READER_NOTES = "reader_notes"
+#: ``attrs`` key: ``"convention"`` when the units are not in the file but assumed (a unit
+#: given by the manifest or ``--units`` then replaces the assumed one without a conflict).
+UNITS_SOURCE = "units_source"
+#: Median inflation pressure below which a file without units is taken to be in psi [file
+#: units]: no tyre is tested below 45 kPa (6.5 psi), and none above 45 psi is in kPa's range.
+PSI_BELOW = 45.0
+
+
+def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], str]:
+    """The units of a TTC file that does not give them, and the note that says so.
+
+    Older TTC files (and files converted by teams) carry no ``channel`` struct. The TTC SI
+    convention is then assumed (ET s, V kph, N rpm, SA/IA deg, RL/RE cm, P kPa, forces N,
+    moments N-m, temperatures deg C); a file whose median pressure is below
+    :data:`PSI_BELOW` is in the USCS convention (psi, lbf, ft-lb, mph, in, deg F), the
+    only channel whose magnitude tells the two apart for every tyre.
+    """
+    pressure = data.get("P")
+    finite = pressure[np.isfinite(pressure)] if pressure is not None else np.empty(0)
+    median = float(np.median(finite)) if finite.size else float("nan")
+    uscs = bool(0.0 < median < PSI_BELOW)
+    units = {name: (ch.uscs_unit if uscs else ch.si_unit) for name, ch in TTC_CHANNELS.items()
+             if name in data}
+    system = "USCS (psi, lbf, ft-lb, mph, in, deg F)" if uscs else \
+        "TTC SI (kPa, N, N-m, kph, cm, deg C)"
+    why = (f"the median pressure {median:.4g} is below {PSI_BELOW:g}, so psi" if uscs else
+           f"the median pressure {median:.4g} is a pressure in kPa" if np.isfinite(median)
+           else "no pressure channel to tell psi from kPa")
+    return units, (f"no 'channel' struct with the units: the {system} convention is "
+                   f"assumed ({why}); --units CHANNEL=UNIT sets another")
+
+
+def reader_note(channel: str, detail: str, action: str) -> str:
+    """One line of :data:`READER_NOTES`: the channel, what was found, what was done."""
+    return "\t".join((channel, detail.replace("\t", " "), action))
+
+
+def reader_notes(attrs: Mapping[str, str]) -> list[tuple[str, str, str]]:
+    """The (channel, detail, action) triples of a run's :data:`READER_NOTES`."""
+    lines = str(attrs.get(READER_NOTES, "")).split("\n")
+    return [tuple(line.split("\t", 2)) for line in lines if line.count("\t") >= 2]
 
 

@@ -15,7 +15,8 @@ from identify.io.quirks import unused_slip_warning
 from identify.io.trailer_channels import Channels
 from identify.io.ttc_names import TTC_TO_TYDEX
 
-__all__ = ["SR_FREE_ROLLING", "SR_MIN_LOAD", "TTC_OPTIONAL", "sr_as_kappa", "ttc_substitutes"]
+__all__ = ["SR_FREE_ROLLING", "SR_FREE_ROLLING_RUN", "SR_MIN_LOAD", "TTC_OPTIONAL",
+           "sr_as_kappa", "ttc_substitutes"]
 
 
 #: TYDEX name -> what follows when a TTC file lacks the channel (older rounds): not required.
@@ -42,6 +43,9 @@ def ttc_substitutes(ch: Channels, by_canon: dict[str, list[str]]
 
 #: |Fx| / Fz below which a sample counts as free rolling for the offset of SR [-].
 SR_FREE_ROLLING = 0.02
+#: |Fx| / Fz that no loaded sample of a free-rolling run (no drive or brake torque) exceeds
+#: [-]: a slip-ratio sweep of any tyre drives |Fx| / Fz far beyond it [-].
+SR_FREE_ROLLING_RUN = 0.25
 #: Share of the run's median |Fz| below which a sample is not free rolling but unloaded [-].
 SR_MIN_LOAD = 0.2
 
@@ -58,6 +62,16 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     within its range on those samples (no extrapolation to loads free rolling never reached).
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
+    fx = frame["Fx"].to_numpy(float)
+    loaded = np.abs(fz) > SR_MIN_LOAD * np.median(np.abs(fz))
+    if loaded.sum() >= 10 and np.quantile(np.abs(fx[loaded]) / np.abs(fz[loaded]),
+                                          0.995) < SR_FREE_ROLLING_RUN:
+        # no drive or brake torque anywhere (a cornering run): SR moves only with the loaded
+        # radius (load, slip angle), which a fit would take for a slip-ratio sweep
+        return frame.assign(kappa=0.0), (
+            "no slip ratio SL and no longitudinal force beyond "
+            f"{100 * SR_FREE_ROLLING_RUN:g} % of Fz in the run: the wheel rolled freely, "
+            "kappa is 0 (SR, based on the loaded radius, moves with the radius only)")
     # loaded: with the tyre lifted off between sweeps Fx and Fz are both near 0 and SR reads
     # whatever the radius channel does there
     free = (np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)) \

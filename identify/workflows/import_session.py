@@ -27,6 +27,7 @@ temporary directory and renamed into place when complete.
 """
 from __future__ import annotations
 
+import re
 import shutil
 import tempfile
 from collections.abc import Mapping, Sequence
@@ -38,6 +39,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.names import safe_name
+from identify.core.tyre_size import find_tyre_size
 from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.io.common import Problems, sha256_file
@@ -48,7 +50,8 @@ from identify.io.ttc import TTC_TO_TYDEX
 from identify.segment import Segmentation, segment_trailer
 from identify.simulate.manifest import toml_value
 
-__all__ = ["ImportResult", "ImportedRun", "classify_run", "import_session", "safe_id"]
+__all__ = ["ImportResult", "ImportedRun", "classify_run", "import_session", "safe_id",
+           "tyre_model"]
 
 
 @dataclass(frozen=True)
@@ -101,9 +104,45 @@ def classify_run(seg: Segmentation, run: str, gamma_span: float) -> str:
     return "camber" if gamma_span > np.deg2rad(1.0) else "rolling_resistance"
 
 
+#: A specimen number at the end of a tireid (``"Hoosier 20.5x7.0-13 -- Tire 37"``): the TTC
+#: tests several specimens of one tyre model, one per run or programme.
+_SPECIMEN = re.compile(r"[\s,;:/-]*(?:tire|tyre|specimen|sample)\s*(?:no\.?|#)?\s*\d+\s*$",
+                       re.IGNORECASE)
+
+
+def tyre_model(tireid: str) -> str:
+    """The tyre model of a tireid, without a trailing specimen number (see :data:`_SPECIMEN`)."""
+    return _SPECIMEN.sub("", tireid).strip() or tireid.strip()
+
+
 def _middle(values: Sequence[float]) -> float:
     ordered = sorted(values)
     return float(ordered[(len(ordered) - 1) // 2])
+
+
+#: A pressure level is the programme's baseline when it holds this share more swept
+#: samples than any other level [-].
+BASELINE_MARGIN = 1.25
+
+
+def _baseline_pressure(table: pd.DataFrame, p_levels: Sequence[float]) -> tuple[float, str]:
+    """The nominal pressure [Pa, rounded to 100 Pa] and how it was chosen.
+
+    A test programme runs most of its sweeps at the tyre's baseline pressure and visits the
+    others for the pressure effect (a TTC round: 12 psi with 8, 10, 14 psi runs): the level
+    with clearly the most swept samples (:data:`BASELINE_MARGIN`) is the nominal pressure,
+    the one the pressure relations and the .tir's NOMPRES are centred on. Without a clear
+    majority, the middle level (the lower middle of an even number).
+    """
+    if "p_level" in table and len(p_levels) > 1:
+        counts = table["p_level"].value_counts()
+        counts = counts[counts.index.isin(p_levels)].sort_values(ascending=False)
+        if len(counts) > 1 and counts.iloc[0] >= BASELINE_MARGIN * counts.iloc[1]:
+            share = counts.iloc[0] / counts.sum()
+            return (round(float(counts.index[0]), -2),
+                    f"the level with the most swept samples ({100 * share:.0f} %) of the "
+                    "pressure levels")
+    return round(_middle(p_levels), -2), "the middle of the pressure levels"
 
 
 def _unloaded_radius(table: pd.DataFrame, p_level: float) -> float:
@@ -113,6 +152,51 @@ def _unloaded_radius(table: pd.DataFrame, p_level: float) -> float:
     ok = rows["rl"].notna() & rows["Fz"].notna()
     _, intercept = np.polyfit(rows.loc[ok, "Fz"], rows.loc[ok, "rl"], 1)
     return float(intercept)
+
+
+def _effective_radius_at_zero_load(table: pd.DataFrame, p_level: float) -> float:
+    """The effective rolling radius V / omega of the free-rolling samples (|alpha| < 1 deg,
+    |kappa| < 0.01, |Fx| < 2 % of Fz) at the pressure level, extrapolated to zero load [m].
+
+    At zero load the effective and the unloaded radius are one (the MF effective radius
+    falls from R0 with the deflection), so the line Re(Fz) meets R0 at Fz = 0.
+    """
+    need = ("Vx", "omega", "alpha", "kappa", "Fx", "Fz")
+    if any(c not in table for c in need):
+        return float("nan")
+    rows = table[table["p_level"] == p_level] if "p_level" in table else table
+    if rows["omega"].notna().sum() < 50:  # too few at the level: every pressure
+        rows = table
+    v, w = rows["Vx"].to_numpy(float), rows["omega"].to_numpy(float)
+    fz = rows["Fz"].to_numpy(float)
+    free = (np.abs(rows["alpha"].to_numpy(float)) < np.deg2rad(1.0)) \
+        & (np.abs(rows["kappa"].to_numpy(float)) < 0.01) \
+        & (np.abs(rows["Fx"].to_numpy(float)) < 0.02 * np.abs(fz)) \
+        & (np.abs(w) > 1.0) & (fz > 0) & np.isfinite(v) & np.isfinite(w)
+    if free.sum() < 50 or np.ptp(fz[free]) < 0.2 * np.median(fz[free]):
+        return float("nan")  # too few samples, or one load: no line to extrapolate
+    _, intercept = np.polyfit(fz[free], np.abs(v[free] / w[free]), 1)
+    return float(intercept)
+
+
+def _radius_at_zero_load(table: pd.DataFrame, p_level: float,
+                         tireids: Sequence[str]) -> tuple[float, str]:
+    """The unloaded radius [m] and how it was found: the loaded radius RL extrapolated to
+    zero load, else the effective radius V / omega extrapolated to zero load, else the
+    nominal radius of the tyre size in the tireid; NaN when none is at hand."""
+    radius = round(_unloaded_radius(table, p_level), 4)
+    if np.isfinite(radius) and radius > 0:
+        return radius, "RL extrapolated to zero load at the nominal pressure"
+    radius = round(_effective_radius_at_zero_load(table, p_level), 4)
+    if np.isfinite(radius) and radius > 0:
+        return radius, ("no usable loaded radius RL: the effective radius V / omega of the "
+                        "free-rolling samples extrapolated to zero load at the nominal pressure")
+    size = next((s for s in map(find_tyre_size, tireids) if s is not None), None)
+    if size is not None:
+        return round(size.unloaded_radius_m, 4), (
+            f"no usable loaded radius RL or wheel speed: the nominal radius of the size "
+            f"{size.text!r} in the tireid")
+    return float("nan"), ""
 
 
 def _same_run(a: pd.DataFrame, b: pd.DataFrame) -> bool:
@@ -197,6 +281,11 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
         dup = next(i for i in ids if ids.count(i) > 1)
         raise InputError(None, f"two runs are named '{dup}': rename one of the files")
     tireids = sorted({ch.attrs["tireid"] for _, ch, _ in kept if ch.attrs.get("tireid")})
+    models = sorted({tyre_model(t) for t in tireids})
+    if len(tireids) > 1 and len(models) == 1:  # specimens of one tyre: one tyre model
+        notes.append(f"tireids {', '.join(map(repr, tireids))}: specimens of one tyre, "
+                     f"imported as {models[0]!r}")
+        tireids = models
     if len(tireids) > 1:  # two tyres in one folder would be fitted as one
         first = {t: next(q for q, ch, _ in kept if ch.attrs.get("tireid") == t) for t in tireids}
         if tyre_id is None:
@@ -227,9 +316,9 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
         if not p_levels:
             raise InputError(None, "no pressure level found (no sweeps): give "
                                    "--nominal-pressure", key="--nominal-pressure")
-        nominal_pressure_Pa = round(_middle(p_levels), -2)
-        notes.append(f"nominal pressure {nominal_pressure_Pa:g} Pa: the middle of the "
-                     f"pressure levels {', '.join(f'{v:.0f}' for v in p_levels)} Pa")
+        nominal_pressure_Pa, how = _baseline_pressure(seg.table, p_levels)
+        notes.append(f"nominal pressure {nominal_pressure_Pa:g} Pa: {how} "
+                     f"{', '.join(f'{v:.0f}' for v in p_levels)} Pa")
     if nominal_load_N is None:
         if not fz_levels:
             raise InputError(None, "no load level found (no sweeps): give --nominal-load",
@@ -239,13 +328,12 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
                      f"{', '.join(f'{v:.0f}' for v in fz_levels)} N")
     if unloaded_radius_m is None:
         level = min(p_levels, key=lambda v: abs(v - nominal_pressure_Pa)) if p_levels else 0
-        unloaded_radius_m = round(_unloaded_radius(seg.table, level), 4)
+        unloaded_radius_m, how = _radius_at_zero_load(seg.table, level, tireids)
         if not np.isfinite(unloaded_radius_m) or unloaded_radius_m <= 0:
-            raise InputError(None, "no loaded-radius channel (RL) to extrapolate the unloaded "
-                                   "radius from: give --unloaded-radius",
-                             key="--unloaded-radius")
-        notes.append(f"unloaded radius {unloaded_radius_m:g} m: RL extrapolated to zero load "
-                     "at the nominal pressure")
+            raise InputError(None, "no loaded-radius channel (RL), no wheel speed and no "
+                                   "tyre size in the tireid to find the unloaded radius "
+                                   "from: give --unloaded-radius", key="--unloaded-radius")
+        notes.append(f"unloaded radius {unloaded_radius_m:g} m: {how}")
     runs, targets = [], {}
     for p, ch, frame in kept:
         if p not in targets:  # one copy per file (an HDF5 file may hold several runs)
