@@ -40,6 +40,7 @@ from identify.fit.sources import DEFAULT, FITTED, KeySource
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import write_fit_dir
 from identify.io.folder import load_folder
+from identify.io.outputs import check_fit_outputs, measurement_inputs
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
@@ -259,7 +260,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
 
     ``check_outputs`` is called with the tyre id as soon as it is known, before any fit: the
     caller's check of the paths it will write (identify.io.outputs.check_fit_outputs), so that
-    a bad output path fails before the work, not after it.
+    a bad output path fails before the work, not after it; by default the fit directory is
+    checked against ``source`` (never inside the measurement folder).
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
@@ -298,8 +300,10 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
-    if check_outputs is not None:
-        check_outputs(tyre.id)
+    if check_outputs is None:  # the Python API: the fit directory is checked all the same
+        check_outputs = partial(check_fit_outputs, out_root, None,
+                                inputs=measurement_inputs(source))
+    check_outputs(tyre.id)
     chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
