@@ -35,6 +35,8 @@ from identify.fit.mcmc import BUDGET_S
 from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
+from identify.workflows.vehicle import add_vehicle_to_fit
+from identify.vehicle.spec import read_vehicle
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.io.outputs import check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.tables import mcmc_warnings
@@ -269,8 +271,13 @@ def fit_command(
         help="Do not average trailer samples over one wheel revolution before the bins: for a "
              "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
              "ratio) when the ripple is the wheel's load variation, which the forces follow "
-             "(docs/intervals.md, 'A published tyre as the truth')."),
+             "(docs/intervals.md, 'What the averaging does')."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
+    vehicle: str | None = typer.Option(
+        None, "--vehicle", metavar="FILE.toml",
+        help="Also put the fitted tyre on a car: a vehicle file (docs/vehicle.md) or "
+             "'default' (the default sedan); writes OUT/<id>/vehicle/ and adds the vehicle "
+             "pages to the report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
     (and extraction.json) and the PDF report REPORTS/<id>.pdf.
@@ -282,7 +289,10 @@ def fit_command(
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
                                no_segment, no_revolution_average)
+    if vehicle is not None:
+        command += " " + shlex.join(["--vehicle", vehicle])
     try:
+        vehicle_spec = None if vehicle is None else read_vehicle(vehicle)
         bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
             k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
             if v is not None}
@@ -324,6 +334,9 @@ def fit_command(
                              check_outputs=partial(check_fit_outputs, out,
                                                    None if no_report else reports,
                                                    inputs=inputs))
+            if vehicle_spec is not None:
+                progress("vehicle: handling and ride of the fitted tyre")
+                add_vehicle_to_fit(run.fit_dir, run.tir_path, vehicle_spec)
             report = None
             if not no_report:
                 progress("report: PDF")

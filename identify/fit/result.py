@@ -15,11 +15,33 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
+from lmfit import Parameters
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
 from identify.fit.covariance import t_quantile
+
+
+#: Axis labels of the measured_vs_model.csv columns a result's points vary along.
+_X_LABELS = {"alpha_rad": "slip angle [deg]", "kappa": "slip ratio [-]", "Fz_N": "load [N]",
+             "gamma_deg": "camber [deg]", "pi_bar": "pressure [bar]"}
+
+
+def _swept_column(rows: pd.DataFrame) -> str:
+    """The column the points of a result are swept along: of slip angle, slip ratio, load,
+    camber and pressure, the one with the most distinct values."""
+    counts = {c: rows[c].round(6).nunique() for c in _X_LABELS
+              if c in rows and rows[c].notna().any()}
+    return max(counts, key=counts.get) if counts else "pi_bar"
+
+
+def _lmfit_name(name: str) -> str:
+    """A coefficient's name as lmfit accepts it (a Python identifier)."""
+    return name if name.isidentifier() else "".join(c if c.isalnum() else "_" for c in name)
 
 
 def _float(x: Any, missing: float = math.nan) -> float:
@@ -251,6 +273,97 @@ class FitResult:
     conditional: Mapping[str, str] = field(default_factory=dict)
     profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     unconstrained_wls: float = math.nan
+    points: Any = field(default=None, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        state = self.status_text
+        return (f"<FitResult {self.name}: {state}, error {self.error_total_pct:.3g} %, "
+                f"{len(self.free)} free of {len(self.parameters)}, {self.n_points} points>")
+
+    @property
+    def params(self) -> Parameters:
+        """The coefficients as ``lmfit.Parameters``: value, ``vary`` (free or held), bounds,
+        ``stderr`` and ``correl`` (the correlations of the estimates) in one object."""
+        out = Parameters()
+        for name, value in self.parameters.items():
+            free = name in self.free
+            low, high = self.bounds.get(name, (-math.inf, math.inf)) if free else \
+                (-math.inf, math.inf)
+            value = float(value)
+            # lmfit clips a value outside its bounds; a held value keeps open bounds
+            out.add(_lmfit_name(name), value=value, vary=free,
+                    min=min(low, value), max=max(high, value))
+            par = out[_lmfit_name(name)]
+            par.stderr = float(self.stderr[name]) if free and name in self.stderr else None
+            par.correl = {} if free else None
+        for pair, rho in self.correlations.items():
+            a, _, b = pair.partition("|")
+            for x, y in ((a, b), (b, a)):
+                if _lmfit_name(x) in out and out[_lmfit_name(x)].correl is not None:
+                    out[_lmfit_name(x)].correl[_lmfit_name(y)] = float(rho)
+        return out
+
+    def table(self) -> pd.DataFrame:
+        """The free coefficients, one row each: value, standard error, 95 % interval, bounds,
+        whether at a bound or not identifiable on its own."""
+        rows = []
+        for name in self.free:
+            low, high = self.interval(name)
+            bound = self.bounds.get(name, (-math.inf, math.inf))
+            rows.append({"result": self.name, "name": name,
+                         "value": float(self.parameters[name]),
+                         "stderr": float(self.stderr.get(name, math.nan)),
+                         "ci95_low": low, "ci95_high": high, "lower_bound": bound[0],
+                         "upper_bound": bound[1], "at_bound": name in self.at_bound,
+                         "unidentified": self.unidentified.get(name, "")})
+        return pd.DataFrame(rows, columns=["result", "name", "value", "stderr", "ci95_low",
+                                           "ci95_high", "lower_bound", "upper_bound",
+                                           "at_bound", "unidentified"])
+
+    def _repr_html_(self) -> str:
+        head = (f"<p><b>{self.name}</b>: {self.status_text}, total error "
+                f"{self.error_total_pct:.3g} %, {self.n_points} points, standard errors "
+                f"{self.covariance}</p>")
+        return head + self.table().drop(columns="result").to_html(index=False,
+                                                                  float_format="{:.4g}".format)
+
+    def plot(self, ax: Axes | None = None) -> Figure:
+        """Measured points (markers) and the model at them (dots) against the swept variable,
+        one colour per pressure, from the arrays in memory; the residuals below. Returns the
+        figure (a new one unless ``ax`` is given)."""
+        rows = self.points
+        if rows is None or not len(rows):
+            raise ValueError(f"{self.name}: no per-point data in memory (a run from "
+                             "mfid.fit or FitRun.load has them)")
+        x_col = _swept_column(rows)
+        x = rows[x_col].to_numpy(float) * (180 / math.pi if x_col == "alpha_rad" else 1.0)
+        if ax is None:
+            fig = Figure(figsize=(8, 6), layout="constrained")
+            ax, res = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+        else:
+            fig, res = ax.figure, None
+        measured, model = rows["measured"].to_numpy(float), rows["model"].to_numpy(float)
+        pressures = rows["pi_bar"].to_numpy(float)
+        for k, level in enumerate(np.unique(np.round(pressures, 2))):
+            sel = np.round(pressures, 2) == level
+            colour = f"C{k % 10}"
+            ax.plot(x[sel], measured[sel], "o", mfc="none", color=colour, ms=4,
+                    label=f"{level:g} bar measured")
+            ax.plot(x[sel], model[sel], ".", color=colour, ms=3, label=f"{level:g} bar model")
+            if res is not None:
+                res.plot(x[sel], measured[sel] - model[sel], ".", color=colour, ms=3)
+        quantity = str(rows["quantity"].iloc[0]) if "quantity" in rows else "value"
+        unit = str(rows["unit"].iloc[0]) if "unit" in rows else ""
+        ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
+        ax.set_title(f"{self.name}: total error {self.error_total_pct:.3g} % "
+                     f"({self.status_text})")
+        ax.legend(fontsize="small", ncols=2)
+        label = _X_LABELS.get(x_col, x_col)
+        (res if res is not None else ax).set_xlabel(label)
+        if res is not None:
+            res.axhline(0.0, color="0.5", lw=0.8)
+            res.set_ylabel("measured - model")
+        return fig
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
@@ -78,12 +80,12 @@ class FitSettings:
                            the forces do not follow); off, the raw samples go to the bins,
                            which average the ripple over the passes through each bin without
                            bending a curve that changes within a revolution (docs/intervals.md,
-                           "A published tyre as the truth")
+                           "What the averaging does to the tightest intervals")
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
-                           PASS_GAIN; numbers in README ("fit") and docs/intervals.md
+                           PASS_GAIN (docs/commands.md, "mfid fit")
     """
 
     seed: int = 0
@@ -258,6 +260,34 @@ class FitRun:
     data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
+    points: Any = field(default=None, repr=False, compare=False)
+    extraction: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        where = f", {self.fit_dir}" if self.fit_dir is not None else ", in memory"
+        worst = ", ".join(self.failed[:2]) if self.failed else ""
+        return (f"<FitRun {self.tyre.id}: {len(self.results)} fits, "
+                f"{len(self.poorly_identified)} poorly identified, {len(self.failed)} failed"
+                f"{' (' + worst + ')' if worst else ''}{where}>")
+
+    def table(self) -> pd.DataFrame:
+        """Every free coefficient of every fit, one row each (:meth:`FitResult.table`), with
+        each fit's status and total error."""
+        frames = [r.table().assign(status=r.status_text, error_total_pct=r.error_total_pct)
+                  for r in self.results]
+        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    def _repr_html_(self) -> str:
+        rows = "".join(f"<tr><td>{r.name}</td><td>{r.status_text}</td>"
+                       f"<td>{r.error_total_pct:.3g}</td><td>{r.n_points}</td>"
+                       f"<td>{len(r.free)}</td></tr>" for r in self.results)
+        return (f"<p><b>{self.tyre.id}</b>: {len(self.results)} fits</p><table><tr>"
+                "<th>fit</th><th>status</th><th>total error [%]</th><th>points</th>"
+                f"<th>free</th></tr>{rows}</table>")
+
+    def plot(self, name: str, ax=None):
+        """The measured and model points of one fit (:meth:`FitResult.plot`)."""
+        return self.result(name).plot(ax)
 
     # ----- paths -----------------------------------------------------------------------------
     @property
