@@ -396,7 +396,7 @@ def test_convert_refuses_to_overwrite_its_input(tmp_path):
     src = write_good_folder(tmp_path / "f") / TR
     before = src.read_bytes()
     result = runner.invoke(app, ["convert", str(src), str(src)])
-    assert result.exit_code == 2 and "output is the input file" in result.stderr
+    assert result.exit_code == 2 and "is the input file" in result.stderr
     assert src.read_bytes() == before
 
 

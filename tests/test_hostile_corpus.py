@@ -29,6 +29,7 @@ from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.trailer import read_channels
 from tests.measurement_cases import set_cell as cell
 from tests.measurement_cases import (
+    FP,
     H5,
     PTS,
     TAB,
@@ -58,6 +59,28 @@ def column(rel: str, name: str, fn):
             out.append(",".join(cells))
         return out
     return rewrite_lines(rel, change)
+
+
+def indexed(rel: str, name: str, fn):
+    """Every cell of column ``name`` set to ``fn(i, value)`` (``i``: the row), as text when
+    ``fn`` gives a str, else as its repr."""
+    def change(lines: list[str]) -> list[str]:
+        col = lines[0].split(",").index(name)
+        out = [lines[0]]
+        for i, line in enumerate(lines[1:]):
+            cells = line.split(",")
+            value = fn(i, float(cells[col]))
+            cells[col] = value if isinstance(value, str) else repr(value)
+            out.append(",".join(cells))
+        return out
+    return rewrite_lines(rel, change)
+
+
+def cr_only(rel: str):
+    def apply(root: Path) -> None:
+        path = root / rel
+        path.write_bytes(path.read_bytes().replace(b"\r\n", b"\r").replace(b"\n", b"\r"))
+    return apply
 
 
 def raw_line(rel: str, line: int, data: bytes):
@@ -177,6 +200,7 @@ nothing = both()
 BIG = "9" * 200_000
 ROOT_CMD = ["check", "{root}"]
 EVAL = ["eval", "{root}/" + TIR, "-i", "{root}/" + PTS, "-o", "{out}/eval.csv"]
+FIT = ["fit", "{root}", "--out", "{out}/f", "--reports", "{out}/r"]
 
 
 # ------------------------------------------------------------------ the corpus
@@ -267,6 +291,49 @@ CASES = [
      ["SLIPANGL: ", "not physical", "degrees given as radians?"]),
     ("csv-kmh-as-ms", column(TR, "LONGVEL", lambda v: 100 * v), ROOT_CMD, TR,
      ["LONGVEL: ", "median speed", "not physical"]),
+    # values no rig produces, channels that hold none (issue 44)
+    ("csv-boolean-channel", indexed(TR, "INCLANGL", lambda i, v: "True"), FIT, TR,
+     [":2: INCLANGL: ", "not a number: 'True'"]),
+    ("csv-required-channel-all-nan", indexed(TR, "FYW", lambda i, v: "nan"), ROOT_CMD, TR,
+     ["FYW: ", "no finite value (all 41 samples are NaN/inf)"]),
+    ("csv-force-1e300", indexed(TR, "FX", lambda i, v: 1e300), ROOT_CMD, TR,
+     [":2: FX: ", "largest force 1e+300 N is not physical"]),
+    ("csv-moment-1e8", indexed(TR, "MXW", lambda i, v: 1e8), ROOT_CMD, TR,
+     [":2: MXW: ", "largest moment 1e+08 N m is not physical"]),
+    ("csv-time-step-1e-300", indexed(TR, "RUNTIME", lambda i, v: i * 1e-300), ROOT_CMD, TR,
+     ["RUNTIME: ", "median time step 1e-300 s is not physical"]),
+    ("csv-time-step-1e4", indexed(TR, "RUNTIME", lambda i, v: i * 1e4), ROOT_CMD, TR,
+     ["RUNTIME: ", "median time step 10000 s is not physical"]),
+    ("csv-time-1e300", indexed(TR, "RUNTIME", lambda i, v: 1e300 * (1 + i * 1e-6)), ROOT_CMD,
+     TR, ["RUNTIME: ", "largest time", "is not physical"]),
+    ("csv-slip-ratio-1e5", indexed(TR, "LONGSLIP", lambda i, v: 1e5 if i < 11 else 0.0),
+     ROOT_CMD, TR, [":2: LONGSLIP: ", "largest slip 100000 is not physical"]),
+    ("flatplank-force-1e300", indexed(FP, "Gz1", lambda i, v: 1e300), FIT, FP,
+     [":2: Gz1: ", "largest force 1e+300 N is not physical"]),
+    ("flatplank-time-step-1e-300", indexed(FP, "time", lambda i, v: i * 1e-300), ROOT_CMD, FP,
+     ["time: ", "median time step 1e-300 s is not physical"]),
+    ("csv-cr-only-line-ends", cr_only(TR), ROOT_CMD, TR,
+     [":1: ", "its lines end in CR alone"]),
+    ("flatplank-cr-only-line-ends", cr_only(FP), ROOT_CMD, FP,
+     [":1: ", "its lines end in CR alone"]),
+    ("tdx-cr-only-line-ends", cr_only(TDX), ROOT_CMD, TDX,
+     [":1: ", "its lines end in CR alone"]),
+    ("run-file-nul-byte", edit("tyre.toml", f'"{TR}"', '"trailer/a\\u0000b.csv"'), ROOT_CMD,
+     "tyre.toml", ["runs[2].file: ", "holds a NUL byte"]),
+    ("fit-run-file-nul-byte", edit("tyre.toml", f'"{TR}"', '"trailer/a\\u0000b.csv"'), FIT,
+     "tyre.toml", ["runs[2].file: ", "holds a NUL byte"]),
+    # outputs pointed at inputs (issue 44)
+    ("eval-output-is-the-points", nothing, ["eval", "{root}/" + TIR, "-i", "{root}/" + PTS,
+                                            "-o", "{root}/" + PTS], PTS,
+     ["--output: ", "is the input file"]),
+    ("eval-output-is-the-tir", nothing, ["eval", "{root}/" + TIR, "-i", "{root}/" + PTS,
+                                         "-o", "{root}/" + TIR], TIR,
+     ["--output: ", "is the input file"]),
+    ("fit-out-is-the-folder", nothing, ["fit", "{root}", "--out", "{root}"], "",
+     ["--out: ", "is inside the input folder"]),
+    ("fit-reports-inside-the-folder", nothing, ["fit", "{root}", "--out", "{out}/f",
+                                                "--reports", "{root}/trailer"], "trailer",
+     ["--reports: ", "is inside the input folder"]),
     # HDF5
     ("hdf5-zero-samples", h5_rewrite(h5_empty), ROOT_CMD, H5,
      ["cornering_p220: ", "0 samples"]),
@@ -409,7 +476,7 @@ def test_hostile_input(good, tmp_path, name, mutate, args, file, fragments):
              if not x.startswith("warning: ") and " problem(s)" not in x]
     assert len(lines) == 1, result.stderr  # one error, on one line
     line = lines[0].removeprefix("error: ")
-    where = file if file.startswith("/") else f"{root}/{file}"
+    where = file if file.startswith("/") else f"{root}/{file}" if file else str(root)
     assert line.startswith(where), (where, line)
     rest = line[len(where):]
     position = 0

@@ -10,13 +10,15 @@ from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.io.common import Problems
 from identify.io.manifest import MANIFEST_NAME, read_manifest
+from identify.io.outputs import Inputs, check_file_output
 from identify.io.trailer import read_channels, write_channels
 
 _FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
 
 
 def _manifest_run(src: Path):
-    """The manifest run that names ``src`` (tyre.toml in its folder or the one above), or None."""
+    """The manifest run that names ``src`` (tyre.toml in its folder or the one above) and
+    that measurement folder, or (None, None)."""
 
     for folder in (src.parent, src.parent.parent):
         toml = folder / MANIFEST_NAME
@@ -25,8 +27,8 @@ def _manifest_run(src: Path):
         manifest = read_manifest(toml, Problems(), partial=True)
         for run in manifest.runs if manifest else ():
             if (folder / run.file).resolve() == src.resolve():
-                return run
-    return None
+                return run, folder
+    return None, None
 
 
 def _parse_units(pairs: list[str]) -> dict[str, str]:
@@ -56,12 +58,12 @@ def convert_command(
     """
 
     try:
-        if dst.exists() and src.exists() and dst.resolve() == src.resolve():
-            raise InputError(dst, "output is the input file; choose another name")
+        spec, folder = _manifest_run(src) if src.is_file() else (None, None)
+        # a file of a measurement folder: the folder is never written into
+        check_file_output(dst, Inputs.of(files=(src,), folders=(folder,)))
         if dst.suffix.lower() not in _FORMATS:
             raise InputError(dst, "unknown output format: expected .csv, .h5, .hdf5 or .tdx")
         units = _parse_units(unit)
-        spec = _manifest_run(src) if src.is_file() else None
         if spec is not None:
             units = {**spec.units, **units}
             run = run or (spec.id if src.suffix.lower() not in (".h5", ".hdf5") else None)

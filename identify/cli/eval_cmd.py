@@ -8,6 +8,7 @@ import typer
 
 from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.outputs import Inputs, check_file_output
 from identify.io.points import read_points
 from identify.io.tir import read_tir
 from identify.io.tir.limits import inverted_limits, missing_sections, points_outside
@@ -73,6 +74,7 @@ def eval_command(
             raise InputError(None, str(exc), key="--mode") from None
         if engine is Engine.fused and mfeval_call:
             raise InputError(None, "--mfeval-call needs --engine numpy", key="--engine")
+        check_file_output(output, Inputs.of(files=(tir, input)), key="--output")
         tirfile = read_tir(tir)
         inverted = inverted_limits(tirfile)
         if inverted:

@@ -12,15 +12,8 @@ from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.extract import extract_folder
 from identify.io.folder import load_folder
+from identify.io.outputs import check_file_output, measurement_inputs
 from identify.io.atomic import atomic_write_csv, atomic_write_text
-
-
-def _inside(path: Path, folder: Path) -> bool:
-    try:
-        path.resolve().relative_to(folder.resolve())
-    except ValueError:
-        return False
-    return True
 
 
 @app.command("extract")
@@ -40,11 +33,10 @@ def extract_command(
     """
 
     try:
-        root = folder if folder.is_dir() else folder.parent if folder.is_file() else None
+        inputs = measurement_inputs(folder)
         for target, key in ((output, "--output"), (diagnostics, "--diagnostics")):
-            if target is not None and root is not None and _inside(target, root):
-                raise InputError(target, "is inside the measurement folder, which is never "
-                                         "modified: write it elsewhere", key=key)
+            if target is not None:
+                check_file_output(target, inputs, key=key)
         with err_console.status(f"extracting {folder} ..."):
             result = extract_folder(load_folder(folder))
         if result.characteristics.empty:

@@ -18,6 +18,7 @@ import signal
 import time
 import warnings
 from contextlib import contextmanager
+from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -40,6 +41,7 @@ from identify.workflows.fit import fit_folder
 from identify.workflows.vehicle import add_vehicle_to_fit
 from identify.vehicle.spec import read_vehicle
 from identify.io.fitdir import EXTRACTION_NAME
+from identify.io.outputs import check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.tables import mcmc_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
@@ -288,6 +290,12 @@ def fit_command(
             bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
             no_revolution_average=no_revolution_average)
         settings = dataclasses.replace(settings, pressure_holdout=pressure_holdout)
+        # the outputs before any work: never inside the measurement folder, never of the
+        # wrong kind (a --reports that is a file); those named by the tyre id once it is read
+        inputs = measurement_inputs(folder)
+        check_folder_output(out, inputs, key="--out")
+        if not no_report:
+            check_folder_output(reports, inputs, key="--reports")
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -297,7 +305,10 @@ def fit_command(
             run = fit_folder(folder, out_root=out, settings=settings, progress=progress,
                              nominal_pressure_Pa=nominal_pressure,
                              nominal_load_N=nominal_load, command=command,
-                             chain_progress=progress.chain)
+                             chain_progress=progress.chain,
+                             check_outputs=partial(check_fit_outputs, out,
+                                                   None if no_report else reports,
+                                                   inputs=inputs))
             if vehicle_spec is not None:
                 progress("vehicle: handling and ride of the fitted tyre")
                 add_vehicle_to_fit(run.fit_dir, run.tir_path, vehicle_spec)

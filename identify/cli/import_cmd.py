@@ -9,7 +9,8 @@ import typer
 from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.cli.fit_cmd import StageProgress
-from identify.io.axes import AXES
+from identify.io.axes import AXES, axes_name
+from identify.io.outputs import Inputs, check_folder_output
 from identify.workflows.import_session import import_session
 
 
@@ -81,9 +82,12 @@ def import_command(
     """
 
     try:
+        axes = axes_name(axes) or axes if axes is not None else None
         if axes is not None and axes not in AXES:
             raise InputError(None, f"unknown axis system '{axes}' (expected one of: "
                                    f"{', '.join(AXES)})", key="--axes")
+        # --overwrite clears --out: it must hold no input file (nor be one)
+        check_folder_output(out, Inputs.of(files=files), key="--out")
         with StageProgress() as progress:
             result = import_session(
                 files, out, tyre_id=tyre_id, nominal_pressure_Pa=nominal_pressure,

@@ -9,6 +9,7 @@ import typer
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import MfidError
 from identify.io.fitdir import read_fit_dir
+from identify.io.outputs import Inputs, check_file_output
 from identify.report.pdf import default_report_path, write_report
 
 
@@ -24,7 +25,9 @@ def report_command(
 
     try:
         fd = read_fit_dir(fit_dir)
-        report = write_report(fd, output if output is not None else default_report_path(fd))
+        target = check_file_output(output if output is not None else default_report_path(fd),
+                                   Inputs.of(folders=(fit_dir,)), key="--output")
+        report = write_report(fd, target)
     except KeyboardInterrupt:
         out_console.print("interrupted: no partial report was left", markup=False)
         raise typer.Exit(130) from None

@@ -10,6 +10,7 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
+from identify.io.outputs import Inputs, check_folder_output
 from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 from identify.simulate.ttc import simulate_ttc
@@ -129,6 +130,7 @@ def simulate_command(
         path = default_tir_path() if tir == "default" else Path(tir)
         if not path.is_file():
             raise InputError(path, "no such .tir file")
+        check_folder_output(outdir, Inputs.of(files=(path,)), key="OUTDIR")
         if fmt is FormatChoice.ttc:
             tireid = "mfid-sim 225/50 R17" if tir == "default" else f"mfid-sim {path.stem}"
             session = simulate_ttc(read_tir(path).params(), outdir, seed=seed, noise=noise,

@@ -11,6 +11,8 @@ from __future__ import annotations
 import re
 from pathlib import Path
 
+from identify.core.errors import one_line
+
 __all__ = ["NAME_RULE", "name_problem", "safe_name", "inside"]
 
 _SAFE = re.compile(r"[\w.-]+")  # \w: any script's letters and digits, and _
@@ -56,13 +58,15 @@ def inside(folder: Path, relative: str) -> tuple[Path | None, str | None]:
         The resolved path, or why it is refused: an absolute path, a path that leaves the
         folder (``..``, or a symbolic link pointing outside), a symbolic-link loop.
     """
+    if "\x00" in relative:  # no file system allows it: os.stat raises ValueError
+        return None, f"'{one_line(relative, 60)}' holds a NUL byte, which no file name can"
     if Path(relative).is_absolute():
         return None, f"an absolute path is not allowed: {relative!r} (name a file inside the " \
                      "measurement folder, relative to it)"
     try:
         root = folder.resolve(strict=False)
         target = (folder / relative).resolve(strict=False)
-    except (OSError, RuntimeError) as exc:  # a symlink loop: RuntimeError before 3.13
+    except (OSError, RuntimeError, ValueError) as exc:  # a loop: RuntimeError before 3.13
         return None, f"cannot resolve {relative!r}: {getattr(exc, 'strerror', None) or exc}"
     if not target.is_relative_to(root):
         return None, f"{relative!r} leads outside the measurement folder (to {target})"

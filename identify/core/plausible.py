@@ -16,11 +16,22 @@ load        N       < 0 or > 1 MN       > 100 kN
 radius      m       < 1 cm or > 5 m     outside 0.1 .. 1.5 m
 speed       m/s     abs > 500 m/s       abs > 100 m/s (km/h given as m/s?)
 angle       rad     abs > 2 pi          abs > pi/2 (degrees given as radians?)
+force       N       abs > 1 MN          abs > 100 kN
+moment      N m     abs > 1 MN m        abs > 50 kN m
+slip        -       abs > 1000          abs > 2 (a slip ratio in percent?)
+time        s       abs > 1e10 s        (a time stamp: Unix time is 1.7e9 s)
+time_step   s       <= 1e-7 s, > 1 h    < 0.1 ms, > 10 s
 magnitude   SI      abs > 1e12          (a characteristic value: finite and not absurd)
 ==========  ======  ==================  ==================================================
 
 Aircraft tyres run at up to about 2 MPa and 200 kN, mining tyres have radii near 2 m: the
-error bands leave room for every tyre; the warning bands frame road-vehicle tyres.
+error bands leave room for every tyre; the warning bands frame road-vehicle tyres, from a
+Formula Student tyre at 0.2 kN to a truck tyre at 50 kN (whose overturning moment about the
+wheel centre reaches tens of kN m). A rig logs at 1 Hz (a slow Flatplank) to a few kHz: a
+sample interval below 0.1 us or above an hour is a unit mix-up or not a time channel.
+Measured channels (:func:`judge_channel`) are judged on their typical level (the median) or,
+for the quantities in :data:`LARGEST`, on their largest magnitude: a force or a slip ratio
+is centred near zero, and one sample of 1e300 N is no force whatever the others say.
 """
 from __future__ import annotations
 
@@ -29,7 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Band", "BANDS", "Finding", "first_error", "judge", "judge_channel"]
+__all__ = ["Band", "BANDS", "LARGEST", "Finding", "first_error", "judge", "judge_channel"]
 
 
 @dataclass(frozen=True)
@@ -60,8 +71,18 @@ BANDS: dict[str, Band] = {
                   hint_high="km/h given as m/s?"),
     "angle": Band("rad", None, None, math.pi / 2, 2 * math.pi, absolute=True,
                   hint_high="degrees given as radians?"),
+    "force": Band("N", None, None, 1e5, 1e6, absolute=True),
+    "moment": Band("N m", None, None, 5e4, 1e6, absolute=True),
+    "slip": Band("", None, None, 2.0, 1e3, absolute=True,
+                 hint_high="a slip ratio in percent?"),
+    "time": Band("s", None, None, None, 1e10, absolute=True),
+    "time_step": Band("s", 1e-7, 1e-4, 10.0, 3600.0, strict_low=True,
+                      hint_low="not a time channel, or a unit mix-up?"),
     "magnitude": Band("", None, None, None, 1e12, absolute=True),
 }
+
+#: Quantities whose measured channel is judged on its largest magnitude, not its median.
+LARGEST = frozenset({"angle", "force", "moment", "slip", "time"})
 
 
 @dataclass(frozen=True)
@@ -136,20 +157,25 @@ def judge_channel(quantity: str, values: np.ndarray, *, what: str = "",
 
     Pressure, load, radius and speed are judged on the median of the finite samples (one
     noisy sample does not make a channel implausible; ``median``: that median [SI] when the
-    caller has it, not computed again); angles on the largest magnitude (a sweep to 15 'rad'
-    is degrees, whatever its median). Returns the finding and the position of the sample
-    concerned (None for a median), or None.
+    caller has it, not computed again); the quantities of :data:`LARGEST` on the largest
+    magnitude (a sweep to 15 'rad' is degrees, whatever its median; a force channel's median
+    is near zero). Returns the finding and the position of the sample concerned (None for a
+    median), or None.
     """
-    if median is None or quantity == "angle":
+    largest = quantity in LARGEST
+    if median is None or largest:
         x = np.asarray(values, dtype=np.float64)
         finite = np.isfinite(x)
         if not finite.any():
             return None  # the quirk checks report a channel without a finite value
-        x = x[finite]
-        if quantity == "angle":
+        whole = bool(finite.all())
+        x = x if whole else x[finite]
+        if largest:
             i = int(np.argmax(np.abs(x)))
-            found = judge(quantity, float(x[i]), what=what or "largest angle")
-            return None if found is None else (found, int(np.flatnonzero(finite)[i]))
+            found = judge(quantity, float(x[i]), what=what or f"largest {quantity}")
+            if found is None:
+                return None
+            return found, (i if whole else int(np.flatnonzero(finite)[i]))
         median = float(np.median(x))
     found = judge(quantity, median, what=what or f"median {quantity}")
     return None if found is None else (found, None)

@@ -376,6 +376,15 @@ def _continue_refit(refit: FitResult | int, result: FitResult, trial: StageProbl
                                seconds=refit.seconds + more.seconds)
 
 
+def _nothing_free(sp: StageProblem) -> str:
+    """Why a stage with points has nothing to fit: every candidate coefficient is held."""
+    n = sp.problem.measured.size
+    held = ", ".join(f"{k} ({why})" for k, why in list(sp.held.items())[:3])
+    more = f" and {len(sp.held) - 3} more" if len(sp.held) > 3 else ""
+    return (f"{n} point(s), but no coefficient is identifiable from them"
+            + (f": held {held}{more}" if held else ""))
+
+
 def _skip_reason(stage: str, trailer: pd.DataFrame) -> str:
     """Why ``stage`` has no points in ``trailer``."""
     quantity = STAGES[stage].quantity
@@ -687,8 +696,9 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 _say(progress, f"{label}: points and identifiability screen")
                 sp = stage_problem(stage, trailer, params, free=stage_free, screen=screen,
                                    sweeps=sweeps)
-                if sp is None:
-                    skipped[stage] = _skip_reason(stage, trailer)
+                if sp is None or not sp.problem.free:
+                    skipped[stage] = (_skip_reason(stage, trailer) if sp is None else
+                                      _nothing_free(sp))
                     _say(progress, f"{label}: skipped, {skipped[stage]}")
                     continue
                 result, others, solved = _global_fit(

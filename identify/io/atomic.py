@@ -2,10 +2,16 @@
 
 A reader (or ``make``) never sees a half-written output: the target either keeps its old
 content or gets the complete new one. A failed write leaves no temporary file behind.
+
+The temporary is named ``.<target name>.<pid>.<random>.tmp``. A process killed outright
+(SIGKILL, a power cut) cannot remove its own, so the next write of the same target removes
+the temporaries of that target whose writing process no longer runs: only files of this
+naming pattern, only next to the target, never one a running process is writing.
 """
 from __future__ import annotations
 
 import os
+import re
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -16,7 +22,7 @@ from identify.core.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv", "remove_stale"]
 
 
 def _umask() -> int:
@@ -26,6 +32,46 @@ def _umask() -> int:
 
 
 _MODE = 0o666 & ~_umask()
+
+
+def _running(pid: int) -> bool:
+    """True when process ``pid`` exists (on this machine)."""
+    if pid <= 0:
+        return False
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError, OSError):
+        return True  # exists, owned by another user; or cannot tell: keep its file
+    return True
+
+
+def remove_stale(target: str | Path) -> list[Path]:
+    """Remove the temporaries of ``target`` left by a writer that no longer runs.
+
+    Only files next to ``target`` named ``.<target name>.<pid>.<8 characters>.tmp`` (this
+    module's pattern) whose ``pid`` is not a running process are removed. Returns them.
+    """
+    target = Path(target)
+    pattern = re.compile(rf"\.{re.escape(target.name)}\.(\d{{1,10}})\.[A-Za-z0-9_]{{8}}\.tmp")
+    removed = []
+    try:
+        names = os.listdir(target.parent)
+    except OSError:
+        return removed
+    for name in names:
+        match = pattern.fullmatch(name)
+        if match is None or _running(int(match.group(1))):
+            continue
+        path = target.parent / name
+        try:
+            if path.is_file() and not path.is_symlink():
+                path.unlink()
+                removed.append(path)
+        except OSError:
+            pass
+    return removed
 
 
 @contextmanager
@@ -41,7 +87,9 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
     directory = target.parent
     try:
         mode = target.stat().st_mode & 0o777 if target.exists() else _MODE
-        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=".tmp", dir=directory)
+        remove_stale(target)
+        fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp",
+                                   dir=directory)
         os.close(fd)
     except OSError as exc:
         raise InputError(target, f"cannot write file: {exc.strerror or exc}") from None

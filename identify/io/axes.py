@@ -29,10 +29,18 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-__all__ = ["AXES", "sae_to_iso_w", "c_to_w", "to_iso_w"]
+__all__ = ["AXES", "axes_name", "sae_to_iso_w", "c_to_w", "to_iso_w"]
 
 #: Axis systems the loaders accept.
 AXES = ("ISO-W", "SAE", "TYDEX-C")
+
+
+def axes_name(text: object) -> str | None:
+    """The axis system ``text`` names, spelled as in :data:`AXES` (case and surrounding
+    spaces ignored, as for units: ``"iso-w"`` -> ``"ISO-W"``), or None for another text."""
+    if not isinstance(text, str):
+        return None
+    return next((a for a in AXES if a.lower() == text.strip().lower()), None)
 
 _SAE_FLIP = ("Fy", "Fz", "My", "Mz", "alpha")
 _FM = ("Fx", "Fy", "Fz", "Mx", "My", "Mz")

@@ -25,7 +25,8 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
-__all__ = ["Problem", "Problems", "TOLERANCE", "read_numeric_csv", "split_header_name",
+__all__ = ["BOOLEAN_CELLS", "CR_ONLY", "cr_only", "Problem", "Problems", "TOLERANCE",
+           "read_numeric_csv", "split_header_name",
            "check_increasing", "check_declared", "sha256_file", "starts_with", "is_gzip",
            "open_text", "file_problem", "decode_problem", "read_utf8", "row_lines"]
 
@@ -34,6 +35,11 @@ GZIP_MAGIC = b"\x1f\x8b"
 
 #: Rows per block of the fast CSV parse (the block is the only transient copy of the data).
 BLOCK_ROWS = 1 << 18
+
+#: The cells pandas' C parser reads as booleans, 1.0 and 0.0, in a column of only such cells
+#: (``True`` in every cell of a camber channel would be 1 rad). Read as missing instead, so
+#: that the row walk names them as cells that are not numbers.
+BOOLEAN_CELLS = ("True", "TRUE", "true", "False", "FALSE", "false")
 
 #: Relative distance between a measured median and the manifest's declared value that is flagged.
 TOLERANCE = 0.15
@@ -133,6 +139,17 @@ def file_problem(path: str | Path, what: str = "file") -> str | None:
     return None
 
 
+#: The message for a text file whose lines end in CR alone (classic Mac OS text).
+CR_ONLY = ("its lines end in CR alone (classic Mac OS text): save it with LF or CRLF line "
+           "ends")
+
+
+def cr_only(text: str | bytes) -> bool:
+    """True when ``text`` has carriage returns between its lines and no line feed at all."""
+    cr, lf = ("\r", "\n") if isinstance(text, str) else (b"\r", b"\n")
+    return lf not in text and cr in text.rstrip(cr)
+
+
 def decode_problem(data: bytes, exc: UnicodeDecodeError) -> tuple[int, str]:
     """The 1-based line and a one-line message for a UTF-8 decoding error in ``data``."""
     line = data.count(b"\n", 0, exc.start) + 1
@@ -160,11 +177,14 @@ def read_utf8(path: Path, problems: Problems, *, missing: str = "file not found"
 
 
 def split_header_name(text: str) -> tuple[str, str | None]:
-    """``"SLIPANGL [deg]"`` -> ``("SLIPANGL", "deg")``; a plain name has unit None."""
+    """``"SLIPANGL [deg]"`` or ``"SLIPANGL (deg)"`` -> ``("SLIPANGL", "deg")``; a plain name
+    has unit None. Both bracket styles are common in loggers' exports."""
     text = text.strip()
-    if text.endswith("]") and "[" in text:
-        name, unit = text[:-1].split("[", 1)
-        return name.strip(), unit.strip() or None
+    for opening, closing in (("[", "]"), ("(", ")")):
+        if text.endswith(closing) and opening in text:
+            name, unit = text[:-1].split(opening, 1)
+            if name.strip():  # "(deg)" alone is a name, not a unit without one
+                return name.strip(), unit.strip() or None
     return text, None
 
 
@@ -229,6 +249,9 @@ def _header(path: Path, problems: Problems) -> list[str] | None:
         return None
     if "\x00" in first:
         problems.add(path, "binary data (NUL bytes), not a CSV text file", line=1)
+        return None
+    if cr_only(first):  # the csv module's own text would ask for "universal-newline mode"
+        problems.add(path, CR_ONLY, line=1)
         return None
     if first.strip() == "":
         problems.add(path, "empty file: expected a header line with the column names"
@@ -371,7 +394,7 @@ def _parse_floats(path: Path) -> tuple[pd.DataFrame, int]:
     names: list[str] = []
     rows = 0
     with pd.read_csv(path, header=0, dtype=np.float64, index_col=False,
-                     skipinitialspace=True, encoding="utf-8-sig",
+                     skipinitialspace=True, encoding="utf-8-sig", na_values=BOOLEAN_CELLS,
                      compression="gzip" if is_gzip(path) else None,
                      chunksize=BLOCK_ROWS) as reader:
         for block in reader:

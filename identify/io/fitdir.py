@@ -22,6 +22,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_text
+from identify.core.names import inside
 from identify.core.tyre import TyreInfo
 from identify.fit.result import FitResult
 from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
@@ -128,10 +129,11 @@ class FitDir:
         if own.is_file():
             return own
         recorded = result.mcmc.chain_file if result.mcmc is not None else None
-        if recorded:
-            for cand in (Path(recorded), self.path / Path(recorded).name,
+        if recorded:  # a path read from fit.json: only ever a file of this fit directory
+            named = inside(self.path, recorded)[0] if "\x00" not in recorded else None
+            for cand in (named, self.path / Path(recorded).name,
                          self.path / "mcmc" / Path(recorded).name):
-                if cand.is_file():
+                if cand is not None and "\x00" not in str(cand) and cand.is_file():
                     return cand
         return None
 
@@ -263,17 +265,33 @@ def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
         The directory or a file cannot be written.
     """
     fit_dir = Path(fit_dir)
+    made = [d for d in (fit_dir, *fit_dir.parents) if not d.exists()]  # removed on failure
     try:
         fit_dir.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(fit_dir, f"cannot create folder: {exc.strerror or exc}") from None
+    try:
+        return _write_files(run, fit_dir, points, extraction)
+    except BaseException:
+        for d in made:  # innermost first; a folder something else wrote into stays
+            try:
+                d.rmdir()
+            except OSError:
+                break
+        raise
+
+
+def _write_files(run: FitRun, fit_dir: Path, points: pd.DataFrame,
+                 extraction: Mapping[str, Any] | None) -> FitRun:
     run = dataclasses.replace(run, fit_dir=fit_dir)
-    texts = {run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
+    # fit.json first: entered first, renamed last (the stack exits in reverse), so a rename
+    # that fails leaves no fit.json naming files that are not there
+    texts = {run.json_path: json_text(run.to_dict()),
+             run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
                                       comment_lines=_tir_comment(run),
                                       sources=dict(run.key_sources) or None,
                                       digits=FIT_DIGITS),
-             run.csv_path: points.to_csv(index=False, lineterminator="\n"),
-             run.json_path: json_text(run.to_dict())}
+             run.csv_path: points.to_csv(index=False, lineterminator="\n")}
     if extraction is not None:
         texts[fit_dir / EXTRACTION_NAME] = json_text(extraction)
     with ExitStack() as stack:

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
+from identify.core.plausible import judge, judge_channel
 from identify.core.units import same_unit, to_si, unit_problem
 
 __all__ = ["RAW_COLUMNS", "FLATPLANK_COLUMNS", "CONSTANT_LOAD_TESTS", "hub_to_contact",
@@ -78,6 +79,27 @@ def hub_to_contact(Gx1, Gx2, Gy, Gz1, Gz2, phi_wheel, phi_plank, psi, loaded_rad
     }
 
 
+#: Raw column -> quantity of identify.core.plausible (its error band refuses the run).
+_PLAUSIBLE = {"time": "time", "Gx1": "force", "Gx2": "force", "Gy": "force", "Gz1": "force",
+              "Gz2": "force", "psi": "angle", "phi_wheel": "angle", "phi_plank": "angle"}
+
+
+def _plausible(path: Path, raw: Mapping[str, np.ndarray], lines, problems: Problems) -> None:
+    """Values no rig produces, in SI: a bridge force, an angle or a time stamp out of its
+    error band, or a median time step that is not a sample interval."""
+    for name, quantity in _PLAUSIBLE.items():
+        found = judge_channel(quantity, raw[name])
+        if found is not None and found[0].is_error:
+            row = found[1]
+            problems.add(path, found[0].message, key=name,
+                         **({"line": lines + row} if row is not None else {}))
+    t = raw["time"]
+    if t.size > 1 and np.isfinite(t).all():
+        finding = judge("time_step", float(np.median(np.diff(t))), what="median time step")
+        if finding is not None and finding.is_error:
+            problems.add(path, finding.message, key="time")
+
+
 def read_flatplank(path: str | Path, *, a: float, b: float, run: str | None = None,
                    test: str = "any", units: Mapping[str, str] | None = None,
                    conditions: Mapping[str, float] | None = None,
@@ -132,6 +154,7 @@ def read_flatplank(path: str | Path, *, a: float, b: float, run: str | None = No
     if problems.total > start:
         return None
     check_increasing(problems, path, "time", raw["time"], lines)
+    _plausible(path, raw, lines, problems)
     derived = hub_to_contact(raw["Gx1"], raw["Gx2"], raw["Gy"], raw["Gz1"], raw["Gz2"],
                              raw["phi_wheel"], raw["phi_plank"], raw["psi"],
                              raw["loaded_radius"], a=a, b=b)

@@ -15,8 +15,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from identify.io.axes import AXES
-from identify.io.common import Problems, read_utf8
+from identify.io.axes import AXES, axes_name
+from identify.io.common import Problems, cr_only, read_utf8
 from identify.io.data_warning import DataWarning
 from identify.core.names import name_problem
 from identify.core.plausible import judge
@@ -225,6 +225,8 @@ def read_manifest(path: str | Path, problems: Problems | None = None, *,
     text = read_utf8(path, problems, missing=f"no {MANIFEST_NAME} in the folder")
     if text is None:
         return None
+    if cr_only(text):  # classic Mac OS line ends: TOML wants LF, the lines are the same
+        text = text.replace("\r", "\n")
     try:
         data = tomllib.loads(text)
     except RecursionError:
@@ -292,7 +294,7 @@ def _run(problems: Problems, file: str, i: int, entry: Any,
     elif kind is not None and test is not None and test not in TESTS[kind]:
         problems.add(file, f"unknown {kind} test '{test}' (expected one of: "
                            f"{', '.join(TESTS[kind])})", key=f"{where}.test")
-    axes = run.get("axes", "ISO-W")
+    axes = axes_name(run.get("axes", "ISO-W")) or run.get("axes")
     if axes not in AXES:
         problems.add(file, f"unknown axis system '{axes}' (expected one of: {', '.join(AXES)})",
                      key=f"{where}.axes")

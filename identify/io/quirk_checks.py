@@ -7,7 +7,8 @@ from scipy.ndimage import median_filter
 
 from identify.io.data_warning import DataWarning, WarningReport, per_channel, runs_of
 
-__all__ = ["MAX_BAD_TIME", "MAX_DROPOUT", "MAX_SPIKE", "MOVING_SPEED", "RADIUS_RANGE",
+__all__ = ["MIN_RUN_SAMPLES", "MAX_BAD_TIME", "MAX_DROPOUT", "MAX_SPIKE", "MOVING_SPEED",
+           "RADIUS_RANGE",
            "SPIKE_RANGE", "SPIKE_SIGMAS", "TEMPERATURE_RANGE", "dropouts", "implausible",
            "nan_values", "spikes", "time_order", "unused_slip_warning"]
 
@@ -27,6 +28,11 @@ RADIUS_RANGE = (0.1, 1.5)
 TEMPERATURE_RANGE = (203.15, 453.15)
 #: V [m/s] above which V/omega is compared with a tyre radius.
 MOVING_SPEED = 3.0
+
+#: Fewest usable samples of a run not reported as too few [samples]: below it a run holds
+#: no sweep worth the name (a stage pools the runs, and needs 50 points in all:
+#: identify.fit.coverage.MIN_POINTS), so that a fit finding nothing is not a surprise.
+MIN_RUN_SAMPLES = 10
 
 #: Columns whose missing value drops the row (when the channel is present and not dropped).
 _TEMPERATURES = ("T_tread_in", "T_tread_centre", "T_tread_out", "T_road", "T_ambient")

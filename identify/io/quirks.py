@@ -19,6 +19,7 @@ kind               found as                                               action
 ``spike``          at most :data:`MAX_SPIKE` samples further than           set NaN, row dropped
                    ``SPIKE_SIGMAS`` robust sigmas (and 5 % of the channel's
                    range) from a 7-sample running median (a Hampel filter)
+``few-samples``    fewer than :data:`MIN_RUN_SAMPLES` usable samples       kept (reported)
 ``implausible``    a channel present but not physical: wheel speed         channel dropped
                    inconsistent with V (V/omega not a tyre radius), a
                    radius that is not a tyre's, a slip ratio pinned at
@@ -46,6 +47,7 @@ from identify.io.quirk_checks import (
     MAX_BAD_TIME,
     MAX_DROPOUT,
     MAX_SPIKE,
+    MIN_RUN_SAMPLES,
     RADIUS_RANGE,
     SPIKE_SIGMAS,
     dropouts,
@@ -144,4 +146,7 @@ def clean_run(frame: pd.DataFrame, *, file: str, run: str,
     if frame.empty:
         errors.append(("t", "no usable sample left after cleaning", None))
         return CleanResult(None, tuple(report.items), tuple(errors))
+    if len(frame) < MIN_RUN_SAMPLES:  # usable, but no stage will have the points it needs
+        report.add("few-samples", ["t"], len(frame), f"only {len(frame)} usable sample(s): "
+                   f"too few for a sweep (a Magic Formula stage needs 50 points)", "kept", None)
     return CleanResult(frame, tuple(report.items), (), tuple(dropped))

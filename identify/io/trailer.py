@@ -28,10 +28,10 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
-from identify.core.plausible import judge_channel
+from identify.core.plausible import LARGEST, judge, judge_channel
 from identify.core.units import SI_UNITS
 from identify.io.atomic import atomic_write_text
-from identify.io.axes import AXES, to_iso_w
+from identify.io.axes import AXES, axes_name, to_iso_w
 from identify.io.common import Problems, check_declared
 from identify.io.hdf5 import RawRun, write_hdf5
 from identify.io.quirks import DataWarning, clean_run, unused_slip_warning
@@ -90,9 +90,11 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     start = problems.total
     ttc = ch.ttc
     c_names = sorted(n for n in ch.data if n in C_NAMES and not ttc)
+    declared = axes_name(ch.axes) or ch.axes  # an HDF5 attribute in any case
+    axes = axes_name(axes) or axes
     if axes is None:
-        axes = ch.axes or ("TYDEX-C" if c_names else "SAE" if ttc else "ISO-W")
-    elif ch.axes and ch.axes != axes:
+        axes = declared or ("TYDEX-C" if c_names else "SAE" if ttc else "ISO-W")
+    elif declared and declared != axes:
         problems.add(ch.file, f"the file declares axes '{ch.axes}', the manifest '{axes}'",
                      key=ch.run)
     if axes not in AXES:
@@ -125,7 +127,9 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
             problems.add(ch.file, "missing required channel" + (
                 " (TYDEX-C data need My to compute Mz at the contact point)"
                 if canon == "MYW" else ""), key=file_names[canon])
-    for col in _CONDITIONS:  # every stage selects by these: without one value, no run
+    # a required channel in the file without one value is no channel (a TTC file's empty
+    # channel is a warning of its own, ttc_substitutes, but its conditions are required)
+    for col in _CONDITIONS if ttc else _REQUIRED:
         if col in cols and not np.isfinite(cols[col]).any():
             problems.add(ch.file, f"no finite value (all {cols[col].size} samples are "
                                   "NaN/inf)", key=names[col])
@@ -186,11 +190,16 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     return frame if problems.total == start else None
 
 
-#: Tidy columns that a run cannot do without even if a file has them, all NaN.
+#: Tidy columns of the required channels: a file that has one of them with no finite value
+#: is refused (a force or moment without a value would leave its stages silently unfitted).
+_REQUIRED = tuple(col for col, _, _, required in CHANNELS.values() if required)
+#: The conditions among them, which every stage selects by: required in a TTC file too.
 _CONDITIONS = ("t", "Vx", "alpha", "gamma", "p", "Fz")
 #: Tidy column -> quantity of identify.core.plausible, checked on the cleaned SI table.
 _PLAUSIBLE = (("p", "pressure"), ("Fz", "load"), ("Vx", "speed"), ("alpha", "angle"),
-              ("gamma", "angle"))
+              ("gamma", "angle"), ("kappa", "slip"), ("Fx", "force"), ("Fy", "force"),
+              ("Mx", "moment"), ("My", "moment"), ("Mz", "moment"),
+              ("t", "time"))
 
 
 def _plausible(frame: pd.DataFrame, ch: Channels, names: Mapping[str, str],
@@ -198,16 +207,26 @@ def _plausible(frame: pd.DataFrame, ch: Channels, names: Mapping[str, str],
                medians: Mapping[str, float]) -> None:
     """The plausibility checks of one run, after the unit and axis conversion (SI, ISO-W);
     ``medians`` [SI] of the channels judged on their median, when known."""
-    for col, quantity in _PLAUSIBLE:
-        if col not in frame.columns or (col == "Fz" and medians["Fz"] <= 0):
+    t = frame["t"].to_numpy()
+    step = (float(np.median(np.diff(t))) if t.size > 1 else None)
+    refused = set()  # one error per channel: a time stamp of 1e300 s is not also a step
+    for col, quantity in _PLAUSIBLE + (("t", "time_step"),):
+        if col not in frame.columns or col in refused or (col == "Fz" and medians["Fz"] <= 0):
             continue  # a load <= 0 has its own message below (the axes, or no load)
-        found = judge_channel(quantity, frame[col].to_numpy(), median=medians.get(col))
+        if quantity == "time_step":
+            finding = None if step is None else judge(quantity, step,
+                                                      what="median time step")
+            found = None if finding is None else (finding, None)
+        else:
+            found = judge_channel(quantity, frame[col].to_numpy(), median=(
+                None if quantity in LARGEST else medians.get(col)))
         if found is None:
             continue
         finding, row = found
         line = None if row is None or ch.first_line is None else ch.first_line + row
         name = names.get(col, col)
         if finding.is_error:
+            refused.add(col)
             problems.add(ch.file, finding.message, key=name,
                          **({"line": line} if line is not None else {}))
         elif warnings is not None:

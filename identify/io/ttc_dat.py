@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems, is_gzip, open_text
+from identify.io.common import BOOLEAN_CELLS, Problems, is_gzip, open_text
 from identify.io.ttc_names import ttc_name
 
 __all__ = ["read_dat"]
@@ -155,6 +155,7 @@ def _table(source: Path | str, sep: str, names: list[str], decimal: str) -> pd.D
         warnings.simplefilter("always")
         frame = pd.read_csv(text, sep=sep, decimal=decimal, skiprows=3, header=None,
                             names=names, dtype=np.float64, index_col=False, engine="c",
+                            na_values=BOOLEAN_CELLS,
                             encoding="latin-1", compression="gzip" if gz else None)
     # index_col=False: the fields of a first row wider than the names are dropped, with a
     # ParserWarning ("Length of header or names does not match length of data")

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.io.common import file_problem, Problems
+from identify.io.common import BOOLEAN_CELLS, CR_ONLY, cr_only, file_problem, Problems
 from identify.io.atomic import atomic_write_text
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
@@ -135,6 +135,9 @@ def read_tydex(path: str | Path, problems: Problems | None = None, *,
         text = raw.decode("utf-8-sig")
     except UnicodeDecodeError:
         text = raw.decode("latin-1")
+    if cr_only(text):
+        problems.add(path, CR_ONLY, line=1)
+        return None
     marker = text.find("**MEASURDATA")
     marker = text.upper().find("**MEASURDATA") if marker < 0 else marker
     head = text if marker < 0 else text[:marker]
@@ -238,7 +241,8 @@ def _data(path: Path, body: str, first_line: int, width: int, names: list[str],
         with warnings.catch_warnings():
             warnings.simplefilter("error", pd.errors.ParserWarning)
             frame = pd.read_csv(io.StringIO(body), sep=r"\s+", header=None, dtype=np.float64,
-                                index_col=False, names=list(range(width)), comment="!")
+                                index_col=False, names=list(range(width)), comment="!",
+                                na_values=BOOLEAN_CELLS)
         values = frame.to_numpy()
         if np.isfinite(values).all():
             if len(values) == 0:

@@ -93,7 +93,7 @@ def sign_patterns(names: Sequence[str], held: Mapping[str, float] | None = None)
         g = np.ones(len(names))
         g[[names.index(n) for n in inside]] = -1.0
         rows |= {tuple(np.multiply(r, g)) for r in rows}
-    return np.array(sorted(rows, reverse=True), dtype=float).reshape(-1, len(names))
+    return np.array(sorted(rows, reverse=True), dtype=float).reshape(len(rows), len(names))
 
 
 def nearest_image(x: np.ndarray, ref: np.ndarray, patterns: np.ndarray,

@@ -28,10 +28,12 @@ from matplotlib.backends.backend_pdf import PdfPages
 from pypdf import PdfReader, PdfWriter
 
 from identify.core.errors import InputError
+from identify.core.names import name_problem
 from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir, read_fit_dir
+from identify.fit.run import JSON_NAME
 from identify.report.cover import cover, inputs_appendix
 from identify.report.fit_pages import fit_pages
 from identify.report.mcmc_pages import mcmc_pages
@@ -56,6 +58,17 @@ class Report:
 
 
 def default_report_path(fd: FitDir, reports: str | Path = "reports") -> Path:
+    """``reports/<tyre id>.pdf``; the id comes from fit.json, a file that may have been
+    edited, so it is checked again here, where it becomes a path.
+
+    Raises
+    ------
+    InputError
+        The id is not a safe file name (``../../x`` would write outside ``reports``).
+    """
+    why = name_problem(fd.tyre_id)
+    if why is not None:
+        raise InputError(fd.path / JSON_NAME, why, key="tyre.id")
     return Path(reports) / f"{fd.tyre_id}.pdf"
 
 

@@ -36,6 +36,7 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.fit.run import FitSettings
 from identify.io.fitdir import read_fit_dir
+from identify.io.outputs import Inputs, check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.batch_summary import SUMMARY_CSV, BatchEntry, write_batch_summary
 from identify.workflows.batch_engines import Engine, PoolEngine, WorkerDied
 from identify.workflows.batch_plan import freshness, manifest_of
@@ -179,6 +180,12 @@ def _plan(folders: Sequence[str | Path], out_root: Path, reports: Path | None,
                 manifest.path, f"tyre id '{tyre_id}' is also the id of {first}, which is "
                                f"fitted: {name} is refused (their outputs would overwrite "
                                "each other; give it another tyre.id)", key="tyre.id").__str__()))
+            continue
+        try:  # each fit's own outputs: not inside any folder of the batch
+            check_fit_outputs(out_root, reports, tyre_id, sum(
+                (measurement_inputs(f) for f in folders), Inputs()))
+        except InputError as exc:
+            planned.append(TaskOutcome(name, tyre_id, BAD_INPUT, str(exc)))
             continue
         owner[tyre_id] = (name, folder.resolve())
         fit_dir = out_root / tyre_id
@@ -354,6 +361,11 @@ def run_batch(folders: Sequence[str | Path], *, out_root: str | Path = "fits",
         out_root = out_root.absolute()
         reports = None if reports is None else reports.absolute()
     command = command or (lambda folder: f"mfid fit {folder}")
+    # the summary's folders before any work: never inside a measurement folder
+    inputs = sum((measurement_inputs(f) for f in folders), Inputs())
+    check_folder_output(out_root, inputs, key="--out")
+    if reports is not None:
+        check_folder_output(reports, inputs, key="--reports")
     planned = _plan(folders, out_root, reports, settings, force, command)
     tasks = [p for p in planned if isinstance(p, FitTask)]
     engine_name = ""

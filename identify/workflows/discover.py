@@ -35,11 +35,12 @@ from identify.discover.result import Discovery
 from identify.discover.search import Settings, discover
 from identify.extract import extract_folder
 from identify.fit.relations import Context
-from identify.fit.run import FitRun, Provenance, failures
+from identify.fit.run import JSON_NAME, FitRun, Provenance, failures
 from identify.fit.sources import KeySource
 from identify.io.atomic import atomic_write_text
 from identify.io.fitdir import write_fit_json
 from identify.io.folder import load_folder
+from identify.io.outputs import Inputs, check_files_in, check_folder_output, measurement_inputs
 from identify.io.tir import read_tir, write_tir
 from identify.io.tir.write import source_text
 from identify.model.parameters import spec
@@ -200,6 +201,12 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     bad_id = name_problem(tyre.id)
     if bad_id:  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, bad_id, key="tyre.id")
+    out = Path(out_dir) if out_dir is not None else Path(out_root) / tyre.id / "discovery"
+    # before any work: never into the measurement folder, nor over the base or candidates
+    check_folder_output(out, measurement_inputs(source) + Inputs.of(
+        files=(base_tir, candidates)), key="--out")
+    check_files_in(out, ("discovery.json", "discovery.pdf", f"{tyre.id}.tir", JSON_NAME),
+                   key="--out")
     tir0, fittyp = start_tir(mset, base_tir)
     if base_form is not None:
         if base_form not in library.forms:

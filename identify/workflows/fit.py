@@ -42,6 +42,7 @@ from identify.fit.sources import DEFAULT, FITTED, KeySource
 from identify.io.atomic import atomic_path
 from identify.io.fitdir import rows_of, write_fit_dir
 from identify.io.folder import MeasurementSet, load_folder
+from identify.io.outputs import check_fit_outputs, measurement_inputs
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
@@ -256,8 +257,14 @@ def _csv_rows(result: FitResult, problem) -> pd.DataFrame:
 def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
-               command: str = "", chain_progress: ChainProgressFn | None = None) -> FitRun:
+               command: str = "", chain_progress: ChainProgressFn | None = None,
+               check_outputs: Callable[[str], None] | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
+
+    ``check_outputs`` is called with the tyre id as soon as it is known, before any fit: the
+    caller's check of the paths it will write (identify.io.outputs.check_fit_outputs), so that
+    a bad output path fails before the work, not after it; by default the fit directory is
+    checked against ``source`` (never inside the measurement folder).
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
@@ -278,7 +285,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """
     with _Chains(settings, out_root, chain_progress) as chains, _one_blas_thread():
         run = _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
-                          command, chains, out_root=out_root)
+                          command, chains, out_root=out_root, check_outputs=check_outputs)
         _say(progress, f"write: {Path(out_root) / run.tyre.id} ({len(run.points)} points)")
         return write_fit_dir(run, Path(out_root) / run.tyre.id, points=run.points,
                              extraction=run.extraction)
@@ -314,7 +321,7 @@ def _one_blas_thread():
 
 def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                 nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains, *,
-                out_root) -> FitRun:
+                out_root, check_outputs: Callable[[str], None] | None = None) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -330,7 +337,11 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
-    if out_root is not None:
+    if out_root is not None:  # written: checked before any work (the API's default too)
+        if check_outputs is None:
+            check_outputs = partial(check_fit_outputs, out_root, None,
+                                    inputs=measurement_inputs(mset.path))
+        check_outputs(tyre.id)
         chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
@@ -436,8 +447,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
             choices.append(choice)
         ctx = dataclasses.replace(ctx, tir=_numeric(tir))  # later relations see the .tir
     if not results:
-        raise InputError(mset.path, "nothing to fit: no trailer data and no characteristics "
-                                    f"of a known quantity{' for --only' if settings.only else ''}")
+        raise InputError(mset.path, _nothing_to_fit(mset, coverage, bool(settings.only)))
     chains.run_all(results, progress)  # after every fit: the budget is shared between them
     points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     TA.apply_limits(tir, key_sources, points)
@@ -455,6 +465,22 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                  extraction=extraction)
     return dataclasses.replace(run, results=tuple(
         dataclasses.replace(r, points=rows_of(points, r)) for r in run.results))
+
+
+def _nothing_to_fit(mset, coverage: tuple, only: bool) -> str:
+    """Why a folder gave no fit, naming what is too little and where: each trailer run's file
+    and samples, and the first stages' reasons for being skipped."""
+    known = f"no characteristics of a known quantity{' for --only' if only else ''}"
+    trailer = mset.trailer
+    if trailer is None or not len(trailer):
+        return f"nothing to fit: no trailer data and {known}"
+    files = {r.id: r.file for r in mset.manifest.runs}
+    counts = trailer.groupby("run", sort=False).size()
+    runs = ", ".join(f"{files.get(run, run)} ({n} sample(s))" for run, n in counts.items())
+    why = "; ".join(f"{c.stage}: {c.skipped}" for c in coverage if c.skipped)
+    shown = why if len(why) <= 300 else why[:297] + "..."
+    return (f"nothing to fit: too little trailer data for any Magic Formula stage in {runs}"
+            + (f" ({shown})" if shown else "") + f", and {known}")
 
 
 def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:
