@@ -147,6 +147,7 @@ def batch_command(
     no_bin: shared.NoBinOption = False,
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
+    pressure_holdout: shared.PressureHoldoutOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.
@@ -170,7 +171,7 @@ def batch_command(
             seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
             fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
             bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
-            no_revolution_average=no_revolution_average)
+            no_revolution_average=no_revolution_average, pressure_holdout=pressure_holdout)
         run = run_batch([str(f) for f in folders], out_root=out,
                         reports=None if no_report else reports, settings=settings,
                         workers=workers, scheduler=scheduler, retries=retries, force=force,

@@ -10,7 +10,6 @@ is left.
 """
 from __future__ import annotations
 
-import dataclasses
 
 import math
 import shlex
@@ -256,11 +255,7 @@ def fit_command(
     no_bin: shared.NoBinOption = False,
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
-    pressure_holdout: bool = typer.Option(
-        False, "--pressure-holdout",
-        help="Predict each pressure level of the MF fit by the force and moment stages fitted "
-             "again without it (the report's pressure page): a local refit per level, which "
-             "can cost as much CPU as the MF fit itself."),
+    pressure_holdout: shared.PressureHoldoutOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
     vehicle: str | None = typer.Option(
         None, "--vehicle", metavar="FILE.toml",
@@ -288,8 +283,7 @@ def fit_command(
             seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
             fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
             bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
-            no_revolution_average=no_revolution_average)
-        settings = dataclasses.replace(settings, pressure_holdout=pressure_holdout)
+            no_revolution_average=no_revolution_average, pressure_holdout=pressure_holdout)
         # the outputs before any work: never inside the measurement folder, never of the
         # wrong kind (a --reports that is a file); those named by the tyre id once it is read
         inputs = measurement_inputs(folder)

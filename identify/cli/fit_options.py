@@ -26,6 +26,7 @@ from identify.workflows.fit import only_names
 __all__ = ["BinAlphaOption", "BinKappaOption", "FittypOption", "FormOption", "HoldOption",
            "McmcAr1Option", "McmcBudgetOption", "McmcMaxStepsOption", "McmcOption",
            "NoBinOption", "NoRevolutionAverageOption", "NoSegmentOption", "OnlyOption",
+           "PressureHoldoutOption",
            "SeedOption", "check_fit_options", "fit_settings"]
 
 McmcOption = Annotated[bool, typer.Option(
@@ -81,6 +82,12 @@ NoRevolutionAverageOption = Annotated[bool, typer.Option(
          "the ripple is the wheel's load variation, which the forces follow "
          "(docs/intervals.md, 'What the averaging does').")]
 
+PressureHoldoutOption = Annotated[bool, typer.Option(
+    "--pressure-holdout",
+    help="Predict each pressure level of the MF fit by the force and moment stages fitted "
+         "again without it (the report's pressure page): a local refit per level, which can "
+         "cost as much CPU as the MF fit itself.")]
+
 
 def check_fit_options(*, fittyp: int, mcmc: bool, mcmc_ar1: bool,
                       mcmc_max_steps: int | None, mcmc_budget: float | None = None,
@@ -119,7 +126,8 @@ def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
                  hold: Sequence[str] = (), mcmc_budget: float | None = None,
                  bin_alpha: float | None = None, bin_kappa: float | None = None,
                  no_bin: bool = False, no_segment: bool = False,
-                 no_revolution_average: bool = False, **more: Any) -> FitSettings:
+                 no_revolution_average: bool = False, pressure_holdout: bool = False,
+                 **more: Any) -> FitSettings:
     """The FitSettings of these command-line options, the same for ``mfid fit`` and
     ``mfid batch``; ``more``: further FitSettings fields (``mfid fit``'s own options).
 
@@ -141,4 +149,5 @@ def fit_settings(*, seed: int = 0, mcmc: bool = False, mcmc_ar1: bool = False,
                        mcmc_max_steps=mcmc_max_steps or MAX_STEPS, mcmc_budget_s=budget,
                        forms=only_names(form), hold=only_names(hold),
                        segment=not no_segment, revolution_average=not no_revolution_average,
+                       pressure_holdout=pressure_holdout,
                        **bins, **more)
