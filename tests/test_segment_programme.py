@@ -151,9 +151,10 @@ def test_a_cool_running_tread_is_not_cold():
     first = table["t"] < table["t"].iloc[0] + 10.0  # the first sweep's first 5 s: cold
     table.loc[first, "T_tread_centre"] = 273.15 + 24.0
     result = segment_trailer(table)
-    mark = cold_mark(table.assign(T_tread_centre=table["T_tread_centre"]), SegmentSettings())
+    sweeps = result.table  # the warmest sweep: median 35 + 5 * 0.5 = 37.5 degC
+    mark = cold_mark(sweeps, SegmentSettings())
     assert 273.15 + 29 < mark["r1"] < 273.15 + 31
     removed = {f.name: f.removed for f in result.segmentation.filters}["cold tread"]
     assert 0 < removed <= first.sum()
-    warm = cold_mark(table.assign(T_tread_centre=273.15 + 70.0), SegmentSettings())
+    warm = cold_mark(sweeps.assign(T_tread_centre=273.15 + 70.0), SegmentSettings())
     assert warm["r1"] == SegmentSettings().cold_below_K

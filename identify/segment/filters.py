@@ -26,11 +26,12 @@ In the order applied:
     Samples of a tread that has not reached the temperature the run works it at are removed (a
     cold tread has a different friction and stiffness than the warm one the model describes):
     per run, below ``cold_below_K`` or below halfway from the ambient temperature to the run's
-    working temperature (the upper quartile of the tread centre over its sweeps), whichever is
-    lower. The halfway mark follows the programme: a small tyre swept at a low speed works its
-    tread at 30-45 degC, where a fixed 40 degC would call most of its sweeps cold, while the
-    first sweep after a pause (the tread cooled towards ambient while the pressure was changed)
-    still starts cold. Without an ambient channel the mark is ``cold_below_K`` alone.
+    working temperature (the median tread centre temperature of its warmest sweep: what the
+    programme brings the tread to once it is warmed), whichever is lower. The halfway mark
+    follows the programme: a small tyre swept at a low speed works its tread at 30-45 degC,
+    where a fixed 40 degC would call most of its sweeps cold, while the first sweep after a
+    pause (the tread cooled towards ambient while the pressure was changed) still starts cold.
+    Without an ambient channel the mark is ``cold_below_K`` alone.
 ``low speed``
     Samples slower than ``min_speed`` are removed.
 ``binning`` (optional)
@@ -217,8 +218,10 @@ def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFram
 def cold_mark(frame: pd.DataFrame, s: SegmentSettings) -> pd.Series:
     """The tread centre temperature below which a sample is cold [K], per run (see module):
     ``cold_below_K``, or halfway from the run's ambient (median of ``T_ambient``) to its
-    working temperature (upper quartile of ``T_tread_centre``) where that is lower."""
-    tread = frame.groupby("run", sort=False)["T_tread_centre"].quantile(0.75)
+    working temperature (the largest median of ``T_tread_centre`` over its ``segment``
+    values, the sweeps) where that is lower."""
+    tread = (frame.groupby(["run", "segment"], sort=False)["T_tread_centre"].median()
+             .groupby(level=0, sort=False).max())
     if "T_ambient" in frame:
         ambient = frame.groupby("run", sort=False)["T_ambient"].median()
         halfway = ambient + 0.5 * (tread - ambient)
