@@ -158,3 +158,19 @@ def test_a_cool_running_tread_is_not_cold():
     assert 0 < removed <= first.sum()
     warm = cold_mark(sweeps.assign(T_tread_centre=273.15 + 70.0), SegmentSettings())
     assert warm["r1"] == SegmentSettings().cold_below_K
+
+
+def test_a_set_point_visited_by_one_sweep_is_a_level_a_sweep_across_a_change_is_not():
+    """Three sweeps at 83 kPa and one at 110 kPa: two pressure levels (the one sweep held its
+    pressure from start to end). A fifth sweep during which the pressure was let down from
+    110 to 70 kPa starts and ends 40 kPa apart: in no level (``isolated``)."""
+    rng = np.random.default_rng(6)
+    table = _programme([(83.0, 0.0, 1000.0)] * 3 + [(110.0, 0.0, 1000.0)], rng=rng)
+    seg = segment_trailer(table).segmentation
+    _near_p = np.array(seg.level_values("p")) / 1e3
+    assert _near_p.size == 2 and abs(_near_p[1] - 110.0) < 1.0
+    ramp = _programme([(50.0, 0.0, 1000.0)], rng=rng, run="r2")
+    ramp["p"] = np.linspace(110e3, 70e3, len(ramp))
+    both = segment_trailer(pd.concat([table, ramp], ignore_index=True)).segmentation
+    assert [g.kind for g in both.segments if g.run == "r2"].count("isolated") == 1
+    assert len(both.level_values("p")) == 2

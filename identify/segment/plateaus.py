@@ -58,6 +58,7 @@ class Plateau:
     start: int
     stop: int
     medians: dict
+    ends: dict
     alpha_span: float
     kappa_span: float
     alpha_ratio: float
@@ -150,14 +151,19 @@ def _shape(x: np.ndarray, dt: float, moving: float) -> tuple[float, float, float
 
 
 def describe(cols: dict[str, np.ndarray], t: np.ndarray, starts, stops) -> list[Plateau]:
-    """Medians of the conditions and the slip content of each plateau."""
+    """Medians of the conditions, their change from the plateau's first to its last tenth
+    (``ends``: the medians of the two tenths apart [SI]) and the slip content of each
+    plateau."""
     dt = interval(t)
     out = []
     for a, b in zip(starts, stops):  # a few hundred plateaus, each handled as a whole array
         med = {c: float(np.median(cols[c][a:b])) for c in CONDITIONS}
+        tenth = max((b - a) // 10, 1)
+        ends = {c: float(abs(np.median(cols[c][b - tenth:b]) - np.median(cols[c][a:a + tenth])))
+                for c in CONDITIONS}
         sa, ra, ma = _shape(cols["alpha"][a:b], dt, MOVING_ALPHA)
         sk, rk, mk = _shape(cols["kappa"][a:b], dt, MOVING_KAPPA)
-        out.append(Plateau(int(a), int(b), med, sa, sk, ra, rk, ma, mk))
+        out.append(Plateau(int(a), int(b), med, ends, sa, sk, ra, rk, ma, mk))
     return out
 
 
