@@ -2,9 +2,10 @@
 #   make demo    set up and run the main job on the bundled sample data
 #   make test    set up and run the test suite (what CI runs)
 #   make bench   run the benchmark scripts in bench/
+#   make realdata  judge the pipeline on the real sets beside the project (bench/realdata.py)
 #   make fits    fit every folder under measurements/ that has a tyre.toml (make -j safe)
 .DELETE_ON_ERROR:
-.PHONY: demo test test-all trials bench clean venv fits
+.PHONY: demo test test-all trials bench clean venv fits realdata
 
 PYTHON ?= python3
 VENV   := .venv
@@ -66,6 +67,12 @@ trials: $(STAMP)
 
 bench: $(STAMP)
 	$(BIN)/python bench/forward.py
+
+# the default pipeline and its variants on every real set under ../shared/realdata: import, fit,
+# error on all samples and held-out error (bench/results/realdata.md); REALDATA_FLAGS e.g. --quick
+REALDATA_FLAGS ?=
+realdata: $(STAMP)
+	nice $(BIN)/python bench/realdata.py $(REALDATA_FLAGS)
 
 clean:
 	rm -rf fits/demo .pytest_cache .hypothesis

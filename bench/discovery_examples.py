@@ -1,6 +1,6 @@
-"""The README's discovery transcripts, produced by the commands the README shows.
+"""The discovery transcripts of docs/commands.md, produced by the commands that page shows.
 
-Runs, in a scratch folder (the README's ``cd /tmp``), through the ``mfid`` command line:
+Runs, in a scratch folder (the page's ``cd /tmp``), through the ``mfid`` command line:
 
 - ``worked``: the worked example: a base .tir without PPY5 (the bundled tyre with
   ``PPY5 = 0``), ``mfid simulate base.tir hidden --hide PPY5=-0.15``, then
@@ -10,11 +10,11 @@ Runs, in a scratch folder (the README's ``cd /tmp``), through the ``mfid`` comma
 - ``confounded``: ``mfid discover rr-table -q`` on a rolling-resistance table of five
   load/pressure pairs at four speeds with QSY7 and QSY8 in the data
   (:func:`identify.discover.scenarios.make_confounded`, seed 1), and the same with
-  ``--heldout pressure`` (the leave-one-pressure-out folds of issue 19).
+  ``--heldout pressure`` (leave-one-pressure-out folds).
 
-and prints each transcript as it belongs in the README (stdout and stderr as a terminal shows
-them; the timed progress lines, ``[  1.2 s] ...``, left out, since their times vary). The test
-``tests/test_discover_examples.py`` runs it and compares every transcript with the README.
+and prints each transcript as it belongs in docs/commands.md (stdout and stderr as a terminal
+shows them; the timed progress lines, ``[  1.2 s] ...``, left out, since their times vary). The test
+``tests/test_discover_examples.py`` runs it and compares every transcript with the page.
 
     python bench/discovery_examples.py [--workdir DIR] [--only NAME ...]
 """
@@ -76,7 +76,7 @@ def mfid(*args: str) -> str:
 
 
 def base_tir(path: Path) -> Path:
-    """The bundled tyre with PPY5 = 0 (the README's ``sed 's/^PPY5 .*/PPY5 = 0/'``)."""
+    """The bundled tyre with PPY5 = 0 (docs/commands.md's ``sed 's/^PPY5 .*/PPY5 = 0/'``)."""
     from identify.simulate import default_tir_path
 
     text = Path(default_tir_path()).read_text()

@@ -3,14 +3,16 @@
 The public API is :mod:`identify.api`; its names are available here (``identify.fit_folder``,
 ``identify.read_tir`` ...) and under ``import mfid``. Sub-packages follow the flow of the work,
 one stage each, in layers (import-linter contract in pyproject.toml): ``core`` < ``model`` <
-``fit`` | ``extract`` | ``segment`` < ``io`` < ``simulate`` < ``discover`` < ``report`` <
-``workflows`` < ``cli`` | ``api``.
+``fit`` | ``extract`` | ``segment`` < ``io`` < ``simulate`` | ``vehicle`` < ``discover`` <
+``report`` < ``workflows`` < ``cli`` | ``api``.
 """
 
-_API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report", "discover_folder",
-        "read_tir", "write_tir", "evaluate", "simulate_folder", "MeasurementSet", "FitRun",
-        "FitResult", "FitSettings", "MCMCSummary", "TirFile", "DiscoveryRun", "Report",
-        "MfidError", "InputError", "FitError")
+_API = ("load_folder", "fit_folder", "read_fit", "plot_fit", "write_report",
+        "discover_folder", "read_tir", "write_tir", "evaluate", "simulate_folder",
+        "MeasurementSet", "FitRun", "FitResult", "FitSettings", "MCMCSummary", "TirFile",
+        "DiscoveryRun", "Report",
+        "MfidError", "InputError", "FitError", "analyse_vehicle", "read_vehicle",
+        "VehicleResult", "VehicleSpec", "VehicleOptions")
 
 __all__ = ["__version__", *_API]
 

@@ -262,9 +262,9 @@ def test_second_batch_does_nothing_and_a_changed_input_refits_that_folder(folder
 
 
 def test_summary_pdf_compares_the_tyres(folders, tmp_path):
-    """batch_summary.pdf: the overview, then sensitivities, stiffnesses and cornering pages
-    for the group of tyres; the CSV has one row per fit. (On a Dask LocalCluster, whose
-    workers run one BLAS thread.)"""
+    """batch_summary.pdf: the overview, every fit's status, then sensitivities, stiffnesses
+    and cornering pages for the group of tyres; the CSV has one row per fit, with the status
+    fit.json gives it. (On a Dask LocalCluster, whose workers run one BLAS thread.)"""
     run = run_batch([folders / "t1", folders / "t2"], out_root=tmp_path / "fits",
                     reports=tmp_path / "reports", settings=FitSettings(only=("CFx", "CFz")),
                     workers=2, scheduler="local")
@@ -273,15 +273,21 @@ def test_summary_pdf_compares_the_tyres(folders, tmp_path):
     assert run.summary_pdf == tmp_path / "reports" / "batch_summary.pdf"
     reader = PdfReader(run.summary_pdf)
     text = [page.extract_text() for page in reader.pages]
-    assert len(text) == 4
+    assert len(text) == 5
     assert "Batch summary: 2 tyres" in text[0]
-    assert "Pressure sensitivities of the stiffnesses" in text[1] and "PFZ1" in text[1]
-    assert "Stiffnesses vs pressure" in text[2]
-    assert "Cornering stiffness and relaxation length vs pressure" in text[3]
-    assert "not fitted for these tyres" in text[3]  # no MF stage: no cornering stiffness
+    assert "Fits of every tyre (1/1)" in text[1]
+    assert "Pressure sensitivities of the stiffnesses" in text[2] and "PFZ1" in text[2]
+    assert "PCFX3" in text[2] and "PCFY3" in text[2]  # the pressure terms, not the load terms
+    assert "Stiffnesses vs pressure" in text[3]
+    assert "Cornering stiffness and relaxation length vs pressure" in text[4]
+    assert "not fitted for these tyres" in text[4]  # no MF stage: no cornering stiffness
     table = pd.read_csv(run.summary_csv)
     assert list(table["tyre"]) == ["t1"] * 4 + ["t2"] * 4
-    assert set(table["relation"]) == {"CFx", "CFz"} and set(table["status"]) == {"ok"}
+    assert set(table["relation"]) == {"CFx", "CFz"}
+    for tyre in ("t1", "t2"):
+        doc = json.loads((tmp_path / "fits" / tyre / "fit.json").read_text())
+        truth = [f["identification"] if f["converged"] else "failed" for f in doc["fits"]]
+        assert list(table[table["tyre"] == tyre]["status"]) == truth
 
 
 # ----------------------------------------------------------------- usage errors

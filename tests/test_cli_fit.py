@@ -184,7 +184,7 @@ def test_failed_fit_exits_1_with_the_reason_and_marked_outputs(tmp_path):
     result = _fit(tmp_path, csv)
     assert result.exit_code == 1, result.output
     err = result.stderr.strip()
-    assert err.startswith("error: fit did not converge: camber[Fy_gamma]: ") and "\n" not in err
+    assert err.startswith("error: fit failed: camber[Fy_gamma]: ") and "\n" not in err
     # outputs are complete and say that the fit failed; the summary shows it
     fit_dir = tmp_path / "fits" / "flat_camber"
     doc = json.loads((fit_dir / "fit.json").read_text())

@@ -1,6 +1,6 @@
-"""The README's discovery transcripts are what ``bench/discovery_examples.py`` prints for the
-README's commands (issue 19, 7), and the worked example's .tir agrees with its discovery.json
-and reproduces the printed errors (issue 18, 2). Simulates two folders: about two minutes."""
+"""The discovery transcripts of docs/commands.md are what ``bench/discovery_examples.py``
+prints for that page's commands, and the worked example's .tir agrees with its discovery.json
+and reproduces the printed errors. Simulates two folders: a few minutes."""
 from __future__ import annotations
 
 import json
@@ -13,12 +13,13 @@ from tests.bench_modules import load_bench
 from tests.discover_cases import assert_consistent
 
 ROOT = Path(__file__).resolve().parents[1]
+PAGE = ROOT / "docs" / "commands.md"
 MARK = re.compile(r"^<!-- discovery transcript: (\w+) -->$")
 
 
-def readme_transcripts() -> dict[str, str]:
+def page_transcripts() -> dict[str, str]:
     """name -> the indented block after each ``<!-- discovery transcript: name -->``."""
-    lines = (ROOT / "README.md").read_text(encoding="utf-8").splitlines()
+    lines = PAGE.read_text(encoding="utf-8").splitlines()
     out = {}
     for i, line in enumerate(lines):
         m = MARK.match(line)
@@ -42,12 +43,13 @@ def examples(tmp_path_factory):
     return work, mod.run(work), mod.EXAMPLES
 
 
-def test_readme_transcripts_are_current(examples):
+def test_page_transcripts_are_current(examples):
     _, produced, names = examples
-    readme = readme_transcripts()
-    assert sorted(readme) == sorted(names)
+    shown = page_transcripts()
+    assert sorted(shown) == sorted(names)
     for name in names:
-        assert readme[name] == produced[name].strip("\n"), f"README transcript {name!r} is stale"
+        assert shown[name] == produced[name].strip("\n"), (
+            f"docs/commands.md: transcript {name!r} is stale")
 
 
 def test_worked_example_tir_equals_discovery(examples):

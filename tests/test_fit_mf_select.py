@@ -188,3 +188,21 @@ def test_pressure_groups_are_the_pressure_levels_not_the_runs():
     # pressure each, as before)
     by_run = pressure_groups(t.drop(columns=["segment_id", "p_set"]))
     assert set(np.unique(by_run[t["run"] == "corner"])) == {2.52}
+
+
+def test_the_overturning_moment_is_fitted_on_the_rolling_runs_or_on_all_without_one():
+    """The Mx stage's selection ("rolling_runs"): the cornering run's points only, beside a
+    drive/brake run (whose Mx follows Fx, a term the MF's Mx has not); every point of a table
+    of drive/brake runs only; held-slip alpha sweeps are not rolling."""
+    from identify.fit.mf_stage_defs import STAGES
+    assert STAGES["Mx"].selection == "rolling_runs"
+    t = _table(kappa_noise=0.003)
+    t = pd.concat([t, _held(t)], ignore_index=True).assign(Mx=1.0)
+    rows = select(t, "rolling_runs", "Mx")
+    assert set(t.iloc[rows]["run"]) == {"corner"}
+    assert len(rows) == (t["run"] == "corner").sum()
+    drive_only = t[t["run"] != "corner"].reset_index(drop=True)
+    assert len(select(drive_only, "rolling_runs", "Mx")) == len(drive_only)
+    # a rolling run whose Mx is all NaN does not count: the other runs are fitted
+    no_mx = t.assign(Mx=np.where(t["run"] == "corner", np.nan, 1.0))
+    assert set(no_mx.iloc[select(no_mx, "rolling_runs", "Mx")]["run"]) == {"drive", "held"}

@@ -146,3 +146,20 @@ def test_sr_of_a_free_rolling_run_is_no_slip_ratio_sweep(tmp_path):
     frame = read_trailer(_mat(tmp_path / "B1run1.mat", _session()), warnings=warnings)
     assert (frame["kappa"] == 0).all()
     assert any("rolled freely" in w.detail for w in warnings)
+
+
+def test_sr_of_a_drive_brake_run_is_taken_at_the_zero_crossing_of_its_linear_range(tmp_path):
+    # fast slip-ratio sweeps pass free rolling in a sample or two: the offset of SR comes
+    # from the linear range's zero crossing (Fx = 0 at SR = -0.03 here)
+    n = 3000
+    t = np.arange(n) * 0.02
+    sr = -0.03 + 0.3 * np.sin(2 * np.pi * t / 4.0)
+    fz = np.repeat([-650.0, -1100.0, -1550.0], n // 3)
+    fx = -fz * 2.0 * np.tanh(12.0 * (sr + 0.03))
+    ch = _session(n) | {"SA": np.zeros(n), "SR": sr, "FX": fx, "FZ": fz, "FY": np.zeros(n),
+                        "MX": np.zeros(n), "MZ": np.zeros(n)}
+    warnings = []
+    frame = read_trailer(_mat(tmp_path / "B1run33.mat", ch), warnings=warnings)
+    at_zero = np.abs(frame["Fx"]) < 0.02 * frame["Fz"]
+    assert np.abs(frame.loc[at_zero, "kappa"]).max() < 2e-3  # not the -0.03 of SR
+    assert any("taken at Fx = 0" in w.detail for w in warnings)

@@ -220,17 +220,19 @@ def full_report(full_fit, tmp_path_factory):
 def test_report_with_mf_mcmc_flags_and_appendix(full_report, tmp_path):
     titles = list(full_report.pages)
     # cover, 4 MF stages (Fy0 with 24 parameters continues on a second page), 2 relation
-    # pages, 5 MF slip pages, MCMC posterior + traces, data quality and the list of flags,
-    # input appendix
+    # pages, 4 MF slip pages (no combined slip was measured: no friction ellipse, and a note
+    # says so), the pressure prediction page, MCMC posterior + traces, data quality and the
+    # list of flags, input appendix
     assert titles[0] == "cover"
     assert titles[1:6] == ["MF [Fx0]", "MF [Fy0]", "MF [Fy0] parameters", "MF [Mz0]",
                            "MF [Mx]"]
     assert titles[6:8] == ["CFx [linear_load]", "CFx [quadratic_load]"]
-    assert titles[8:13] == ["MF Fy - alpha", "MF Fx - kappa", "MF Mz - alpha", "MF Mx - gamma",
-                            "MF Friction ellipse"]
+    assert titles[8:12] == ["MF Fy - alpha", "MF Fx - kappa", "MF Mz - alpha", "MF Mx - gamma"]
+    assert titles[12] == "pressure prediction"
     assert titles[13:15] == ["MCMC CFx [linear_load] posterior", "MCMC CFx [linear_load] traces"]
     assert titles[15:] == ["data quality", "data flags", "inputs"]
-    assert full_report.notes == ()
+    assert len(full_report.notes) == 1
+    assert full_report.notes[0].startswith("friction-ellipse page left out: no combined-slip")
     _check_pages(full_report.path, len(titles), tmp_path)
 
 
@@ -347,7 +349,7 @@ def test_missing_tir_leaves_out_mf_pages_with_a_note(full_fit, tmp_path):
     assert pages == [] and any("the .tir could not be read" in n for n in notes)
     pages, notes = mf_slip_pages(read_fit_dir(full_fit))
     assert [p.title.split(" (")[0] for p in pages] == [
-        "Fy - alpha", "Fx - kappa", "Mz - alpha", "Mx - gamma", "Friction ellipse"]
+        "Fy - alpha", "Fx - kappa", "Mz - alpha", "Mx - gamma"]  # no combined slip: no ellipse
     fy = pages[0]
     assert [p.pi_bar for p in fy.panels] == [2.0, 2.5]
     assert len(fy.panels[0].loads) == 2 and all(pt[0].size == 21 for pt in fy.panels[0].points)
@@ -362,7 +364,7 @@ def test_outline_has_one_bookmark_per_page(full_report):
     assert [reader.get_destination_page_number(o) for o in outline] == \
         list(range(len(reader.pages)))
     titles = [o.title for o in outline]
-    assert titles[0] == "cover" and "MF Friction ellipse" in titles
+    assert titles[0] == "cover" and "MF Mx - gamma" in titles
     assert "data quality" in titles
     assert reader.page_mode == "/UseOutlines"
     assert reader.metadata["/Title"].startswith("mfid fit report: ")

@@ -117,7 +117,8 @@ def test_mf_stage_page_legend_has_one_entry_per_load_and_camber_level(fd):
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     assert labels == ["1.9 bar", "3 bar", "Fz [N] 3000", "Fz [N] 5000", "Fz [N] 7000",
                       "gamma [deg] -4", "gamma [deg] 0", "gamma [deg] 4"]
-    # the camber sweeps at a fixed slip angle are left out of the slip-angle panels, and said
+    # the camber sweeps at a fixed slip angle are not in the slip-angle panel (their own panel
+    # draws them against camber)
     xs = np.concatenate([line.get_xdata() for line in ax.get_lines()
                          if line.get_linestyle() == "None"])
     _, counts = np.unique(np.round(xs, 6), return_counts=True)

@@ -31,7 +31,8 @@ from identify.fit.limits import LIMIT_COLUMNS, measured_limits
 from identify.fit.run import FitRun
 from identify.fit.sources import KINDS, KeySource
 from identify.io.folder import load_folder
-from identify.io.tir import format_tir, read_tir, write_tir
+from identify.io.tir import format_tir, format_value, read_tir, write_tir
+from identify.io.tir.write import FIT_DIGITS
 from identify.model.parameters import PARAMETERS
 from identify.simulate.default_tyre import default_tir_path, write_default_tir
 from identify.workflows.fit import (FitSettings, _base_tir, _broken_validity, _characteristics,
@@ -153,7 +154,8 @@ def test_thesis_forms_and_the_poorly_identified_relaxation(thesis):
     assert forms["CFx"].form == "quadratic_load" and forms["CFx"].p_value < 1e-6
     assert forms["CFy"].form == "quadratic_load" and not forms["CFy"].overridden
     tir = read_tir(thesis.tir_path).params()
-    assert tir["PCFX2"] == thesis.result("CFx/quadratic_load").parameters["PCFX2"] < 0
+    fitted = thesis.result("CFx/quadratic_load").parameters["PCFX2"]
+    assert tir["PCFX2"] == float(format_value(fitted, FIT_DIGITS)) < 0  # the written digits
     # CFy by relaxation with Kya co-fitted: 7 free coefficients on 15 sigma_y points
     relax = thesis.result("CFy/relaxation")
     assert len(relax.free) == 7 and relax.n_points == 15 and relax.converged

@@ -216,3 +216,19 @@ def test_fit_of_a_folder_with_an_unusable_file_exits_2_with_one_line(tmp_path, n
     text = "error: " + expected.format(p=path)
     assert line.startswith(text[:-3]) if text.endswith("...") else line == text
     assert _tree_hashes(folder) == before and not (tmp_path / "fits").exists()
+
+
+def test_a_swept_camber_is_reported_as_its_range():
+    """Levels closer than 0.5 deg merge, so a camber sweep in 0.25 deg steps is one level: the
+    coverage gives its range (the stage's data), not that level."""
+    swept = StageCoverage("Fy0", 6418, cambers=(0.0,), camber_deg=(-8.0, 8.0))
+    assert swept.camber_swept and swept.camber_text() == "-8.0 .. 8.0 swept"
+    assert "camber -8.0 .. 8.0 deg swept" in swept.line()
+    levels = StageCoverage("Fy0", 600, cambers=(-4.0, 0.0, 4.0), camber_deg=(-4.1, 4.1))
+    assert not levels.camber_swept and levels.camber_text() == "-4.0 0.0 4.0"
+    assert "3 camber(s)" in levels.line()
+    assert StageCoverage.from_dict(swept.to_dict()) == swept
+    old = {k: v for k, v in swept.to_dict().items() if k != "camber_deg"}  # older fit.json
+    assert StageCoverage.from_dict(old).camber_text() == "0.0"
+    from identify.report.trailer_pages import coverage_rows
+    assert coverage_rows([swept])[0][4] == "-8.0 .. 8.0 swept"

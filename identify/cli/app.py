@@ -19,7 +19,7 @@ from identify.core.errors import MfidError, one_line
 COMMANDS = {"check": "check_cmd", "import": "import_cmd", "convert": "convert_cmd",
             "extract": "extract_cmd", "fit": "fit_cmd", "report": "report_cmd",
             "discover": "discover_cmd", "batch": "batch_cmd", "eval": "eval_cmd",
-            "simulate": "simulate_cmd"}
+            "simulate": "simulate_cmd", "vehicle": "vehicle_cmd"}
 """Command name -> the module of identify.cli that registers it on :data:`app`, in --help order."""
 
 

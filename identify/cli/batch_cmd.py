@@ -53,6 +53,7 @@ class RichBatchEvents:
     def start(self, engine, total, skipped) -> None:
         fresh = sum(o.status in (UP_TO_DATE, FAILED) for o in skipped)
         bad = sum(o.status == BAD_INPUT for o in skipped)
+        self._counts = (0, 0, 0, total, None)  # a task may end before the first progress()
         self.console.print(f"batch: {total} to fit on {engine or '-'}, {fresh} up to date, "
                            f"{bad} bad input", markup=False, highlight=False)
         if self.live and total:
@@ -135,11 +136,17 @@ def batch_command(
     mcmc: shared.McmcOption = False,
     mcmc_ar1: shared.McmcAr1Option = False,
     mcmc_max_steps: shared.McmcMaxStepsOption = None,
+    mcmc_budget: shared.McmcBudgetOption = None,
     seed: shared.SeedOption = 0,
     only: shared.OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     fittyp: shared.FittypOption = 61,
     form: shared.FormOption = [],  # noqa: B006
     hold: shared.HoldOption = [],  # noqa: B006
+    bin_alpha: shared.BinAlphaOption = None,
+    bin_kappa: shared.BinKappaOption = None,
+    no_bin: shared.NoBinOption = False,
+    no_segment: shared.NoSegmentOption = False,
+    no_revolution_average: shared.NoRevolutionAverageOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.
@@ -152,13 +159,18 @@ def batch_command(
         """The `mfid fit` command of one folder, recorded in its fit.json."""
         return fit_command_line(folder, out, reports, mcmc, seed, only, None, None, no_report,
                                 fittyp, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps,
-                                forms=form, hold=hold)
+                                mcmc_budget=mcmc_budget, forms=form, hold=hold,
+                                bin_alpha=bin_alpha, bin_kappa=bin_kappa, no_bin=no_bin,
+                                no_segment=no_segment,
+                                no_revolution_average=no_revolution_average)
 
     events = RichBatchEvents()
     try:
         settings = shared.fit_settings(
             seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
-            fittyp=fittyp, form=form, hold=hold)
+            fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
+            bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
+            no_revolution_average=no_revolution_average)
         run = run_batch([str(f) for f in folders], out_root=out,
                         reports=None if no_report else reports, settings=settings,
                         workers=workers, scheduler=scheduler, retries=retries, force=force,

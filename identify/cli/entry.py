@@ -13,7 +13,10 @@ import os
 import signal
 import sys
 
-__all__ = ["Interrupted", "MESSAGE", "main"]
+__all__ = ["BLAS_THREADS", "Interrupted", "MESSAGE", "main"]
+
+#: Environment variables that set the BLAS libraries' thread counts.
+BLAS_THREADS = ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 MESSAGE = ("interrupted: no partial output was left (files are written to a temporary name and "
            "renamed)")
@@ -46,10 +49,15 @@ def main() -> None:
     """Console-script entry point: install the handlers, import the app, run it."""
     signal.signal(signal.SIGINT, _raise)
     signal.signal(signal.SIGTERM, _raise)
+    # one BLAS thread unless the user says otherwise, set before numpy loads its BLAS: mfid's
+    # linear algebra is on small dense matrices, where a second thread gains nothing and, on a
+    # machine busy with other work, makes every decomposition wait for a free core
+    for name in BLAS_THREADS:
+        os.environ.setdefault(name, "1")
     try:
-        # Deferred import, after the handlers: `import identify.cli.app` takes 0.24-0.35 s
-        # (python -c "import time; t=time.perf_counter(); import identify.cli.app; ..."),
-        # and a Ctrl-C in that time printed a KeyboardInterrupt traceback (issue 15).
+        # Deferred import, after the handlers: importing identify.cli.app (typer, rich and
+        # the commands) takes a noticeable fraction of a second, and a Ctrl-C in that time
+        # must quit as any other does, not print a KeyboardInterrupt traceback.
         from identify.cli.app import app
 
         app()

@@ -6,10 +6,11 @@ from pathlib import Path
 
 import typer
 
-from identify.cli.app import app, fail, out_console
+from identify.cli.app import app, err_console, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.io.points import read_points
 from identify.io.tir import read_tir
+from identify.io.tir.limits import inverted_limits, missing_sections, points_outside
 from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
 from identify.model.modes import UseMode
 from identify.io.atomic import atomic_write_csv
@@ -21,6 +22,25 @@ class Engine(str, Enum):
 
     numpy = "numpy"
     fused = "fused"
+
+
+def _warnings(path: Path, tirfile, points, clipped: bool) -> list[str]:
+    """What the .tir does not cover: coefficient sections missing altogether (evaluated on
+    their defaults) and points beyond the file's own limits (counted per key)."""
+    lines = []
+    for section, keys in missing_sections(tirfile).items():
+        shown = ", ".join(keys[:6]) + (f", ... ({len(keys)} keys)" if len(keys) > 6 else "")
+        lines.append(f"{path}: [{section}] is missing: its keys ({shown}) take their defaults, "
+                     "so these outputs are not the file's tyre")
+    outside = points_outside(tirfile, points)
+    if outside:
+        n = len(points)
+        parts = ", ".join(f"{o.count} beyond {o.key} = {o.value:g}" for o in outside)
+        lines.append(f"{path}: points outside the file's limits ({parts}) of {n} points: "
+                     + ("clipped to them (limit checks of this useMode)" if clipped else
+                        "extrapolated (no limit checks in this useMode)")
+                     + ", where the file claims nothing")
+    return lines
 
 
 @app.command("eval")
@@ -54,6 +74,10 @@ def eval_command(
         if engine is Engine.fused and mfeval_call:
             raise InputError(None, "--mfeval-call needs --engine numpy", key="--engine")
         tirfile = read_tir(tir)
+        inverted = inverted_limits(tirfile)
+        if inverted:
+            raise InputError(tir, f"{'; '.join(inverted)}: no operating point lies in the range "
+                                  "the file declares valid", key=inverted[0].split()[0])
         points = read_points(input)
         if engine is Engine.fused:
             result = evaluate_fused_frame(tirfile.params(), points, mode=use_mode)
@@ -63,5 +87,7 @@ def eval_command(
         atomic_write_csv(result, output)
     except MfidError as exc:
         fail(exc)
+    for line in _warnings(tir, tirfile, points, use_mode.limits):
+        err_console.print(f"warning: {line}", markup=False, highlight=False)
     out_console.print(f"wrote {output} ({len(result)} points x {len(OUTPUT_COLUMNS)} outputs, "
                       f"FITTYP {tirfile.fittyp}, mode {mode}, {engine.value})")

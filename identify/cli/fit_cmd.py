@@ -1,6 +1,7 @@
 """``mfid fit``: check -> load -> extract -> fit -> .tir, fit.json, CSVs -> PDF report.
 
-Exit codes: 0 success; 1 a fit failed (did not converge, constraint infeasible): the outputs
+Exit codes: 0 success; 1 a fit failed (did not converge, the model misses the data grossly,
+constraint infeasible: status failed, identify.fit.status): the outputs
 are still written, complete and marked as failed (fit.json "failed", a red line on the
 report's cover) so that the reason can be inspected, and the reason is printed; 2 a usage error
 or bad input (one line on stderr); 130 interrupted (SIGINT), 143 terminated (SIGTERM): every
@@ -8,6 +9,8 @@ output, MCMC chains included, is written to a temporary name and renamed, so no 
 is left.
 """
 from __future__ import annotations
+
+import dataclasses
 
 import math
 import shlex
@@ -28,12 +31,14 @@ from rich.table import Table
 
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
-from identify.core.errors import FitError, InputError, MfidError
+from identify.core.errors import FitError, MfidError
+from identify.fit.status import POOR_FIT, POORLY_IDENTIFIED
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
-from identify.fit.mcmc import BUDGET_S
 from identify.fit.mcmc_steps import ChainProgress
 from identify.report.pdf import write_report
 from identify.workflows.fit import fit_folder
+from identify.workflows.vehicle import add_vehicle_to_fit
+from identify.vehicle.spec import read_vehicle
 from identify.io.fitdir import EXTRACTION_NAME
 from identify.report.tables import mcmc_warnings
 
@@ -164,8 +169,8 @@ def summary_table(run: FitRun) -> Table:
                        ("points", "right"), ("status", "left"), (".tir", "center")):
         table.add_column(name, justify=just, no_wrap=True)
     table.add_column("key coefficients", overflow="fold")
-    colour = {"FAILED": "[red]FAILED[/red]",
-              "poorly identified": "[yellow]poorly identified[/yellow]"}
+    colour = {"FAILED": "[red]FAILED[/red]", POOR_FIT: f"[red]{POOR_FIT}[/red]",
+              POORLY_IDENTIFIED: f"[yellow]{POORLY_IDENTIFIED}[/yellow]"}
     for r in run.summary_rows():
         table.add_row(r.relation, r.form, fmt_pct(r.error_total_pct), str(r.n_points),
                       colour.get(r.status_cell, r.status_cell), r.tir_cell, r.key_coefficients)
@@ -175,7 +180,8 @@ def summary_table(run: FitRun) -> Table:
 def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, nominal_load,
                      no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
                      mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
-                     no_bin=False, no_segment=False, no_revolution_average=False) -> str:
+                     no_bin=False, no_segment=False, no_revolution_average=False,
+                     pressure_holdout=False) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -209,6 +215,8 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
         args.append("--no-bin")
     if no_revolution_average:
         args.append("--no-revolution-average")
+    if pressure_holdout:
+        args.append("--pressure-holdout")
     if bin_alpha is not None:
         args += ["--bin-alpha", f"{bin_alpha:g}"]
     if bin_kappa is not None:
@@ -229,14 +237,7 @@ def fit_command(
     mcmc: shared.McmcOption = False,
     mcmc_ar1: shared.McmcAr1Option = False,
     mcmc_max_steps: shared.McmcMaxStepsOption = None,
-    mcmc_budget: float | None = typer.Option(
-        None, "--mcmc-budget", metavar="SECONDS",
-        help="With --mcmc: wall-time budget in seconds of the whole MCMC run, all chains together "
-             f"(default {BUDGET_S:g}; 'inf' for none). The chains run after the fits, cheapest "
-             "first; each may use the budget left divided by the chains left, so time a chain "
-             "does not need goes to the later ones. A chain stops at 50 autocorrelation "
-             "times, the step cap or its share, whichever comes first; stopped early, it says "
-             "converged = false and a warning names it with its steps and tau."),
+    mcmc_budget: shared.McmcBudgetOption = None,
     seed: shared.SeedOption = 0,
     only: shared.OnlyOption = [],  # noqa: B006 - typer's list default, never mutated
     nominal_pressure: float | None = typer.Option(
@@ -248,27 +249,22 @@ def fit_command(
     fittyp: shared.FittypOption = 61,
     form: shared.FormOption = [],  # noqa: B006
     hold: shared.HoldOption = [],  # noqa: B006
-    bin_alpha: float | None = typer.Option(
-        None, "--bin-alpha", metavar="DEG",
-        help="Bin width \\[deg] of dense slip-angle sweeps of trailer data: every sweep with at "
-             "least 3 samples per bin is averaged per bin before the MF stages (default 0.25; "
-             "docs/procedures.md, 'Sweep binning', states the effect)."),
-    bin_kappa: float | None = typer.Option(
-        None, "--bin-kappa", metavar="K",
-        help="Bin width [-] of dense slip-ratio sweeps (default 0.0025)."),
-    no_bin: bool = typer.Option(False, "--no-bin",
-                                help="Fit every trailer sample: no sweep binning."),
-    no_segment: bool = typer.Option(
-        False, "--no-segment",
-        help="Fit trailer runs with a warm-up (logged test programmes such as a TTC session) "
-             "on all their samples, not on their quasi-steady sweeps only."),
-    no_revolution_average: bool = typer.Option(
-        False, "--no-revolution-average",
-        help="Do not average trailer samples over one wheel revolution before the bins: for a "
-             "tyre whose curve changes within a revolution (a sharp Fx peak at a small slip "
-             "ratio) when the ripple is the wheel's load variation, which the forces follow "
-             "(docs/intervals.md, 'A published tyre as the truth')."),
+    bin_alpha: shared.BinAlphaOption = None,
+    bin_kappa: shared.BinKappaOption = None,
+    no_bin: shared.NoBinOption = False,
+    no_segment: shared.NoSegmentOption = False,
+    no_revolution_average: shared.NoRevolutionAverageOption = False,
+    pressure_holdout: bool = typer.Option(
+        False, "--pressure-holdout",
+        help="Predict each pressure level of the MF fit by the force and moment stages fitted "
+             "again without it (the report's pressure page): a local refit per level, which "
+             "can cost as much CPU as the MF fit itself."),
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
+    vehicle: str | None = typer.Option(
+        None, "--vehicle", metavar="FILE.toml",
+        help="Also put the fitted tyre on a car: a vehicle file (docs/vehicle.md) or "
+             "'default' (the default sedan); writes OUT/<id>/vehicle/ and adds the vehicle "
+             "pages to the report."),
 ) -> None:
     """Fit a measurement folder: write OUT/<id>/<id>.tir, fit.json, measured_vs_model.csv
     (and extraction.json) and the PDF report REPORTS/<id>.pdf.
@@ -279,30 +275,19 @@ def fit_command(
     command = fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure,
                                nominal_load, no_report, fittyp, mcmc_ar1, mcmc_max_steps,
                                mcmc_budget, form, hold, bin_alpha, bin_kappa, no_bin,
-                               no_segment, no_revolution_average)
+                               no_segment, no_revolution_average, pressure_holdout)
+    if vehicle is not None:
+        command += " " + shlex.join(["--vehicle", vehicle])
     try:
-        bins = {"bin_alpha_deg": None, "bin_kappa": None} if no_bin else {
-            k: v for k, v in (("bin_alpha_deg", bin_alpha), ("bin_kappa", bin_kappa))
-            if v is not None}
-        # the settings as mfid batch makes them, plus mfid fit's own; fit_settings checks the
-        # shared options first, mfid fit's own are checked below
+        vehicle_spec = None if vehicle is None else read_vehicle(vehicle)
+        # the settings as mfid batch makes them (the options are shared and checked there),
+        # plus mfid fit's own
         settings = shared.fit_settings(
             seed=seed, mcmc=mcmc, mcmc_ar1=mcmc_ar1, mcmc_max_steps=mcmc_max_steps, only=only,
-            fittyp=fittyp, form=form, hold=hold,
-            mcmc_budget_s=(BUDGET_S if mcmc_budget is None else None
-                           if math.isinf(mcmc_budget) else mcmc_budget),
-            segment=not no_segment, revolution_average=not no_revolution_average, **bins)
-        if mcmc_budget is not None and not mcmc:
-            raise InputError(None, "--mcmc-budget needs --mcmc", key="--mcmc-budget")
-        if mcmc_budget is not None and not mcmc_budget > 0:
-            raise InputError(None, f"--mcmc-budget must be a positive number of seconds (or "
-                                   f"inf), not {mcmc_budget:g}", key="--mcmc-budget")
-        if no_bin and (bin_alpha is not None or bin_kappa is not None):
-            raise InputError(None, "--no-bin and --bin-alpha/--bin-kappa contradict each other",
-                             key="--no-bin")
-        for key, width in (("--bin-alpha", bin_alpha), ("--bin-kappa", bin_kappa)):
-            if width is not None and not width > 0:
-                raise InputError(None, f"{key} must be positive, not {width:g}", key=key)
+            fittyp=fittyp, form=form, hold=hold, mcmc_budget=mcmc_budget, bin_alpha=bin_alpha,
+            bin_kappa=bin_kappa, no_bin=no_bin, no_segment=no_segment,
+            no_revolution_average=no_revolution_average)
+        settings = dataclasses.replace(settings, pressure_holdout=pressure_holdout)
         with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
@@ -313,6 +298,9 @@ def fit_command(
                              nominal_pressure_Pa=nominal_pressure,
                              nominal_load_N=nominal_load, command=command,
                              chain_progress=progress.chain)
+            if vehicle_spec is not None:
+                progress("vehicle: handling and ride of the fitted tyre")
+                add_vehicle_to_fit(run.fit_dir, run.tir_path, vehicle_spec)
             report = None
             if not no_report:
                 progress("report: PDF")
@@ -327,7 +315,7 @@ def fit_command(
         fail(exc)
     _print_outputs(run, report)
     if run.failed:
-        failure = FitError("fit did not converge: " + "; ".join(run.failed))
+        failure = FitError("fit failed: " + "; ".join(run.failed))
         if _STATE.get("debug"):
             raise failure
         err_console.print(f"error: {failure}", markup=False)

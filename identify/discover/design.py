@@ -13,6 +13,10 @@ represented in training: k folds over whole sweeps (or points) within each cell.
 Schemes (:func:`folds`):
 
 - ``leave one pressure level out``: three or more pressure levels, crossed with the rest;
+- ``leave one pressure level out of the conditions measured at several pressures``: three or
+  more pressure levels, partly crossed (some loads at several pressures, others at one): each
+  fold holds out one pressure level's points in the shared conditions; the conditions seen
+  at one pressure only always train;
 - ``k-fold over sweeps (or rows) within pressure x load cells``: cells with two or more sweeps
   (points) rotate them over the folds, offset per cell so that no fold holds out one speed or
   one slip range everywhere; single-unit cells always train;
@@ -26,7 +30,7 @@ from identify.discover.noise import Sweeps
 from identify.fit.problem import FitProblem
 
 __all__ = ["levels", "condition_cells", "pressure_is_crossed", "folds", "LEVEL_REL_GAP",
-           "SCHEMES"]
+           "SCHEMES", "overlap"]
 
 LEVEL_REL_GAP = 0.05
 """Two load values belong to different levels when they differ by more than this fraction."""
@@ -90,6 +94,15 @@ def pressure_is_crossed(pres: np.ndarray, other: np.ndarray) -> bool:
     return bool(np.all(at_levels[seen.any(axis=0)] >= 2))
 
 
+def overlap(pres: np.ndarray, other: np.ndarray) -> np.ndarray:
+    """Bool per point: its other-condition level is measured at two or more pressure levels
+    (the part of a partly crossed design where a pressure law is seen at fixed conditions:
+    the usual TTC layout measures some loads at several pressures, not every load)."""
+    seen = np.zeros((int(pres.max()) + 1, int(other.max()) + 1), dtype=bool)
+    seen[pres, other] = True
+    return seen.sum(axis=0)[other] >= 2
+
+
 SCHEMES = ("auto", "pressure", "cells", "rows")
 """Held-out schemes: chosen from the design, or forced."""
 
@@ -111,8 +124,15 @@ def folds(problem: FitProblem, index, max_folds: int = MAX_FOLDS, scheme: str = 
     if (scheme == "auto" and n_pres >= 3 and crossed) or (scheme == "pressure" and n_pres >= 2):
         return ([pres == lv for lv in range(n_pres)], "leave one pressure level out"
                 + ("" if scheme == "auto" else " (forced)"))
-    why = ("forced" if scheme != "auto" else "pressure not varied independently of load"
-           if not crossed else "fewer than three pressure levels")
+    shared = overlap(pres, other)
+    if scheme == "auto" and n_pres >= 3 and not crossed:
+        at = [(pres == lv) & shared for lv in range(n_pres)]
+        at = [m for m in at if m.any()]
+        if len(at) >= 3:
+            return at, ("leave one pressure level out of the conditions measured at several "
+                        "pressures (the others always train)")
+    why = ("forced" if scheme != "auto" else "fewer than three pressure levels"
+           if crossed or shared.any() else "pressure not varied independently of load")
     real = len(sweeps) and bool(np.any(sweeps.sizes > 1))
     # units: whole sweeps when there are sweeps, else points
     unit = np.where(sweeps.label >= 0, np.cumsum(sweeps.first) - 1, -1) if real \

@@ -180,15 +180,18 @@ class ProblemSummary:
     n_points : int
     free : tuple of str             base model's fitted parameters
     candidates : tuple of str       library candidates tested on it
-    base_error_pct, final_error_pct : float    thesis total error [%]
+    base_error_pct, final_error_pct : float    total error [%]: the thesis metric; for moments
+                                    relative to each group's range
+                                    (:func:`identify.discover.working.by_range`)
     base_error_by_pressure_pct : Mapping[float, float]
     converged, stationary : bool    base fit status
     message : str
     noise, base_noise : NoiseModel  error model of the final and of the base model
-    noise_floor_pct : float         thesis error of the noise alone [%]
+    noise_floor_pct : float         error of the noise alone [%] (the same metric)
     floor_source : str
-    cells, final_cells : tuple of dict   thesis error per condition cell (pressure x load x
-                                    camber) of the base and the final model [%]
+    cells, final_cells : tuple of dict   error per condition cell (pressure x load level x
+                                    camber) of the base and the final model [%] (the same
+                                    metric) and its RMS ``rms`` [unit]
     fit_seconds, score_seconds : float   one base fit; scoring all its candidates
     parameters, stderr : Mapping    final values of every parameter; errors of the free ones
     final_free : tuple of str

@@ -21,8 +21,8 @@ A confounded design (:func:`make_confounded`): a rolling-resistance table of 20 
 load/pressure pairs (each load at one pressure only; the pressure falls with load overall,
 correlation of log load and log pressure -0.74) at four speeds each, no sweeps, with both the
 load exponent QSY7 and the pressure exponent QSY8 hidden. Each alone absorbs part of the
-other's effect, so a single addition can fit better yet predict a left-out pair worse (the
-failure of issue 19 with leave-one-pressure-out folds); only the pair generalises.
+other's effect, so a single addition can fit better yet predict a left-out pair worse (as
+leave-one-pressure-out folds show); only the pair generalises.
 """
 from __future__ import annotations
 

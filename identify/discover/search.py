@@ -169,6 +169,12 @@ def _prepare_all(problems, library, settings, state: ModelState, say) -> tuple[l
         w = prepare(p, library, n_starts=settings.n_starts, seed=settings.seed,
                     heldout=settings.heldout)
         w.candidates = [c for c in w.candidates if c.name in {k.name for k in cands}]
+        if not (w.converged and w.stationary):
+            # residuals of a fit that stopped short hold the fit failure as much as a missing
+            # effect: nothing is named from them
+            notes.append(f"{name}: no candidate tested: its base fit did not reach a minimum "
+                         f"({w.message})")
+            w.candidates = []
         state.update(name, w.problem.values(w.x))
         works.append(w)
     return works, notes

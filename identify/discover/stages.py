@@ -34,7 +34,7 @@ from identify.model.state import prepare
 import dataclasses
 
 __all__ = ["Stage", "STAGES", "label_sweeps", "stage_problem", "add_parameter",
-           "sweep_shapes"]
+           "sweep_shapes", "covering"]
 
 _TINY = 1e-6
 
@@ -78,6 +78,10 @@ LOAD_WINDOW = 15
 """Samples of the running median of the load before its steps are looked for (measured loads
 are noisy: the raw sample-to-sample change would split sweeps everywhere)."""
 
+ZERO_ALPHA = np.deg2rad(0.5)
+"""[rad] A slip-ratio sweep whose median slip angle is below this is at a set slip angle of
+zero (the measured angle of a real rig wanders by a few tenths of a degree)."""
+
 SEGMENT_GAP = 10
 """Sample intervals of a time jump that ends a sweep inside a segment of identify.segment (a
 few samples dropped by a filter do not)."""
@@ -117,20 +121,28 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     step = np.median(dt[dt > 0]) if np.any(dt > 0) else 1.0
     brk = np.ones(len(df), dtype=bool)
     brk[1:] = (run[1:] != run[:-1]) | (dt <= 0)
-    if "segment_id" in df:
+    seg = df["segment_id"].to_numpy(float) if "segment_id" in df else np.full(len(df), np.nan)
+    labelled = np.isfinite(seg)
+    if labelled.any():
         # sweeps found by identify.segment (at one set load each): a segment is one sweep,
         # across the few samples a filter left out of it. The load-step and time-gap rules
         # inside them only cut fragments (1-44 samples, at high slip and low load where the
         # measured load moves by 2 %, or around a dropped sample): a one-sample fragment
         # varies nothing, so it made a metric group ("speed") of its own that weighed as
         # much as a pressure level's cornering sweeps in the thesis error
-        seg = df["segment_id"].to_numpy()
-        brk[1:] |= (seg[1:] != seg[:-1]) | (dt > SEGMENT_GAP * step)
-    else:  # the load's running median: needed only where the load steps end sweeps
+        by_segment = (seg[1:] != seg[:-1]) | (dt > SEGMENT_GAP * step)
+    if not labelled.all():  # the load's running median: needed only where loads end sweeps
         fz = median_filter(df["Fz"].to_numpy(float), size=LOAD_WINDOW, mode="nearest") \
             if len(df) >= LOAD_WINDOW else df["Fz"].to_numpy(float)
-        brk[1:] |= (dt > 1.5 * step) \
+        by_load = (dt > 1.5 * step) \
             | (np.abs(np.diff(fz)) > 0.02 * np.maximum(np.abs(fz[:-1]), 1.0))
+    both, neither = labelled[1:] & labelled[:-1], ~labelled[1:] & ~labelled[:-1]
+    if labelled.all():
+        brk[1:] |= by_segment
+    elif not labelled.any():
+        brk[1:] |= by_load
+    else:  # segmented session logs next to test runs: each by its own rule
+        brk[1:] |= np.where(both, by_segment, np.where(neither, by_load, True))
     df["sweep"] = np.cumsum(brk) - 1
     df["session_pos"] = session_positions(len(df))
     known = {"cornering", "braking_driving", "combined", "camber", "rolling_resistance"}
@@ -143,6 +155,12 @@ def label_sweeps(frame: pd.DataFrame, tests: Mapping[str, str] | None = None) ->
     if tests and "run" in df:
         first_run = df.groupby("sweep", sort=False)["run"].first().astype(str)
         test = first_run.map(lambda r: tests.get(r))
+        # a combined-slip test's slip-ratio sweeps at a set slip angle of zero are pure
+        # drive/brake sweeps (the TTC drive/brake file holds 0, -3 and -6 deg): ``mfid fit``
+        # fits Fx0 on them, and so is the longitudinal force tested here
+        set_alpha = df.groupby("sweep", sort=False)["alpha"].median().abs()
+        pure = (test == "combined") & f["moves_kappa"] & (set_alpha < ZERO_ALPHA)
+        test = test.where(~pure, "braking_driving")
         kinds = kinds.where(~test.isin(known), test)
     df["kind"] = df["sweep"].map(kinds)
     df["shape"] = df["sweep"].map(sweep_shapes(df, f))
@@ -206,8 +224,8 @@ def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
     if d.empty or stage.output not in d or d[stage.output].isna().all():
         return None
     d = d[np.isfinite(d[stage.output].to_numpy(float))].reset_index(drop=True)
-    t = {k: float(v) for k, v in tir.items() if isinstance(v, (int, float))}
     cols = {c: d[c].to_numpy(float) for c in ("Fz", "kappa", "alpha", "gamma", "Vx", "p")}
+    t = covering({k: float(v) for k, v in tir.items() if isinstance(v, (int, float))}, cols)
     s = prepare(t, cols["Fz"], cols["kappa"], cols["alpha"], cols["gamma"], cols["Vx"],
                 p=cols["p"], mode=mode)
     P = lmfit.Parameters()
@@ -231,6 +249,32 @@ def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
                       level_pressure(cols["p"], d["sweep"].to_numpy()) / 1e5, objective="wls",
                       sweeps=d["sweep"].to_numpy(),
                       unit="N" if stage.output.startswith("F") else "N*m", extra=extra)
+
+
+#: (.tir min key, max key) -> the trailer column [SI] whose measured values the limits must hold
+_LIMITS = (("FZMIN", "FZMAX", "Fz"), ("PRESMIN", "PRESMAX", "p"), ("KPUMIN", "KPUMAX", "kappa"),
+           ("ALPMIN", "ALPMAX", "alpha"), ("CAMMIN", "CAMMAX", "gamma"))
+
+
+def covering(tir: Mapping[str, float], cols: Mapping[str, np.ndarray]) -> dict[str, float]:
+    """``tir`` with its validity limits widened to hold every measured value of ``cols``
+    (columns Fz [N], p [Pa], kappa [-], alpha, gamma [rad]).
+
+    The limit checks of the trailer mode clip the inputs to the .tir's ranges; a discovery
+    problem's points are all measured, and the model must see them as they are. A base .tir
+    of another tyre (the bundled passenger-car tyre: 1.5-3.5 bar) clipped every pressure of a
+    Formula Student session (0.55-0.83 bar) to one value: every pressure candidate's column
+    became a multiple of a fitted one and none was testable.
+    """
+    out = dict(tir)
+    for lo_key, hi_key, col in _LIMITS:
+        v = np.asarray(cols.get(col, ()), dtype=float)
+        v = v[np.isfinite(v)]
+        if not v.size or lo_key not in out or hi_key not in out:
+            continue
+        out[lo_key] = min(out[lo_key], float(v.min()))
+        out[hi_key] = max(out[hi_key], float(v.max()))
+    return out
 
 
 def level_pressure(p: np.ndarray, sweep: np.ndarray) -> np.ndarray:

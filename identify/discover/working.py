@@ -17,8 +17,9 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+import pandas as pd
 
-from identify.discover.design import folds
+from identify.discover.design import folds, levels
 from identify.discover.drift import DRIFT_KEY, with_drift
 from identify.discover.floor import table_floor_sigma
 from identify.discover.library import Candidate, Library
@@ -26,12 +27,13 @@ from identify.discover.noise import (MIN_SWEEP, PHI_MIN, NoiseModel, choose_nois
                                      group_variogram, sweep_index, variogram)
 from identify.discover.objective import Objective, Solution, problem_name
 from identify.discover.stages import add_parameter
-from identify.fit.metric import group_weights, thesis_error, thesis_error_by_group
+from identify.fit.metric import thesis_error, thesis_error_by_group
 from identify.fit.optimize import fit
 from identify.fit.problem import FitProblem
 
 __all__ = ["Working", "prepare", "cells", "folds", "metric_groups", "total_error_pct",
-           "final_floor", "renoise", "refresh", "noise_scale"]
+           "final_floor", "renoise", "refresh", "noise_scale", "by_range", "group_scale",
+           "errors_by_group", "MOMENTS"]
 
 LONG_LAGS = 20
 """Variogram lags for the noise floor of correlated noise from the final residuals."""
@@ -86,14 +88,63 @@ def metric_groups(problem: FitProblem) -> np.ndarray:
     return np.unique(labels, return_inverse=True)[1]
 
 
-def total_error_pct(problem: FitProblem, pred: np.ndarray, mask: np.ndarray | None = None
-                    ) -> float:
-    """Total thesis error [%]: mean over the metric groups of the points in ``mask``."""
-    g = metric_groups(problem)
-    meas = problem.measured
+MOMENTS = ("Mx", "My", "Mz")
+"""Quantities whose errors are relative to their range (:func:`by_range`)."""
+
+
+def by_range(problem: FitProblem) -> bool:
+    """Are the errors of ``problem`` relative to each group's range (moments) rather than to
+    its RMS (the thesis metric)?
+
+    A moment passes through zero within a sweep (Mz changes sign near the peak of Fy, Mx with
+    camber): an error relative to the RMS of such values says little (a cell of near-zero Mz
+    reached thousands of per cent, a noise floor 42 %). Relative to the range the measured
+    values span in the group, the same error reads as a fraction of the curve's height.
+    """
+    return problem.extra.get("quantity") in MOMENTS
+
+
+def group_scale(measured: np.ndarray, groups: np.ndarray, ranged: bool = False
+                ) -> np.ndarray:
+    """Per point, the scale S of its group with error = 100 sqrt(sum e^2) / S [%]:
+    sqrt(sum A^2) (thesis metric) or, ``ranged``, (max A - min A) sqrt(n) (RMS error over the
+    range). A group without a range falls back to its RMS scale (1 where that is 0 too)."""
+    a = np.asarray(measured, dtype=float)
+    _, inv = np.unique(np.asarray(groups), return_inverse=True)
+    rms = np.sqrt(np.bincount(inv, a ** 2))
+    scale = rms
+    if ranged:
+        lo = np.full(rms.size, np.inf)
+        hi = np.full(rms.size, -np.inf)
+        np.minimum.at(lo, inv, a)
+        np.maximum.at(hi, inv, a)
+        span = (hi - lo) * np.sqrt(np.bincount(inv))
+        scale = np.where(span > 0, span, rms)
+    return np.where(scale > 0, scale, 1.0)[inv]
+
+
+def errors_by_group(problem: FitProblem, pred: np.ndarray, groups: np.ndarray,
+                    mask: np.ndarray | None = None) -> dict[float, float]:
+    """Error [%] per group of the points in ``mask`` (:func:`group_scale`, the problem's
+    metric)."""
+    meas, g = problem.measured, np.asarray(groups)
     if mask is not None:
         pred, meas, g = pred[mask], meas[mask], g[mask]
-    return float(np.mean(list(thesis_error_by_group(pred, meas, g).values())))
+    if not by_range(problem):
+        return thesis_error_by_group(pred, meas, g)
+    scale = group_scale(meas, g, True)
+    _, first, inv = np.unique(g, return_index=True, return_inverse=True)
+    num = np.sqrt(np.bincount(inv, (np.asarray(pred, dtype=float) - meas) ** 2))
+    return {float(k) if np.issubdtype(np.asarray(g).dtype, np.number) else k:
+            float(100.0 * v / scale[i]) for k, v, i in zip(g[first], num, first)}
+
+
+def total_error_pct(problem: FitProblem, pred: np.ndarray, mask: np.ndarray | None = None
+                    ) -> float:
+    """Total error [%]: mean over the metric groups of the points in ``mask`` (thesis metric;
+    relative to the range for moments, :func:`by_range`)."""
+    return float(np.mean(list(errors_by_group(problem, pred, metric_groups(problem),
+                                              mask).values())))
 
 
 def _applicable(problem: FitProblem, name: str, library: Library) -> tuple[FitProblem, list]:
@@ -141,16 +192,25 @@ def noise_scale(e: np.ndarray, index: list[np.ndarray], groups: np.ndarray,
     if phi < PHI_MIN:
         return phi, np.sqrt(gam1)
     if long_lags:
-        phi, s2 = fit_ar1(variogram(en, index, long_lags))
+        long = variogram(en, index, long_lags)
+        phi, s2 = fit_ar1(long)
+        # the level the variogram reaches within the long lags, not extrapolated past them:
+        # noise correlated over more samples (phi -> 1 on 100 Hz rig data) cannot be told
+        # from a smooth misfit along the sweep, and its extrapolated plateau made floors
+        # above the model's own error
+        if np.any(np.isfinite(long)):
+            s2 = min(s2, float(np.nanmax(long)))
     return phi, np.sqrt(gam1 * s2)
 
 
-def noise_floor_pct(sigma: np.ndarray, meas: np.ndarray, groups: np.ndarray) -> float:
-    """Thesis error of the noise alone: mean over groups of 100 sqrt(sum s^2/sum A^2) [%]."""
-    _, inv = np.unique(groups, return_inverse=True)
+def noise_floor_pct(sigma: np.ndarray, meas: np.ndarray, groups: np.ndarray,
+                    ranged: bool = False) -> float:
+    """Error of the noise alone: mean over groups of 100 sqrt(sum s^2) / S [%] (S:
+    :func:`group_scale`; the thesis metric's sqrt(sum A^2), or the range for moments)."""
+    _, first, inv = np.unique(groups, return_index=True, return_inverse=True)
     num = np.bincount(inv, np.asarray(sigma, dtype=float) ** 2)
-    den = np.bincount(inv, np.asarray(meas, dtype=float) ** 2)
-    return float(np.mean(100.0 * np.sqrt(num / den)))
+    den = group_scale(meas, groups, ranged)[first]
+    return float(np.mean(100.0 * np.sqrt(num) / den))
 
 
 def final_floor(w: Working) -> tuple[float, str]:
@@ -167,7 +227,7 @@ def final_floor(w: Working) -> tuple[float, str]:
         groups = np.asarray(p.extra.get("noise_group", p.pressure_bar))
         _, sigma = noise_scale(e, w.objective.index, groups, long_lags=LONG_LAGS)
         if np.all(np.isfinite(sigma)):
-            floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
+            floor = noise_floor_pct(sigma, p.measured, metric_groups(p), by_range(p))
             source = "within-sweep variogram"
     elif np.isfinite(w.floor_pct):
         floor, source = w.floor_pct, w.floor_source
@@ -175,7 +235,7 @@ def final_floor(w: Working) -> tuple[float, str]:
         r = e / np.asarray(p.sigma, dtype=float)
         s = np.sqrt(float(r @ r) / max(r.size - len(p.free), 1))
         floor = noise_floor_pct(s * np.asarray(p.sigma, dtype=float), p.measured,
-                                metric_groups(p))
+                                metric_groups(p), by_range(p))
         source = "final residuals (no replicates, no candidate left)"
     if floor > best:
         return best, f"{source}; capped at the final error"
@@ -204,13 +264,29 @@ def renoise(w: Working) -> None:
         w.fold_errors = None
 
 
+def load_levels(fz: np.ndarray, sweeps: np.ndarray | None = None) -> np.ndarray:
+    """Each point's load level [N]: its sweep's mean load (the point's own load without
+    sweeps), clustered (:func:`identify.discover.design.levels`) and replaced by the level's
+    mean. A measured load wanders along a sweep: rounded point by point, a cell held a few
+    points of one sweep and a moment's error there read thousands of per cent."""
+    fz = np.asarray(fz, dtype=float)
+    if sweeps is not None and np.size(sweeps) == fz.size:
+        fz = pd.Series(fz).groupby(np.asarray(sweeps)).transform("mean").to_numpy()
+    lv = levels(fz)
+    out = pd.Series(fz).groupby(lv).transform("mean").to_numpy(dtype=float, copy=True)
+    out[lv < 0] = np.nan
+    return out
+
+
 def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
-    """Thesis error per condition cell: pressure x load x camber class [%]."""
+    """Error per condition cell: pressure x load x camber class [%] (thesis metric; for
+    moments relative to the cell's range, :func:`by_range`), and ``rms`` [unit of the
+    quantity], the RMS error itself."""
     n = problem.measured.size
     fz = np.asarray(problem.extra.get("Fz_N", np.full(n, np.nan)), dtype=float)
     g = np.asarray(problem.extra.get("gamma_deg", np.zeros(n)), dtype=float)
     gcls = np.where(g < -0.5, "<0", np.where(g > 0.5, ">0", "0"))
-    fzr = np.round(fz, -1)
+    fzr = np.round(load_levels(fz, problem.sweeps), -1)
     out = []
     keys = sorted({(float(a), float(b), str(c)) for a, b, c in
                    zip(problem.pressure_bar, fzr, gcls)}, key=lambda t: (t[0], t[1], t[2]))
@@ -219,8 +295,17 @@ def cells(problem: FitProblem, pred: np.ndarray) -> tuple[dict, ...]:
             & (gcls == gc)
         out.append({"pi_bar": pb, "Fz_N": None if np.isnan(f) else f, "gamma": gc,
                     "n": int(sel.sum()),
-                    "error_pct": thesis_error(pred[sel], problem.measured[sel])})
+                    "error_pct": _cell_error(problem, pred[sel], problem.measured[sel]),
+                    "rms": float(np.sqrt(np.mean((pred[sel] - problem.measured[sel]) ** 2)))})
     return tuple(out)
+
+
+def _cell_error(problem: FitProblem, pred: np.ndarray, meas: np.ndarray) -> float:
+    if not by_range(problem):
+        return thesis_error(pred, meas)
+    span = float(np.ptp(meas)) if meas.size else 0.0
+    rms = float(np.sqrt(np.mean((pred - meas) ** 2))) if meas.size else 0.0
+    return 100.0 * rms / span if span > 0 else thesis_error(pred, meas)
 
 
 def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
@@ -228,7 +313,7 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     """Fit the base model of ``problem`` and diagnose it (see the module docstring)."""
     name = problem_name(problem)
     p = dataclasses.replace(problem, objective="wls", constraints=(), sigma=None)
-    p = dataclasses.replace(p, sigma=1.0 / group_weights(p.measured, metric_groups(p)))
+    p = dataclasses.replace(p, sigma=group_scale(p.measured, metric_groups(p), by_range(p)))
     p, cands = _applicable(p, name, library)
     index = sweep_index(p.sweeps, p.measured.size)
     t0 = time.process_time()
@@ -236,6 +321,10 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     if n_starts > 1 and x0.size:
         x0 = np.array([fit(p, n_starts=n_starts, seed=seed).parameters[k] for k in p.free])
     sol = Objective(p, index).solve(x0)
+    if not (sol.ok and sol.stationary):  # one more solve from where the budget ran out
+        again = Objective(p, index).solve(sol.x)
+        if again.rss <= sol.rss:
+            sol = again
     fit_seconds = time.process_time() - t0
     converged, stationary, message = sol.ok, sol.stationary, sol.message
     noise = choose_noise(sol.r, [])
@@ -248,7 +337,7 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
         if np.all(np.isfinite(sigma)) and np.all(sigma > 0):
             p = dataclasses.replace(p, sigma=sigma)
             sol = Objective(p, index).solve(sol.x)
-            floor = noise_floor_pct(sigma, p.measured, metric_groups(p))
+            floor = noise_floor_pct(sigma, p.measured, metric_groups(p), by_range(p))
             source = "within-sweep variogram"
         noise = choose_noise(sol.r, index)
         phi = noise.phi if noise.kind == "ar1" else 0.0
@@ -258,11 +347,11 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
         est = table_floor_sigma(p, sol.x, cands, index)
         if est is not None:
             floor = noise_floor_pct(est[0] * np.asarray(p.sigma, dtype=float), p.measured,
-                                    metric_groups(p))
+                                    metric_groups(p), by_range(p))
             source = est[1]
     obj = Objective(p, index, phi)
     pred = p.predict(sol.x)
-    by_p = thesis_error_by_group(pred, p.measured, p.pressure_bar)
+    by_p = errors_by_group(p, pred, p.pressure_bar)
     base_error = total_error_pct(p, pred)
     masks, scheme = folds(p, index, scheme=heldout)
     return Working(name=name, problem=p, objective=obj, sol=sol, noise=noise,

@@ -43,6 +43,10 @@ __all__ = ["MIN_POINTS", "StageCoverage", "coverage_text", "mf_coverage"]
 MIN_POINTS = 50
 """Fewest points a stage is fitted on."""
 
+SWEPT_CAMBER_DEG = 1.0
+"""A stage's camber counts as swept when its span exceeds the spread of its merged levels by
+more than this [deg] (levels closer than 0.5 deg merge, so a sweep in fine steps is one
+level: its range, not that level, says what the data hold)."""
 UPSTREAM = {"Fx": ("Fx0",), "Fy": ("Fy0",), "Mz": ("Mz0", "Fx0")}
 """Stages each combined stage builds on (skipped with them)."""
 
@@ -61,10 +65,12 @@ class StageCoverage:
     runs : tuple of str             runs they come from
     loads : tuple of float          load levels [N] (median of each level)
     pressures : tuple of float      pressure levels [Pa]
-    cambers : tuple of float        inclination levels [deg]
+    cambers : tuple of float        inclination levels [deg] (values closer than 0.5 deg
+                                    merge, so a camber sweep is one level)
     speeds : tuple of float         speed levels [m/s]
     alpha_deg : tuple of float      (min, max) slip angle [deg]; () without points
     kappa : tuple of float          (min, max) slip ratio [-]; () without points
+    camber_deg : tuple of float     (min, max) inclination [deg]; () without points
     identifiable : tuple of str     coefficients the coverage rules leave free
     not_identifiable : mapping      coefficient -> why the data cannot identify it
     skipped : str                   why the stage is not fitted ("" when it is)
@@ -79,9 +85,27 @@ class StageCoverage:
     speeds: tuple[float, ...] = ()
     alpha_deg: tuple[float, ...] = ()
     kappa: tuple[float, ...] = ()
+    camber_deg: tuple[float, ...] = ()
     identifiable: tuple[str, ...] = ()
     not_identifiable: Mapping[str, str] = field(default_factory=dict)
     skipped: str = ""
+
+    @property
+    def camber_swept(self) -> bool:
+        """Camber was swept: its span is wider than its levels (merged at 0.5 deg) account
+        for by more than SWEPT_CAMBER_DEG, so the levels alone would hide the range."""
+        if len(self.camber_deg) != 2 or not self.cambers:
+            return False
+        span = self.camber_deg[1] - self.camber_deg[0]
+        return span > (max(self.cambers) - min(self.cambers)) + SWEPT_CAMBER_DEG
+
+    def camber_text(self, fmt: str = ".1f") -> str:
+        """The cambers [deg]: ``"-8.0 .. 8.0 swept"`` for a swept camber, else the levels
+        (``"-4.0 0.0 4.0"``); "-" without points."""
+        if self.camber_swept:
+            lo, hi = self.camber_deg
+            return f"{lo:{fmt}} .. {hi:{fmt}} swept"
+        return " ".join(format(v, fmt) for v in self.cambers) or "-"
 
     @property
     def fitted(self) -> bool:
@@ -93,8 +117,11 @@ class StageCoverage:
         and how many coefficients are identifiable."""
         if self.skipped:
             return f"{self.stage}: {self.skipped}"
+        cambers = (f"camber {self.camber_text().removesuffix(' swept')} deg swept"
+                   if self.camber_swept
+                   else f"{len(self.cambers)} camber(s)")
         return (f"{self.stage}: {self.points} points; {len(self.loads)} load(s), "
-                f"{len(self.pressures)} pressure(s), {len(self.cambers)} camber(s); "
+                f"{len(self.pressures)} pressure(s), {cambers}; "
                 f"{len(self.identifiable)} of {len(self.identifiable) + len(self.not_identifiable)}"
                 " coefficients identifiable")
 
@@ -108,7 +135,7 @@ class StageCoverage:
     def from_dict(cls, d: Mapping[str, Any]) -> StageCoverage:
         """Inverse of :meth:`to_dict`."""
         tuples = ("runs", "loads", "pressures", "cambers", "speeds", "alpha_deg", "kappa",
-                  "identifiable")
+                  "camber_deg", "identifiable")
         kw = {k: (tuple(v) if k in tuples else v) for k, v in d.items()}
         kw["not_identifiable"] = dict(d.get("not_identifiable") or {})
         return cls(**kw)
@@ -215,6 +242,7 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
             speeds=_levels(pts["Vx"], mf_data.SPEED_RESOLUTION),
             alpha_deg=_span(np.rad2deg(pts["alpha"].to_numpy(float))),
             kappa=_span(pts["kappa"]),
+            camber_deg=_span(np.rad2deg(pts["gamma"].to_numpy(float))),
             identifiable=tuple(n for n in names if n not in blocked),
             not_identifiable=blocked, skipped=why)
     return tuple(out[s] for s in stages)
@@ -224,14 +252,14 @@ def coverage_text(table: Sequence[StageCoverage]) -> list[str]:
     """The coverage table as printable lines: one per stage (loads in kN, pressures in kPa,
     cambers in deg, slip ranges), then one line per skipped stage saying why."""
     lines = [f"{'stage':<9}{'points':>8}  {'loads [kN]':<24}{'p [kPa]':<18}"
-             f"{'camber [deg]':<14}{'alpha [deg]':<15}{'kappa':<15}identifiable"]
+             f"{'camber [deg]':<19}{'alpha [deg]':<15}{'kappa':<15}identifiable"]
     for c in table:
         if c.skipped:
             lines.append(f"{c.stage:<9}{c.points:>8}  skipped")
             continue
         lines.append(
             f"{c.stage:<9}{c.points:>8}  {_join(c.loads, 1e-3, '.1f'):<24}"
-            f"{_join(c.pressures, 1e-3, '.0f'):<18}{_join(c.cambers, 1, '.1f'):<14}"
+            f"{_join(c.pressures, 1e-3, '.0f'):<18}{c.camber_text():<19}"
             f"{_join(c.alpha_deg, 1, '.1f', '..'):<15}{_join(c.kappa, 1, '.2f', '..'):<15}"
             f"{len(c.identifiable)}/{len(c.identifiable) + len(c.not_identifiable)}")
     lines += [f"skipped {c.stage}: {c.skipped}" for c in table if c.skipped]

@@ -80,20 +80,19 @@ class Tolerances:
         order of 2 noise_ftol, i.e. the parameters are within a small fraction of their
         standard errors of the optimum, where xtol/ftol at round-off let a solver crawl along
         a flat valley of noisy data for hundreds of evaluations. 0: off. Needs scipy >= 1.16
-        (least_squares' callback); ignored before.
+        (least_squares' callback); ignored by older versions.
     noise_window : int
     crawl_ftol : float
         A solve with ``noise_ftol`` > 0 that runs out of its budget while its cost still falls,
         but by less than crawl_ftol x s^2 over the last ``noise_window`` iterations (chi^2 by
         less than 2 crawl_ftol), is crawling along a valley the data do not determine: it is
         reported converged (status 7) at that point, with the drop in its message, instead of
-        failed. On a generated TTC session (bundled tyre, seed 4) the geometry stage's solve
-        fell by 0.013-0.05 s^2 per 5 iterations for 100 iterations along DREFF, FREFF, BREFF
-        (standard errors 7, 2 and 7 times their values) and ended at its budget: the stage
-        was reported FAILED and ``mfid fit`` exited 1 at a 0.63 % fit.
+        failed: a solve drifting along coefficients whose standard errors exceed their values
+        (e.g. the geometry stage's DREFF, FREFF, BREFF) would otherwise fail a
+        stage whose fit is as good as the data allow.
     qr_svd : bool
         Take the solver's SVDs through a QR decomposition (identify.fit.trf_svd: the same
-        steps to round-off, in 35-50 % of the SVDs' time); the MF stages' solves.
+        steps to round-off, without forming U); the MF stages' solves.
     dogleg_after : int
         A solve still going after this many evaluations of the trust-region reflective
         method goes on from there with scipy's dogleg method ("dogbox") for the rest of its
@@ -138,15 +137,12 @@ DOGLEG_AFTER = 50
 """Evaluations after which the MF stages' solves switch from trust-region reflective to the
 dogleg (Tolerances.dogleg_after). In a curved valley with a near-null direction, trf's
 regularised step hardly moves along it; the dogleg takes the Gauss-Newton step whenever it
-fits the trust region. On a generated TTC session (seed 0, the
-bundled tyre) the Mz0 search crawled along QBZ9 (Br of the residual torque, a singular value
-2e-7 of the largest) for its whole 200-evaluation budget from both starts and the solves on
-all points for their 100; from a common start on its subsample, trf was 2.4 s^2 above the
-dogleg's optimum after 400 evaluations, which the dogleg reached in 86 (one-off, 2026-11-24).
-Every solve of the bundled sample ends by its own tests within 50 evaluations (with the
-2048-point search subsample, mf_search.SUBSAMPLE: one Fy0 start merges at exactly 50), so it
-never switches: its fit is the trust-region reflective one (one-off count of the scipy calls
-of fit_mf, passes 2, 2026-11-24)."""
+fits the trust region. Such valleys arise on large sessions, e.g. Mz0 along QBZ9 (Br of the
+residual torque, nearly without effect where the data are), where trf can crawl through a
+solve's whole budget while the dogleg reaches the optimum. A solve that ends by its own tests
+within DOGLEG_AFTER evaluations never switches, so where the stages converge promptly the fit
+is the trust-region reflective one. bench/fit_cost.py counts each stage's evaluations (its
+nfev column; --ttc SEED for a generated TTC session)."""
 
 
 STRICT = Tolerances(xtol=1e-15, ftol=1e-15, gtol=1e-15, nfev_per_parameter=200)
@@ -160,31 +156,26 @@ SEARCH = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60, nois
 """The MF stages' global search on a subsample (identify.fit.mf_search.search): each start only
 has to reach its basin (1e-8 relative, or a cost that changes by less than 1e-2 s^2 over 5
 iterations, chi^2 by < 0.02, or a Gauss-Newton decrement below 1e-2 s^2: decrement_stop);
-the candidates are then solved on all points with MF_SOLVE
-(1e-3 before: the same stage errors to 4 digits on the sample and a generated TTC session, with
-10-25 % fewer evaluations in Fy0, Mz0 and Fy: a one-off comparison, 2026-11-24; the nfev
-column of bench/fit_cost.py shows them). Each start begins with full Gauss-Newton steps
-(gauss_newton, as MF_SOLVE): the sample's MF stages 74 -> 67-68 evaluations of their points
-in CPU time (bench/fit_cost.py --passes 2), which pays for the re-fits' Latin-hypercube starts
-(identify.fit.mf_stages._refine) on the sample, not on a generated TTC session (--ttc 0: 128
-at 3f9ce5c, 144 with both). Left out once because on a generated TTC session (seed 9)
-it ended Fx0 at PKX2 = 0, where the staged jackknife then carried rounding into Mz0; it now
-carries only what a stage's data determine (identify.fit.mf_uncertainty._determined)."""
+the candidates are then solved on all points with MF_SOLVE, which takes any point of a basin
+to the same optimum, so the search need not be tighter than the basin (the evaluations it
+costs: the nfev column of bench/fit_cost.py). Each start begins with full Gauss-Newton steps
+(gauss_newton, as MF_SOLVE), which reach the bottom of an interior basin in fewer evaluations
+than trust-region steps (bench/fit_cost.py --passes 2 gives the stages' cost in evaluations
+of their points). A start may end a coefficient the data do not fix on a degenerate value
+(Fx0 at PKX2 = 0); the staged jackknife carries only what a stage's data determine
+(identify.fit.mf_uncertainty._determined), so no rounding from it reaches later stages."""
 
 MF_SOLVE = dataclasses.replace(STRICT, noise_ftol=1e-4, qr_svd=True, dogleg_after=DOGLEG_AFTER,
                                decrement_stop=True, gauss_newton=True)
 """The MF stages' solves on all points (identify.fit.mf_stages): STRICT, and stopped once the
 cost falls by less than 1e-4 s^2 over 5 iterations, or the Gauss-Newton decrement is below
-1e-4 s^2 (chi^2 by < 2e-4: a small fraction of a standard error from the optimum; the
-decrement ends the sample's Fy0 solve on all points at 16 evaluations where the five-iteration
-window and scipy's round-off tests took 28, its coefficients within 0.005 standard errors).
-On a 93074-point TTC session the Mz0 solve from a candidate ran into its 100-evaluation
-budget with STRICT alone, its cost changing in the 8th digit. The solves start with the
-Gauss-Newton phase (gauss_newton; identify.fit.gauss_newton): the sample's Fy0 151 -> 132
-evaluations, Mz0 84 -> 78 (bench/fit_cost.py's nfev column), a warm fit_mf 1.26 -> 1.06 s
-of CPU (passes 2, three runs each in one process, a one-off /tmp script), every MF
-coefficient within 0.0045 of its standard error (mfid fit --no-report before and after,
-2026-11-24)."""
+1e-4 s^2 (chi^2 by < 2e-4: a small fraction of a standard error from the optimum, so the
+stop moves no coefficient by more than a small fraction of its standard error). On large
+sessions STRICT alone can spend a solve's whole budget on changes of the cost far below the
+noise; the decrement ends a solve as soon as the linearised model says the rest is
+negligible, where the five-iteration window and scipy's round-off tests must first see it.
+The solves start with the Gauss-Newton phase (gauss_newton; identify.fit.gauss_newton).
+bench/fit_cost.py reports each stage's evaluations (its nfev column) and cost."""
 
 LAPLACE = Tolerances(xtol=1e-8, ftol=1e-8, gtol=1e-8, nfev_per_parameter=60)
 """The MCMC likelihood's maximum near the least-squares optimum (identify.fit.mcmc_laplace.
@@ -402,10 +393,9 @@ DECREMENT_GATE = 3.0
 iteration lowered the cost by less than DECREMENT_GATE x noise_ftol x s^2. Converging
 linearly at a rate rho, what is left is ~ rho / (1 - rho) times the last fall (at most that
 fall for rho <= 1/2), so no iterate where the decrement test can pass is skipped for long;
-away from the optimum the decomposition is not paid. On the bundled sample a gate of 10
-took 98 decompositions; 3 stopped every stage within one evaluation of where 10 did (Fy 67
--> 68), 1 later (Fy0 151 -> 155 evaluations); warm fit_mf CPU, medians of four, 1.27, 1.24,
-1.24 s (one-off, 2026-11-24)."""
+away from the optimum the decomposition is not paid. A larger gate decomposes at more
+iterates for no earlier stop; a gate near 1 can pass over the iterate where the test would
+first succeed and stop a few evaluations later (bench/fit_cost.py counts the evaluations)."""
 
 
 class _NoiseStop:
@@ -477,9 +467,8 @@ class _PolishStall:
     ``tol.polish_ftol`` (SLSQP's own ftol, absolute) over the last ``tol.noise_window``
     iterations at an iterate where every constraint holds to FEASIBLE_TOL. SLSQP's own test
     also asks its constraint violation to be below ftol, which a kink of a min-over-grid
-    margin can deny for good: on a generated TTC session (seed 2) the Fy stage's second
-    candidate reached its constrained optimum in 17 iterations and then stayed there, 2.7e-10
-    outside a margin, for its 300-iteration limit and a restart (3469 evaluations, 5 s).
+    margin can deny for good: a candidate at its constrained optimum, a hair outside a
+    margin, would stay there for SLSQP's whole iteration limit and a restart.
     ``feasible_margin`` z -> constraint values (None: no constraints)."""
 
     def __init__(self, tol: Tolerances, feasible_margin):
@@ -541,9 +530,8 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
         0.5 r^T r the Gauss-Newton matrix J^T J of the least-squares solve that gave ``x1``.
         SLSQP's quasi-Newton model starts as the identity in its variables; in whitened
         variables that is this metric, so that the first step is a Gauss-Newton step instead
-        of a gradient step (on the sample's Fx and Fy stages SLSQP took 26-27 iterations from
-        the identity in the x scaling, 7 and 18 in the metric: one-off, 2026-11-24). Finite
-        bounds become linear constraints.
+        of a gradient step, and SLSQP need not first build the curvature the least-squares
+        solve already knows from its own iterations. Finite bounds become linear constraints.
     local_constraints : callable, optional
         x -> a function equal to ``constraints`` near x (FitProblem.local_constraints). With a
         ``metric``, the constraints' Jacobian is then SLSQP's own forward differences (the

@@ -1,16 +1,14 @@
 """Gauss-Newton steps inside the bounds, taken before scipy's trust-region reflective solver
 (identify.fit.engine.least_squares with Tolerances.gauss_newton: the MF stages' solves).
 
-Why: near a noisy optimum in a curved valley, trf took 11-16 evaluations where full
-Gauss-Newton steps take 4-7. On the bundled sample's Fy0 stage (6418 points, 24 and 27 free
-coefficients) the solve on all points starts ~21 s^2 above its optimum; the first full step
-overshoots (half of it is taken), and trf then shrinks its trust region to a quarter of that
-step and regains it by doubling, each iteration gaining ~30 % of what the linearised model
-predicts (0.56 s^2 left after one iteration, 13 more to bring it below 1e-4 s^2). Full
-Gauss-Newton steps in the coefficients scaled to unit Jacobian columns gained what the model
-predicted from the second step on: the same optimum (cost within 5e-5 s^2) in 5 and 6
-evaluations where trf took 16 and 15; Mz0's 11 -> 7 (one-off /tmp trace of fit_mf's solves,
-2026-11-24). The optima are interior: no step of these solves met a bound.
+Why: near a noisy optimum in a curved valley, trf spends iterations on its trust region
+rather than on the step. When a first full step overshoots, trf shrinks its region to a
+fraction of that step and regains it only by doubling, each iteration gaining a fraction of
+what the linearised model predicts. Full Gauss-Newton steps in the coefficients scaled to
+unit Jacobian columns gain what the model predicts once the iterate is in the quadratic
+region, so they reach the same optimum in fewer evaluations (bench/fit_cost.py's nfev column
+counts them per stage). The MF stages' optima are interior, where these steps need no bound
+handling; a step that would leave the bounds hands over to trf.
 
 The phase (:func:`interior_steps`): at x, the Gauss-Newton step v of the column-scaled
 Jacobian (thin SVD by identify.fit.trf_svd.tall_svd, singular values below RCOND x the largest
@@ -21,9 +19,9 @@ non-finite model value, identify.fit.problem.penalised, whose s^2 is not the noi
 otherwise it takes x + t v for the first t of 1, 1/2, 1/4, 1/8 that lowers the cost by at
 least ARMIJO x t x 2 x the decrement (the Armijo condition: 2 x decrement is minus the
 cost's slope along v). It hands x over to the trust-region solver, which then goes on as
-before, when a full step would leave the bounds, none of the four steps lowers the cost
-enough (far from the optimum, or at round-off on data without noise), the Jacobian is not
-finite or zero, or after ``max_nfev`` evaluations.
+without the phase, when a full step would leave the bounds, none of the four steps lowers
+the cost enough (far from the optimum, or at round-off on data without noise), the Jacobian
+is not finite or zero, or after ``max_nfev`` evaluations.
 """
 from __future__ import annotations
 

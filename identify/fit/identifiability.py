@@ -39,8 +39,10 @@ import dataclasses
 import math
 from collections.abc import Mapping
 
+from identify.fit.bounds import ARBITRARY, bound_kinds
 from identify.fit.covariance import residual_variance
 from identify.fit.result import FitResult
+from identify.fit.status import fit_status, quality_problems
 
 __all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION",
            "MIN_POINTS_PER_COEFFICIENT", "OK", "POOR", "assess", "problems", "suspects",
@@ -144,6 +146,17 @@ def _bound_side(r: FitResult, name: str) -> tuple[str, float]:
     return ("lower", lo) if abs(v - lo) <= abs(v - hi) else ("upper", hi)
 
 
+def _kind(r: FitResult, name: str) -> str:
+    """"physical" or "arbitrary": the kind of the bound the estimate of ``name`` is at
+    (identify.fit.bounds; a name the parameter table does not know: arbitrary)."""
+    side = _bound_side(r, name)[0]
+    try:
+        kinds = bound_kinds(name, r.parameters[name])
+    except KeyError:
+        return ARBITRARY
+    return kinds[0 if side == "lower" else 1]
+
+
 def problems(r: FitResult) -> list[str]:
     """Why ``r`` is poorly identified, one line each (empty: identified)."""
     out = []
@@ -153,7 +166,8 @@ def problems(r: FitResult) -> list[str]:
                    f"{MIN_POINTS_PER_COEFFICIENT} points per coefficient)")
     for n in r.at_bound:
         side, bound = _bound_side(r, n)
-        out.append(f"{n} = {r.parameters[n]:.4g} is at its {side} bound {bound:g}")
+        out.append(f"{n} = {r.parameters[n]:.4g} is at its {side} bound {bound:g} "
+                   f"({_kind(r, n)})")
     out += [why for _, _, why in _wide(r)]
     out += [why for _, _, why in _rivaled(r)]
     out += [why for _, _, why in _conditional(r)]
@@ -192,7 +206,7 @@ def unidentified(r: FitResult) -> dict[str, str]:
     intervals are not a statement about the coefficient; the others' are (docs/intervals.md)."""
     out: dict[str, str] = {}
     for n in r.at_bound:
-        out.setdefault(n, f"at its {_bound_side(r, n)[0]} bound")
+        out.setdefault(n, f"at its {_kind(r, n)} {_bound_side(r, n)[0]} bound")
     for n, reason, _ in (*_wide(r), *_rivaled(r), *_conditional(r)):
         out.setdefault(n, reason)
     for a, b, c in _pairs(r):
@@ -217,13 +231,21 @@ def suspects(r: FitResult) -> list[str]:
 def assess(r: FitResult, held: Mapping[str, str] | None = None,
            notes: tuple[str, ...] = ()) -> FitResult:
     """``r`` with its identification status and reasons (and the coefficients ``held``, name ->
-    why, recorded). ``notes`` are further reasons (e.g. the problems of the free fit that led to
-    the holds); any note, like any problem, makes the status "poorly identified"."""
+    why, recorded), and its status (identify.fit.status): the error weighed against the noise
+    floor first (a poor fit or a gross miss, whose reasons come first), then the
+    identification. ``notes`` are further reasons (e.g. the problems of the free fit that led
+    to the holds); any note, like any problem, makes the identification "poorly identified"."""
     held = dict(r.held) | dict(held or {})
     found = problems(r) if r.converged else []
     reasons = tuple(found) + tuple(notes)
     status = POOR if reasons else OK
+    quality, why = (quality_problems(r.error_total_pct, r.error_by_pressure_pct,
+                                     r.noise_floor_pct, r.floor_source)
+                    if r.converged else (OK, []))
+    # a re-assessment (a later step of the workflow) starts from the identification's reasons
+    reasons = tuple(why) + tuple(x for x in reasons if x not in why)
     reasons += tuple(f"{n} held at {r.parameters.get(n, math.nan):.6g}: {why}"
                      for n, why in held.items())
     return dataclasses.replace(r, identification=status, reasons=reasons, held=held,
-                               unidentified=unidentified(r) if r.converged else {})
+                               unidentified=unidentified(r) if r.converged else {},
+                               fit_status=fit_status(r.converged, status, quality))

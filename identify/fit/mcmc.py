@@ -24,18 +24,17 @@ covariance sigma^2 (J'J)^-1 from the noise-weighted model), and the walkers star
 that approximation instead of a small ball, so there is no burn-in to grow out of. Both moves
 leave the posterior exactly invariant; the approximation only decides how fast the chain
 mixes. Differential evolution is affine-invariant (whitening the coordinates changes nothing
-for it) and its autocorrelation time grows with the dimension (tau ~ 60 steps on the
-18-coefficient Fx0 stage, against ~500 for emcee's stretch move) and with curvature
-(~100 on the sample's 6-coefficient Fx stage); where the posterior is close to Gaussian the
-Laplace proposals are nearly independent draws: on the bundled sample's MF stages the largest
-tau fell from 54-115 (Fx0, Fy) to 5-14 steps (one-off, 2026-11-24; bench/mcmc_chains.py
-prints each chain's tau of an ``mfid fit --mcmc`` run). ``moves="de"`` is differential
-evolution alone from a small ball, ``"stretch"`` emcee's default; with AR(1) noise
-``"de+laplace"`` is ``"de"`` (phi has no Laplace approximation here). emcee's DESnookerMove
-is not used: in emcee 3.1.6 it scales its step by the distance to the anchor walker (u =
-delta/sqrt(|delta|) instead of delta/|delta|) and so does not sample the target (a unit
-Gaussian in 19 dimensions comes out with variance 0.56 alone, 0.79 as 20 % of a mix with DE;
-tests/test_fit_mcmc.py checks the posterior width against a linear problem's exact one).
+for it), and its autocorrelation time grows with the dimension and with the posterior's
+curvature; where the posterior is close to Gaussian the Laplace proposals are nearly
+independent draws, and the chain then mixes within a few steps, not growing with the
+dimension (bench/mcmc_chains.py prints each chain's tau of an ``mfid fit --mcmc`` run).
+``moves="de"`` is differential evolution alone from a small ball, ``"stretch"`` emcee's
+default; with AR(1) noise ``"de+laplace"`` is ``"de"`` (phi has no Laplace approximation
+here). emcee's DESnookerMove is not used: in emcee 3.1.6 it scales its step by the distance
+to the anchor walker (u = delta/sqrt(|delta|) instead of delta/|delta|) and so does not
+sample the target (a unit Gaussian in 19 dimensions comes out with variance 0.56 alone,
+0.79 as 20 % of a mix with DE; tests/test_fit_mcmc.py checks the posterior width against a
+linear problem's exact one).
 """
 from __future__ import annotations
 
@@ -180,8 +179,8 @@ def _start(problem: FitProblem, result: FitResult, ar1: bool, nw: int, ndim: int
 def _write_chain_file(path, sampler, reparam: KyaRidge | None) -> None:
     """Save the chain once it has run, as emcee's HDFBackend lays it out (group ``mcmc``;
     ``emcee.backends.HDFBackend(path, name="mcmc", read_only=True)`` reads it): sampling into
-    the file directly costs ~25 ms a step in file opens, 8-10x the sampling of a relation
-    (one-off measurement, 2026-11-24).
+    the file directly opens it at every step, which costs several times the sampling of a
+    relation.
     With ``reparam`` the chain is in the free coefficients (the blobs: the mapped ones and the
     log-Jacobian) and its log-probabilities are the posterior density in them, so that the
     file is in the names the report labels it with."""

@@ -1,9 +1,10 @@
 """Compiled Newton solve of the cornering-stiffness map's inverse (identify.fit.mcmc_reparam).
 
 Every MCMC step inverts the map for each walker's proposal; proposals without a preimage on
-the optimum's branch iterate to the cap. In numpy, with arrays of a few rows, that cost ~70 ms
-a step, forty times the likelihood; row by row in numba the same chain (the calibration's
-trial 0, 2387 steps) took 10 s instead of 171 s (README, commit 05d6b84). The arithmetic is the
+the optimum's branch iterate to the cap. In numpy, on arrays of a few rows, every iteration
+pays numpy's per-call overhead several times, and the solve costs many times the likelihood;
+compiled row by row in numba it costs a small part of it (bench/mcmc_calibration.py times
+the chains of the reparametrised Fy0 stage). The arithmetic is the
 numpy map's (mcmc_reparam.KyaRidge._kya), which tests/test_fit_mcmc_reparam.py checks this
 against entry by entry.
 

@@ -1,4 +1,4 @@
-"""Reparametrisation of the Fy0 cornering-stiffness ridge for MCMC (issue 17).
+"""Reparametrisation of the Fy0 cornering-stiffness ridge for MCMC.
 
 The cornering stiffness is (docs/model.md, section 5)
 
@@ -10,9 +10,9 @@ The cornering stiffness is (docs/model.md, section 5)
 PKY1, PKY2, PKY4 lie on a thin curved ridge, and so do the pressure pair PPY1, PPY2 (below the
 peak Kya depends on nearly only (1 + PPY1 dpi) / (1 + PPY2 dpi)) and the camber pair PKY3,
 PKY5. emcee's affine-invariant moves follow a straight ridge at no cost but a curved one
-slowly (tau ~ 1700 steps on the sample with PKY1, PKY2, PKY4 sampled directly; with only
-those replaced, 183-273 for PPY1, PKY4, PKY5 of the whole stage on the calibration design's
-21-point sweeps: README, trial 0, 6000 steps). The data measure
+slowly, and each pair left in the coefficients keeps its own curved ridge
+(bench/mcmc_calibration.py --no-reparam samples the coefficients directly, for
+comparison). The data measure
 Kya where they were taken, so the chain samples Kya at as many measured conditions
 ("anchors") as there are such coefficients free, instead of the coefficients:
 

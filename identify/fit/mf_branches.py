@@ -7,9 +7,9 @@ The longitudinal slip stiffness is (docs/model.md, section 4)
 Over the loads of a trailer session (dfz within about +-0.5) two sets with the same value and
 slope at dfz = 0 -- PKX2 of either sign, PKX3 = PKX3' + (PKX2' - PKX2) / PKX1 -- draw nearly
 the same curve, and the search, which starts near the defaults (PKX2 > 0), does not reach the
-other. On a TTC session generated from the golden test tyre (tests/data/tir/testA_61.tir:
-PKX2 = -10, PKX3 = 0.5; seed 0) Fx0 ended at PKX2 = 12.4, PKX3 = -0.27, while the branch
-through the truth, PKX2 = -12.5, PKX3 = 0.57, fits the same points 18 lower in chi^2. After
+other, though the branch through the truth may fit the same points better (a TTC session
+generated from the golden test tyre, tests/data/tir/testA_61.tir with PKX2 = -10,
+PKX3 = 0.5: tests/test_fit_mf_other_tyre.py). After
 the global fit the stage is solved once more from the mirrored point; the lower end is the
 optimum, and the other, passed to identify.fit.mf_rivals, is a rival when within the 95 %
 region.
@@ -44,12 +44,12 @@ def _mirror_outside(result: FitResult, c1: str) -> bool:
     False without a standard error): nearer 0 the mirrored point is within the optimum's own
     interval, and the two branches meet there.
 
-    A gate at 2 standard errors (before 2026-11-24) left the branch untried on the golden
-    tyre's TTC session at seed 1 (tests/test_fit_mf_other_tyre.py: PKX2 = 6.2 +- 3.7,
-    interval [-1.2, 13.5], truth -10), where the other branch fits as well (objective 0.9993
-    of the search's). It does not keep a solve at small c1 from ending as low as the optimum:
-    on tests/test_fit_mf_basins.py's Fx0 stage, PKX2 = -0.0021 +- 0.00038, it is tried and
-    ends at PKX2 ~ 0, chi^2 -1e-8; TAKE_CHI2 keeps the optimum, and the end is a rival in
+    A gate at 2 standard errors would leave the branch untried where c1 lies between one and
+    two standard errors from 0 and the other branch fits as well (the golden tyre's TTC
+    session at seed 1 in tests/test_fit_mf_other_tyre.py). The gate does not keep a solve at
+    small c1 from ending as low as the optimum: on tests/test_fit_mf_basins.py's Fx0 stage,
+    PKX2 a few standard errors from 0, the other branch is tried and ends at PKX2 ~ 0 as low
+    as the optimum; TAKE_CHI2 keeps the optimum, and the end is a rival in
     PKX2 alone."""
     lo, hi = result.interval(c1)
     mirror = -float(result.parameters[c1])

@@ -6,17 +6,18 @@ re-fitted (identify.fit.mf_stages._refine). When that re-fit does not converge o
 the coefficient stays held at its start value, which the data did not choose, and the free
 coefficients it trades with carry whatever the held value makes them: on a TTC session
 generated from another tyre (MFeval's reference tyre at Formula Student size: QSX4 = 4.9,
-QSX6 = 22.8, QSX7 = 0.71; the defaults 5, 10, 0) the Mx stage reported QSX7 = 0.17 +- 0.047,
-11 standard errors off, as "identifiable"; this module lists it, with QSX2, QSX8 and QSX10
-(docs/intervals.md; one-off, seed 0). QSX3, 12 standard errors off there, it does not: QSX3
-trades with QSX9, which the screen held as having no effect at all, not AFTER_FIT.
+QSX6 = 22.8, QSX7 = 0.71; the defaults 5, 10, 0) the Mx stage's QSX7 can end many standard
+errors off the truth while its interval looks identifiable (docs/intervals.md); this module
+lists it, with the others that rest on the held value. It does not list a coefficient that
+trades with one the screen held as having no effect at all (QSX3 with QSX9), since that hold
+is not AFTER_FIT.
 
 A speed term held because the data hold one speed (ONE_SPEED) is checked the same way: its
-variable is never 0 on trailer data, so it trades with the constant terms, and the generated
-TTC sessions (one speed) were fitted at VERTICAL_STIFFNESS 1.0-1.3 % above the truth, 8.8-18
-standard errors (10 seeds), with Q_V2 held at 0 for the truth's 0.02
-(identify.fit.mf_stage_defs stage ``vertical``): the stiffness measured is the one at the test
-speed. So is a shift held because the data's slip is of one sign (ONE_SIGN: RBY3 on a TTC
+variable is never 0 on trailer data, so it trades with the constant terms: on the generated
+TTC sessions (one speed) Q_V2 is held at 0 for the truth's 0.02, and the VERTICAL_STIFFNESS
+fitted lies many standard errors above the truth (identify.fit.mf_stage_defs stage
+``vertical``; bench/ttc_truth.py): the stiffness the data give is the one at the test speed.
+So is a shift held because the data's slip is of one sign (ONE_SIGN: RBY3 on a TTC
 drive/brake run's slip angles 0, -3, -6 deg).
 
 Their intervals are right only if the held values are exact. This module measures how much
@@ -58,8 +59,9 @@ ONE_SIGN = ("slip angles of one sign only", "slip of one sign only")
 because the data's slip is of one sign: RBY3 shifts the slip angle in By_kappa, and a TTC
 drive/brake run sets 0, -3, -6 deg only. Such a term is not 0 where the data are (it moves
 the curve there), so the free coefficients along its ridge carry the held value: on sessions
-generated from the golden test tyre (RBY3 = -0.03, held at 0) RBY2 came out 2.5-6.8 standard
-errors above the truth in 10 of 10 seeds, with the forces 0.13 % from it (2026-11-28)."""
+generated from the golden test tyre (RBY3 = -0.03, held at 0) RBY2 comes out several standard
+errors above the truth while the forces stay within a fraction of a percent of it
+(bench/ttc_truth.py --tir with that tyre)."""
 VIF_LIMIT = 4.0
 """Variance ratio (a standard error twice as large) above which a free coefficient counts as
 resting on the held ones."""

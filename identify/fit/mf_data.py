@@ -86,10 +86,9 @@ def run_sweeps(frame: pd.DataFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]
     kappa sweep and a median |kappa| at most FREE_KAPPA; an alpha sweep at a held slip ratio
     does not)."""
     # slip spans per run: pandas' own groupby quantiles and median (they skip NaN) over
-    # integer run codes, which then index the spans: a Python lambda per run and Series.map
-    # on the string run ids cost ~20 ms per call on a 14642-point table (2.5 ms now on a
-    # 14642-point table of 40 runs, 1.1 ms with the max/min spans before SPAN_QUANTILES;
-    # timeit, one run, one-off, 2026-11-24); callers that select often pass the result on
+    # integer run codes, which then index the spans, vectorised where a Python lambda per
+    # run and Series.map on the string run ids would loop in Python; callers that select
+    # often pass the result on
     codes, runs = pd.factorize(frame["run"], use_na_sentinel=False)
     groups = pd.DataFrame({"run": codes, **{c: frame[c].to_numpy(float)
                                             for c in ("alpha", "kappa", "gamma")}}
@@ -137,8 +136,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
     frame : DataFrame
         The trailer table.
     selection : str
-        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``
-        or ``"all"``
+        ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``,
+        ``"rolling_runs"`` or ``"all"``
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, ``"Rl"``: rl; see quantity_values).
@@ -163,6 +162,8 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
     elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
         slip = (k > PURE_KAPPA) & ~rolling
         ok &= slip & bool(np.any(ok & slip & (a > PURE_ALPHA)))
+    elif selection == "rolling_runs":  # the freely rolling runs; every run without one
+        ok &= rolling if bool(np.any(ok & rolling)) else True
     elif selection != "all":
         raise ValueError(f"unknown selection {selection!r}")
     return np.flatnonzero(ok)

@@ -9,20 +9,19 @@ gradient, the identifiability screen and discovery all use it.
 
 JAX is an optional extra (``pip install mfid[fast]``). Without it, or with the environment
 variable ``MFID_JACOBIAN=fd``, :func:`stage_jacobian` returns None and the fits use finite
-differences as before (the same optimum, at more model evaluations). With JAX, a stage whose
+differences (the same optimum, at more model evaluations). With JAX, a stage whose
 points x (coefficients + 1) are fewer than MIN_WORK keeps finite differences too, since the
 compile would cost more than it saves; ``MFID_JACOBIAN=jax`` uses JAX for every stage.
 Each stage's compiled function is kept on disk (identify.fit.mf_jax_cache; ``MFID_JAX_CACHE``,
 default ``~/.cache/mfid/jax``; empty: none), which a later run loads without tracing or
-compiling: a stage's first call 0.013-0.03 s, where tracing, lowering and loading from JAX's
-compilation cache (used before) took 0.07-0.12 s. Without an entry a stage is traced and
-compiled, ~0.2-0.6 s (the first run only).
+compiling, at a fraction of the tracing's cost. Without an entry a stage is traced and
+compiled once, and stored.
 
-Cost (bench/fit_jacobian.py, bench/mf_jacobian.py): the points are evaluated in chunks of
+Cost (bench/fit_jacobian.py, bench/fit_cost.py --jacobian): the points are evaluated in chunks of
 CHUNK (the last one padded), so that one compiled function per stage serves every data size
 (the subsample search and the full-data polish, every refit, every pass): one trace and
-compile per stage (~0.4 s, then stored), then ~2-5 evaluations' time per Jacobian of up to 29
-columns, where two-point finite differences cost 1 + free coefficients evaluations.
+compile per stage (then stored), then a few evaluations' time per Jacobian, where two-point
+finite differences cost 1 + free coefficients evaluations.
 """
 from __future__ import annotations
 
@@ -50,9 +49,9 @@ CHUNK = 2048
 """Points per compiled Jacobian call (the MF search's subsample, identify.fit.mf_search.SUBSAMPLE,
 is one chunk). Smaller chunks pad less (the last chunk is padded to CHUNK: 6418 points cost
 8192 with chunks of 4096, 6144 + 2048 with 2048), larger ones make fewer calls (each call has
-a fixed dispatch cost of ~0.1-0.3 ms). Best of 7 on the bundled sample, one core under load
-(a one-off /tmp scratch script, 2026-11-24, chunk 4096 / 1024 / 2048): Fy0 (6418 x 27) 8.2 /
-3.6 / 3.8 ms, Fy (4549 x 15) 1.6 / 1.4 / 1.3 ms, Mx (12074 x 15) 1.8 / 4.6 / 1.8 ms."""
+a fixed dispatch cost). A chunk equal to the subsample gives the search one call per Jacobian
+and the solves on all points little padding (bench/fit_cost.py --jacobian jax times the
+stages)."""
 NUMPY_ONLY = ("vertical",)
 """Stages whose equations are numpy only: finite differences always (the MF 6.2 loaded radius
 is a secant solve with a data-dependent number of steps; the stage has seven coefficients)."""
@@ -61,28 +60,20 @@ ENV = "MFID_JACOBIAN"
 exact derivatives for every stage, ``auto`` (default) exact ones where they pay (MIN_WORK)."""
 MIN_WORK = 30_000
 """Points x (the stage's coefficients + 1) from which a stage uses the exact Jacobian in the
-``auto`` mode. Below it a two-point finite-difference Jacobian costs ~< 4 ms and the tracing of
-the stage (~0.1-0.3 s with the persistent cache) would not pay off within a fit's ~100-250
-Jacobians. 100_000 at first; 50_000 from b8f44f6: a decimated TTC session
-(tests/test_ttc_fit.py, seed 7) fitted Fy0 (3119 x 28), Mz0 (3119 x 30) and Fy (3643 x 16) by
-finite differences in 4.7 + 5.6 + 5.2 s (3725, 4343 and 6445 model evaluations) at 100_000,
-exact at 50_000: 1.7 + 1.7 + 1.9 s; the bundled sample and a generated 135k-sample TTC
-session cost the same CPU time either way (loaded machine; one-off measurements, 2026-11-24).
-With the stored executables (a stage's first call 0.01-0.03 s) it
-still holds: exact Jacobians for every stage (``MFID_JACOBIAN=jax``) cost the sample the same
-(bench/fit_cost.py --jacobian jax, 90 and 92 evaluations against 95 and 93, 2026-11-24).
-30_000 since: the sample's Fx0 (1737 x 20) then took 0.09 s instead of 0.20 s (66 model
-evaluations instead of 816; CPU time, best of 3 warm fit_mf runs, one-off, 2026-11-24), its
-executable loads in ~0.01 s; its geometry stage (7450 x 6) costs the same either way."""
+``auto`` mode. A two-point finite-difference Jacobian costs k + 1 model evaluations of all
+points, so its cost grows with this product; the exact one costs the stage's tracing once (or
+loading its stored executable, identify.fit.mf_jax_cache) and then little per call. Below
+the limit the finite differences are cheap enough that the tracing would not pay off within a
+fit's Jacobians; above it the exact Jacobian saves most of the model evaluations.
+bench/fit_cost.py --jacobian fd / jax / auto compares a folder's stages all three ways."""
 
 
 @functools.cache
 def _jax():
     """(jax, jax.numpy) with 64-bit floats, or None when JAX is not installed.
 
-    Imported on first use, not with this module: importing JAX takes ~0.25 s, which every
-    ``mfid`` command would pay otherwise (0.24-0.25 s for this function in three fresh
-    processes, files cached, the 2-core machine under load, 2026-11-24).
+    Imported on first use, not with this module: importing JAX takes a sizeable fraction of a
+    second, which every ``mfid`` command would pay otherwise.
     """
     # one XLA thread (a chunk is small; a second thread contends with the BLAS and the other
     # processes of a batch); a user's own XLA_FLAGS win
@@ -111,7 +102,7 @@ def use_exact(n_points: int, n_coefficients: int) -> bool:
     """Whether a stage of ``n_points`` points and ``n_coefficients`` candidate coefficients
     uses the exact Jacobian (see ENV and MIN_WORK). JAX is imported only when the answer
     depends on it being installed: a run whose stages are all below MIN_WORK does not pay the
-    ~0.3 s import."""
+    JAX import."""
     if (os.environ.get(ENV, "").lower() != "jax"
             and n_points * (n_coefficients + 1) < MIN_WORK):
         return False
@@ -183,8 +174,8 @@ def _read_others(stage: str, base: Mapping[str, float], s: OperatingState,
 
 def _runs(cols: list[int]) -> list[tuple[int, int, int]]:
     """The column indices ``cols`` as runs of consecutive columns, (first, stop, position in
-    ``cols``) each: copying a chunk's columns by slices took 20-30 us where indexing them took
-    70-120 us (2048 x 27, one-off timing, 2026-11-24), per chunk and Jacobian."""
+    ``cols``) each: copying a chunk's columns by slices is a few block copies, where indexing
+    them gathers element by element, per chunk and Jacobian."""
     runs: list[tuple[int, int, int]] = []
     for j, c in enumerate(cols):
         if runs and runs[-1][1] == c:
@@ -196,10 +187,10 @@ def _runs(cols: list[int]) -> list[tuple[int, int, int]]:
 
 def _chunk(tree, index: np.ndarray, n: int):
     """The points ``index`` of every length-``n`` array leaf of ``tree`` (scalars as they are),
-    as numpy arrays: the compiled function takes them as they are, ~0.01 ms a call more than
-    device arrays, where copying a chunk to the device cost 0.37 ms (jax.device_put) and a
-    jnp.asarray per leaf 0.1-0.2 s on the sample (~2000 dispatches, a compile for the
-    scalars); a chunk serves ~5 calls (one-off /tmp scratch script, 2026-11-24)."""
+    as numpy arrays: the compiled function takes them as they are at a small cost per call,
+    less over the few calls a chunk serves than copying the chunk to the device
+    (jax.device_put); a jnp.asarray per leaf would dispatch once per leaf and compile for the
+    scalars."""
     jax, _ = _jax()
 
     def take(leaf):
@@ -243,8 +234,9 @@ def stage_jacobian(stage: str, base: Mapping[str, float], s: OperatingState,
         exact = use_exact(n, len(coefficients))
     if not exact or not available():
         return None
-    # the held values the equations read, not all ~260 (tracing a slice per value cost the
-    # Fy stage's Jacobian 0.11 s instead of 0.03 s); every value if that set misses one
+    # the held values the equations read, not all ~260 (a slice per value in the traced
+    # function would cost every Jacobian call for values no equation reads); every value
+    # if that set misses one
     others = _read_others(stage, base, s, omega)
     fn = None
     fixed = np.array([float(base[k]) for k in others])

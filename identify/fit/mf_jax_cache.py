@@ -1,16 +1,13 @@
 """Compiled MF stage Jacobians kept on disk between runs, so that a later run neither traces
 nor compiles them (identify.fit.mf_jacobian).
 
-JAX's persistent compilation cache (``jax_compilation_cache_dir``, which mfid used before)
-skips XLA's compile but is keyed by the lowered program, so every run still traced and lowered
-each stage's function in Python first: 0.07-0.12 s a stage on the bundled sample (five
-exact-Jacobian stages), where loading the executable stored here takes 0.013-0.03 s (one-off
-/tmp scratch script, 2026-11-24, each stage's first call in a fresh process, both caches
-warm). ``jax.export`` was measured too and does not pay: deserialising an exported stage and
-calling it lowers and compiles a wrapper around it, 0.13-0.2 s per stage, slower than tracing.
-JAX's cache is no longer switched on: an executable it supplies cannot be stored here (see
-:func:`store`), and with this one it would serve only the few element-wise copies of the
-chunks (~0.005 s).
+JAX's persistent compilation cache (``jax_compilation_cache_dir``) skips XLA's compile but is
+keyed by the lowered program, so every run would still trace and lower each stage's function
+in Python first; loading the executable stored here skips both, and costs a fraction of the
+tracing. ``jax.export`` does not pay either: deserialising an exported stage and calling it
+lowers and compiles a wrapper around it, which costs more than tracing. JAX's cache is not
+switched on: an executable it supplies cannot be stored here (see :func:`store`), and with
+this one it would serve only the few element-wise copies of the chunks.
 
 An entry is keyed by everything that changes the traced program or the machine code: the
 versions of JAX, jaxlib and mfid, a hash of the source files the trace runs through
@@ -124,9 +121,8 @@ def _path(key: str) -> Path | None:
 
 def _head(key: str, payload: bytes) -> bytes:
     """An entry's header: format, key, SHA-256 of the payload. A damaged payload is never
-    handed to XLA: with one byte of the My stage's entry flipped (jax 0.10.2, one-off /tmp
-    scratch script, 2026-11-24) it failed to parse at two positions, but at a third it loaded,
-    ran and gave other Jacobians without an error."""
+    handed to XLA, which does not reject every damaged executable: a flipped byte may fail to
+    parse, but it may as well load, run and give other Jacobians without an error."""
     return MAGIC + key.encode() + b"\n" + hashlib.sha256(payload).hexdigest().encode() + b"\n"
 
 

@@ -29,7 +29,8 @@ from identify.fit.mf_stage_defs import (
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
 from identify.model.modes import FIT_MODE
-from identify.model.parameters import bounds, spec
+from identify.fit.bounds import start_bounds
+from identify.model.parameters import spec
 from identify.model.state import OperatingState, prepare
 
 __all__ = ["StagePoints", "StageProblem", "candidates", "fitted_problem", "stage_problem",
@@ -47,6 +48,9 @@ class StageProblem:
     held : dict name -> reason  candidate coefficients held by the identifiability rules
     state : OperatingState     the stage's points, prepared with useMode 211
     omega : ndarray or None    the measured wheel speed [rad/s] (stage geometry only)
+    wide : dict name -> (lo, hi)  bounds that replace the table's (identify.fit.bounds: the
+                               arbitrary ends the stage widened); a later build ``like`` this
+                               one keeps them
     """
 
     problem: FitProblem
@@ -56,6 +60,7 @@ class StageProblem:
     omega: np.ndarray | None = None
     params: Mapping[str, float] | None = None
     points: StagePoints | None = dataclasses.field(default=None, repr=False, compare=False)
+    wide: Mapping[str, tuple[float, float]] = dataclasses.field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -121,7 +126,9 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
                   screen: bool = True,
                   hold: Mapping[str, str] | None = None,
                   like: StageProblem | None = None,
-                  sweeps: mf_data.Sweeps | None = None) -> StageProblem | None:
+                  sweeps: mf_data.Sweeps | None = None,
+                  wide: Mapping[str, tuple[float, float]] | None = None
+                  ) -> StageProblem | None:
     """Build the FitProblem of one stage at the current values ``params``.
 
     Parameters
@@ -155,6 +162,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         None when the table holds no point for the stage.
     """
     sd = STAGES[stage]
+    wide = dict(like.wide if wide is None and like is not None else wide or {})
     fnomin = float(params["FNOMIN"])
     at = like.points if like is not None else None
     if at is None or at.fnomin != fnomin:
@@ -192,7 +200,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
             v = float(params[n])
             if n in vary:  # free: start inside the table's bounds, an even term off 0
                 v = EVEN_START.get(n, v) if v == 0 else v
-                lo, hi = bounds(n, v)
+                lo, hi = wide[n] if n in wide else start_bounds(n, v)
                 P.add(n, value=min(max(v, lo), hi), min=lo, max=hi)
             else:  # held: exactly the carried-forward value
                 P.add(n, value=v, vary=False)
@@ -219,7 +227,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     # build, ~0.06 ms each), with the constraints
     problem = (build(vary, cons) if screened is None
                else dataclasses.replace(screened, constraints=tuple(cons)))
-    return StageProblem(problem, rows, held, s, omega, dict(params), at)
+    return StageProblem(problem, rows, held, s, omega, dict(params), at, wide)
 
 
 def fitted_problem(trailer: pd.DataFrame, params: Mapping[str, float], result: FitResult
@@ -232,7 +240,7 @@ def fitted_problem(trailer: pd.DataFrame, params: Mapping[str, float], result: F
     ``problem.free`` is ``result.free``."""
     hold = {n: "held in the fit" for n in result.parameters if n not in result.free}
     return stage_problem(result.form, trailer, params, free={result.form: list(result.parameters)},
-                         hold=hold)
+                         hold=hold, wide=dict(result.bounds))
 
 
 def subproblem(sp: StageProblem, index: np.ndarray) -> FitProblem:

@@ -12,9 +12,10 @@ tolerances, within SEARCH_NFEV evaluations) on an evenly spaced subsample of SUB
 all of them, and a start that reaches an earlier start's end point or path stops there
 (MERGE_CHI2); only the distinct end points whose subsample objective is within CANDIDATE_RTOL
 of the best (at most MAX_CANDIDATES) go on. On large data each candidate is carried up a
-ladder of subsamples LADDER times larger each (:func:`ladder_sizes`; the optimum of 4096 of 93074
-noisy points can lie 15 % away in a flat direction, where the solver on all points crawls for
-over 100 evaluations; from the optimum of 16384 it took 14), and is then solved on every point
+ladder of subsamples LADDER times larger each (:func:`ladder_sizes`: a small subsample's
+optimum of many noisy points can lie far away in a flat direction, where the solver on all
+points would crawl for its whole budget, while each rung's optimum starts the next one close
+to its own), and is then solved on every point
 (identify.fit.optimize.fit: MF_SOLVE tolerances, MAX_NFEV evaluations, the constrained polish
 where a constraint is violated); the best of those is the stage's optimum.
 """
@@ -52,24 +53,22 @@ optimum and converges in a few tens; one that crawls for longer is reported as n
 instead of costing minutes."""
 REFIT_NFEV = 40
 """Budget of a re-fit's least-squares solve on all points (identify.fit.mf_stages._refine): it
-starts at the re-fit's optimum on the search's subsample, where the re-fits the data support
-converge within 4-18 evaluations (the bundled sample and a generated TTC session; one-off,
-2026-11-24); the ones
-that ran into MAX_NFEV (QSX4, QSX5, QSX9 on the sample's Mx; RVY4..6 on the TTC session's Fy)
-were products of weakly determined coefficients running off along a flat valley, not taken
-in the end, and cost a second per stage on all points."""
+starts at the re-fit's optimum on the search's subsample, from where a re-fit the data
+support converges within a few tens of evaluations at most. A re-fit that needs more (e.g.
+QSX4, QSX5, QSX9 on Mx; RVY4..6 on Fy) is a product of weakly determined coefficients
+running off along a flat valley, which is not taken in the end; a budget of MAX_NFEV would
+only make it cost more on all points."""
 SEARCH_NFEV = 200
 """Budget of each start's least-squares solve on the subsample (cheap: SUBSAMPLE points)."""
 SUBSAMPLE = CHUNK
 """Points of the search's subsample: every (points/SUBSAMPLE)-th point of the stage in table
 order, i.e. evenly along every sweep, so every load, pressure, camber and slip range is in it.
-One of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding. Two chunks
-(4096) until the solves went on with the dogleg (engine.DOGLEG_AFTER): before it, on the
-decimated TTC session of tests/test_ttc_fit.py (seed 7) the Fy stage searched on 2048 of its
-3643 points ran into MAX_NFEV on all points. With it, 2048 ends at the same optima as 4096
-(the bundled sample and generated TTC sessions of seeds 0 and 2: objectives within 4e-10,
-coefficients within 6e-7 of their standard errors) for 7 % less CPU time on the sample and
-15-16 % on the TTC sessions (fit_mf, passes 2, warm, one-off, 2026-11-24)."""
+One of the exact Jacobian's chunks (identify.fit.mf_jacobian.CHUNK): no padding. A
+subsample this small suffices because the solves on all points go on with the dogleg
+(engine.DOGLEG_AFTER): a candidate from a small subsample may start in a curved valley of
+all points, which the dogleg crosses where trf would crawl along it into MAX_NFEV. A larger
+subsample costs more and ends at the same optima (bench/fit_cost.py times the stages,
+bench/ttc_truth.py compares their ends with the truth)."""
 LADDER = 4
 """Each rung of the ladder from the search's subsample to all points has this many times the
 points of the one below."""
@@ -100,16 +99,15 @@ iterations, which the last iterations of a start along a flat valley took tens o
 to reach). The start then counts as ending at x_e (the same candidate). A start far below
 x_e's cost has not reached it, whatever the metric says: J_e is the metric of a minimum only
 where x_e is one, and a solve can stop with a vanishing gradient on a plateau (coefficients
-running off to 1e22, every column of J_e near zero). On a generated TTC session of the golden
-test tyre (tests/data/tir/testA_61.tir, inputs without noise, seed 1) the Fy stage's re-fit
-with RVY4..6 stopped its start from the defaults at cost 2.7e-4 as "reached" such an end
-point at 1.5e-2 (a bound of x_e's cost only from above, as before): the stage ended on the
-plateau and Fy 19.7 % off the truth. With the exact
+running off to 1e22, every column of J_e near zero); a bound of x_e's cost only from above
+would stop a start far below such a plateau as having reached it, and end the stage there
+(tests/test_fit_mf_jacobian.py::test_a_start_far_below_an_earlier_end_point_has_not_reached_it).
+With the exact
 Jacobian, the same test against every iterate x_t of the earlier starts' paths, in the metric
 of the Jacobian J at x (||J (x - x_t)||^2 <= MERGE_CHI2 s^2, |cost - cost_t| <= 0.5 MERGE_CHI2
 s^2): a start within a standard error of where another one passed, at the same cost, goes where
-that one went (on the sample's Fy0 a start joined the first one's path in a curved valley 26
-iterations before its end; one-off, 2026-11-24)."""
+that one went, so a start that joins an earlier one's path in a curved valley stops there
+instead of walking the rest of the valley again."""
 
 
 def start_points(problem: FitProblem, n_lhs: int, seed: int) -> np.ndarray:
@@ -254,9 +252,9 @@ def _same_optimum(end: engine.Estimate, obj: float, x: np.ndarray, x_obj: float,
     metric of its solver's Jacobian (||J (x - x_e)||^2 <= MERGE_CHI2 s^2, as a start's merge:
     a start stopped along a flat valley has its end's objective only to the solver's noise
     stop). The objective without identify.fit.optimize.BEST_ATOL: the search's objectives are
-    0.5 r^T r of weighted residuals, O(1e-5) on a TTC session, where 1e-8 took two basins 0.07
-    apart in chi^2 (the Fy stage of seed 2, RBY1 = 7.6 and 11.4: 3e5 apart in that metric)
-    for one."""
+    0.5 r^T r of weighted residuals, which can be far below it on large sessions, where an
+    absolute tolerance would take distinct basins for one (tests/test_fit_mf_basins.py keeps
+    two minima whose objectives differ by far less than BEST_ATOL)."""
     if abs(x_obj - obj) <= BEST_RTOL * abs(obj):
         return True
     scale = np.maximum(np.abs(end.x), 1e-3)

@@ -53,7 +53,11 @@ class StageDef:
                            that do not roll freely, when
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
-                           a slip-ratio sweep at zero slip angle pins it) or ``"all"``
+                           a slip-ratio sweep at zero slip angle pins it),
+                           ``"rolling_runs"`` (every point of the runs that roll freely --
+                           cornering and camber runs: no kappa sweep, no held slip ratio --
+                           and every point of the table when it has no such run: the Mx
+                           stage, see the note there) or ``"all"``
     coefficients : tuple of str   the stage's own coefficients, priority order
     """
 
@@ -91,7 +95,13 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
     StageDef("Fy", "Fy", "N", "kappa_slip", _names(
         "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
     StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
-    StageDef("Mx", "Mx", "N m", "all", _names(
+    # Mx on the runs that roll freely: its MF equation reads Fz, gamma and Fy, no Fx. On a
+    # real drive/brake run the measured Mx follows Fx at zero slip angle and camber, and the
+    # run carries a zero of its own (its Mx at zero forces is not the cornering run's); fitted
+    # on every point, the stage spends its coefficients on a coupling and an offset it cannot
+    # represent and misses the cornering and camber runs' Mx, which it can. A session of
+    # drive/brake runs only is fitted on all of them.
+    StageDef("Mx", "Mx", "N m", "rolling_runs", _names(
         "QSX1 QSX2 QSX3 QSX12 QSX13 QSX14 PPMX1 QSX4 QSX5 QSX6 QSX7 QSX8 QSX9 QSX10 QSX11")),
     StageDef("My", "My", "N m", "all", _names("QSY1 QSY2 QSY3 QSY4 QSY5 QSY6 QSY7 QSY8")),
 )}
@@ -101,8 +111,8 @@ EVEN_START = {"Q_FCY": 0.1}
 The load law's side-force term -(Q_FCY Fy/Fz0)^2 has no gradient in Q_FCY at 0: the screen
 would hold it there ("no effect") and a solver could not move it, and the stiffness, PFZ1 and
 Q_FZ2 would absorb its effect (the golden test tyre's Q_FCY = 0.2 lowers the load at a
-deflection by 4 % at Fy = Fz0; fitted without it, VERTICAL_STIFFNESS came out 6 % low and
-Q_FZ2 at its floor, truth 15). At 0.1 it reduces the load by 1 % at Fy = Fz0; the fit takes
+deflection by 4 % at Fy = Fz0, an effect the load law's other terms can only distort
+themselves to mimic). At 0.1 it reduces the load by 1 % at Fy = Fz0; the fit takes
 it from there, down to ~0 for a tyre without the term, where identify.fit.mf_even holds it at
 0 (its square not significant). The sign is immaterial (the fitted value is reported as
 |Q_FCY|). Q_FCX, the same for the
@@ -144,15 +154,14 @@ three loads Kx/Fz = (PKX1 + PKX2 dfz) exp(PKX3 dfz) takes its three values on tw
 ``kappa_sign``/``alpha_sign`` slip of both signs (RBY3, a shift of the slip angle in By_kappa =
 (RBY1 + RBY4 gamma^2) cos(atan(RBY2 (alpha - RBY3))), needs combined slip at slip angles of both
 signs: at one sign, as on a TTC drive/brake run's 0, -3, -6 deg, it trades with RBY2 along a
-ridge that only camber bends; the generated sessions of the bundled tyre (RBY3 = 0) put it at
--0.015 +- 0.019 rad over 60 seeds, and a written RBY3 of -0.04 makes By_kappa 28 % smaller at +6
-deg than at -6 deg on the side no point measured). Geometry: R0 Q_RE0 - Re is (Fz0/Cz') (DREFF
-atan(BREFF x) + FREFF x) at the data's loads x = Fz/Fz0, so at one pressure n load levels
-determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF (in that order); with three loads BREFF is
-separable from Q_RE0 only through the pressure scaling of that term by the held Cz' =
-VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more pressures with PFZ1 != 0 (the sensitivity
-screen holds it otherwise, and the value then rests on the CFz relation's PFZ1); Q_V1 needs free
-rolling at two speeds (omega^2 term)."""
+ridge that only camber bends, so a fitted RBY3 is an extrapolation: a written RBY3 of -0.04
+makes By_kappa 28 % smaller at +6 deg than at -6 deg on the side no point measured).
+Geometry: R0 Q_RE0 - Re is (Fz0/Cz') (DREFF atan(BREFF x) + FREFF x) at the data's loads
+x = Fz/Fz0, so at one pressure n load levels determine Q_RE0 and n - 1 of DREFF, FREFF, BREFF
+(in that order); with three loads BREFF is separable from Q_RE0 only through the pressure
+scaling of that term by the held Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more
+pressures with PFZ1 != 0 (the sensitivity screen holds it otherwise, and the value then rests
+on the CFz relation's PFZ1); Q_V1 needs free rolling at two speeds (omega^2 term)."""
 TERM_VARIABLES = {"camber": "gamma", "load": "dfz", "load2": "dfz", "load3": "dfz",
                   "pressure": "dpi", "pressure2": "dpi"}
 """The variable of a need that the coefficient's term multiplies: |gamma| [rad], |dfz| [-],
@@ -268,8 +277,8 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
         Fy0 exactly.
     pure_slip : bool
         Fy0 under JAX: the caller knows every point is at kappa == 0, where the prediction is
-        Fy0 alone; the combined-slip expression is not traced (its forward-mode Jacobian was
-        a fifth of a 2048-point chunk's: 0.52 -> 0.43 ms, one-off, 2026-11-24).
+        Fy0 alone; the combined-slip expression is not traced, and its forward-mode derivatives
+        are not paid for.
     """
     if stage == "geometry":
         return vertical._effective_radius(P, s, inputs["omega"], xp)

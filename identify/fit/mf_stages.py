@@ -63,12 +63,14 @@ from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.fit import mf_data
+from identify.fit.bounds import MAX_WIDENINGS, arbitrary_hits, near_bound, widen
 from identify.fit.engine import MF_SOLVE, residual_jacobian, residual_variance
 from identify.fit.limits import table_limits, union_limits
 from identify.fit.mcmc import run_mcmc
 from identify.fit.mcmc_reparam import kya_ridge
 from identify.fit.mf_result import MFFit
 from identify.fit.mf_signs import canonical_signs
+from identify.fit.mf_starts import data_starts
 from identify.fit.mf_search import (
     CHI2_GAP,
     MAX_NFEV,
@@ -98,8 +100,9 @@ from identify.fit.mf_score import score_added
 from identify.fit.optimize import Solved, fit
 from identify.fit.problem import FitProblem
 from identify.fit.result import FitResult
+from identify.fit.status import noise_floor
 from identify.model.modes import FIT_MODE
-from identify.model.parameters import defaults
+from identify.model.parameters import bounds, defaults, spec
 
 __all__ = ["MFFit", "StageProblem", "fit_mf", "stage_problem", "stage_mcmc", "start_points",
            "DEFAULT_STAGES", "N_LHS", "MAX_NFEV"]
@@ -511,12 +514,110 @@ def _pass_again(stage: str, trailer: pd.DataFrame, params: Mapping[str, float],
         again.nfev + 2
 
 
+def _widened(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+              params: Mapping[str, float], label: str, progress: Progress | None,
+              starts: Mapping[str, float]) -> tuple[FitResult, StageProblem, int]:
+    """``result`` with no free coefficient at an arbitrary bound (identify.fit.bounds): each
+    arbitrary end the optimum reaches is widened and the stage solved again from there, at
+    most MAX_WIDENINGS times; a coefficient still at an arbitrary end then is held at its
+    start value ``starts[name]``, the fit's start before any stage (the data do not bound it:
+    its value would be the range's,
+    not the data's) and the others solved again. Returns the result, its problem and the
+    model evaluations spent. A solve with widened bounds that does not converge within
+    MAX_NFEV (coefficients running off along a flat valley: a TTC session's PPY5 to -37,
+    PKY4 to 70) is not taken: the coefficients it widened are held instead."""
+    spent = 0
+    for _ in range(MAX_WIDENINGS):
+        hits = arbitrary_hits(result.free, result.parameters, result.bounds)
+        if not hits or not result.converged:
+            return result, sp, spent
+        wide = dict(sp.wide)
+        wide.update({n: widen(*result.bounds[n], side) for n, side in hits.items()})
+        _say(progress, f"{label}: at an arbitrary bound: "
+                       f"{', '.join(f'{n} ({side})' for n, side in hits.items())}; "
+                       "bounds widened, solved again")
+        values = {**params, **{n: float(result.parameters[n]) for n in result.free}}
+        again = stage_problem(stage, trailer, values, free={stage: list(result.free)}, hold={},
+                              like=sp, wide=wide)
+        again = dataclasses.replace(again, held=dict(sp.held))
+        solved = fit(again.problem, starts=again.problem.x0()[None, :], max_nfev=MAX_NFEV,
+                     tol=MF_SOLVE)
+        spent += solved.nfev
+        if not solved.converged:  # runs off within its budget: not bounded by the data
+            _say(progress, f"{label}: the solve with widened bounds stopped at its budget")
+            return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress,
+                                   spent, starts)
+        moved = ", ".join(f"{n} to [{wide[n][0]:.4g}, {wide[n][1]:.4g}]" for n in hits)
+        result = dataclasses.replace(
+            solved, n_starts=result.n_starts, starts_at_best=result.starts_at_best,
+            rivals=result.rivals,
+            message=f"{solved.message} (arbitrary bounds widened: {moved})")
+        sp = again
+    hits = arbitrary_hits(result.free, result.parameters, result.bounds)
+    if hits and result.converged:
+        return _hold_unbounded(result, sp, stage, trailer, params, hits, label, progress, spent,
+                               starts)
+    return result, sp, spent
+
+
+def _hold_unbounded(result: FitResult, sp: StageProblem, stage: str, trailer: pd.DataFrame,
+                    params: Mapping[str, float], hits: Mapping[str, str], label: str,
+                    progress: Progress | None, spent: int, starts: Mapping[str, float]
+                    ) -> tuple[FitResult, StageProblem, int]:
+    """The stage solved again with the coefficients ``hits`` (name -> the side of the
+    arbitrary bound they ran to after every widening) held at their values in ``starts``
+    (the fit's start before any stage: a later pass starts from the pass before, which may
+    have left them next to the bound), or the parameter table's default where that is at
+    the table's bound."""
+    why = {n: f"runs to its arbitrary {side} bound {result.bounds[n][side == 'upper']:.4g} "
+              "and beyond when widened: the data do not bound it; held at its start value"
+              for n, side in hits.items()}
+    _say(progress, f"{label}: {', '.join(hits)} not bounded by the data: held at the start")
+    free = [n for n in result.free if n not in hits]
+    values = {**params, **{n: float(result.parameters[n]) for n in free}}
+    for n in hits:  # the fit's start, not what an earlier pass left next to the bound
+        values[n] = float(starts.get(n, values[n]))
+        if near_bound(values[n], *bounds(n, values[n])):
+            values[n] = float(spec(n).default)
+    again = stage_problem(stage, trailer, values, free={stage: list(result.free)},
+                          hold={**{n: w for n, w in sp.held.items()}, **why}, like=sp)
+    again = dataclasses.replace(again, held={**sp.held, **why})
+    if not again.problem.free:
+        return result, sp, spent
+    solved = fit(again.problem, starts=again.problem.x0()[None, :], max_nfev=MAX_NFEV,
+                 tol=MF_SOLVE)
+    return dataclasses.replace(solved, n_starts=result.n_starts,
+                               starts_at_best=result.starts_at_best,
+                               held={**result.held, **why},
+                               message=f"{solved.message} (held, not bounded by the data: "
+                                       f"{', '.join(hits)})"), again, spent + solved.nfev
+
+
 def _stage_points(trailer: pd.DataFrame, sp: StageProblem, stage: str) -> pd.DataFrame:
     """The operating points of a stage (MFFit.points): its rows of ``trailer``, as its problem
     already took them (StageProblem.points)."""
     rows = sp.points.pts if sp.points is not None else trailer.iloc[sp.rows]
     return rows[["Fz", "kappa", "alpha", "gamma", "Vx", "p"]
                 + (["omega"] if STAGES[stage].quantity in mf_data.DERIVED else [])]
+
+
+SPEED_STAGES = ("My", "vertical", "geometry")
+"""The stages whose equations read the speed (QSY3, QSY4; Q_V1, Q_V2): for the others, sweeps
+at other speeds repeat the same conditions (identify.fit.status.noise_floor)."""
+
+
+def _with_floor(result: FitResult, sp: StageProblem, trailer: pd.DataFrame,
+                fnomin: float) -> FitResult:
+    """``result`` with the noise floor of its points (identify.fit.status.noise_floor): the
+    scatter of repeated sweeps (at every speed but in SPEED_STAGES) and of neighbouring
+    samples along each sweep."""
+    col = (sp.points.col if sp.points is not None else
+           {c: trailer.iloc[sp.rows][c].to_numpy(float)
+            for c in ("Fz", "kappa", "alpha", "gamma", "Vx")})
+    floor = noise_floor(result.measured, result.predicted, result.pressure_bar,
+                        sp.problem.sweeps, conditions=col, fnomin=fnomin,
+                        by_speed=result.form in SPEED_STAGES)
+    return dataclasses.replace(result, noise_floor_pct=floor.pct, floor_source=floor.source)
 
 
 def _untaken(stage: str, free, taken: Mapping[str, str]) -> tuple[object, dict[str, str]]:
@@ -550,6 +651,13 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
     params = {k: float(v) for k, v in defaults().items() if not isinstance(v, str)}
     params.update({k: float(v) for k, v in base.items() if not isinstance(v, str)})
     params["FITTYP"] = float(fittyp)
+    # the force stages' starts where the defaults miss the measured tyre (an FSAE slick)
+    scaled = data_starts(trailer, params)
+    for name, value in scaled.items():
+        _say(progress, f"MF start: {name} = {value:.4g} from the data (was "
+                       f"{params[name]:.4g})")
+    params.update(scaled)
+    starts = dict(params)  # what a coefficient the data do not bound is held at
     # the validity grid: where the .tir claims validity
     params.update(union_limits(table_limits(trailer), reach))
     spent: dict[str, tuple[float, int]] = {}  # seconds and evaluations of earlier passes
@@ -595,6 +703,12 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                 result = with_rivals(result, sp, branch + list(others), label, progress,
                                      solved)
                 new_nfev = result.nfev
+            result, sp, wider_nfev = _widened(result, sp, stage, trailer, params, label,
+                                              progress, starts)
+            new_nfev += wider_nfev
+            # what it held as unbounded by the data, at the value it held it at
+            params.update({n: float(result.parameters[n]) for n in result.held
+                           if n in result.parameters})
             result = canonical_signs(result, params)
             result = canonical_even(result)
             if screen:  # what rests on coefficients held since the re-fit with them failed
@@ -618,11 +732,12 @@ def _fit_mf(trailer, base, *, stages, seed, fittyp, free, n_lhs, screen, passes,
                            f"{result.n_points} points, {len(result.free)} free, "
                            f"{result.nfev} evaluations, "
                            f"{'converged' if result.converged else 'NOT converged'}")
-    results = [final_predictions(r, sp.problem, sp.state, params, sp.omega)
+    results = [_with_floor(final_predictions(r, sp.problem, sp.state, params, sp.omega), sp,
+                           trailer, float(params["FNOMIN"]))
                for r, sp in zip(results, problems)]
     settings = {"seed": seed, "fittyp": fittyp, "use_mode": FIT_MODE, "n_lhs": n_lhs,
                 "max_nfev": MAX_NFEV, "passes": passes, "stages": list(stages),
-                "screen": screen, "objective": "wls"}
+                "screen": screen, "objective": "wls", "data_starts": scaled}
     return MFFit(params=params, results=tuple(results), held=held, skipped=skipped,
                  settings=settings, points=points, seconds=time.perf_counter() - t0)
 

@@ -41,8 +41,7 @@ STAGED = "staged-sweep-jackknife"
 BATCH_ELEMENTS = 1 << 16
 """Elements (perturbed parameter sets x points) of one vectorised evaluation of the central
 differences in :func:`_upstream_jacobian`: 512 kB per intermediate array, within a core's
-cache (1 << 19 was slower than one set at a time on the Mz stage of the sample; one-off,
-2026-11-24)."""
+cache: a batch whose intermediates leave the cache can be slower than one set at a time."""
 
 
 def _upstream_jacobian(sp: StageProblem, x: np.ndarray, params: Mapping[str, float],
@@ -98,10 +97,10 @@ def _central_differences(sp: StageProblem, values: Mapping[str, float],
 UNDETERMINED_RCOND = 1e-10
 """A direction of a stage's coefficients is undetermined by its data when its squared singular
 value of the column-scaled Jacobian is below this fraction of the largest (a standard error
-along it 1e5 times the best-determined direction's, see :func:`_determined`). On a generated
-TTC session (seed 9 of bench/ttc_truth.py, 2026-11-24) the smallest of the other stages lie at
-7e-7 (Fy0) to 1e-2 (Mz) of the largest, Fx0's at 1e-14, that of rounding: its fit ends with
-PKX2 at 0 (so in seeds 1, 4, 7, 8 and 9), where the PKX2 and PKX3 columns are proportional,
+along it 1e5 times the best-determined direction's, see :func:`_determined`). The stages'
+data determine their directions far above this; a direction below it is one of rounding, as
+Fx0's when its fit ends with PKX2 at 0 (as on some generated TTC sessions of
+bench/ttc_truth.py), where the PKX2 and PKX3 columns are proportional,
 d Kx / d PKX3 = PKX1 x d Kx / d PKX2."""
 
 
@@ -114,12 +113,11 @@ def _determined(jac: np.ndarray, steps: np.ndarray) -> np.ndarray:
     score by a singular value at the rounding level; it is no estimate of how the coefficient
     varies, and the stage's own covariance says so (no finite standard error, or a pair
     correlated above 0.99: identify.fit.identifiability). Carried downstream through the
-    stage's effect on the later stages' points, such steps swamped their jackknife: on a
-    generated TTC session (seed 9, Fx0 ending at PKX2 = -5e-5) Fx0's largest step in
-    column-scaled coefficients was 549 (Fy0's 0.06; Mz0's, which took Fx0's in, 1.5), and
-    23 of Mz0's 29 coefficients came out not identifiable (4 of 29 at PKX2 = 4e-4, where the
-    step was smaller). The later stages' intervals are then conditional on the value the fit left
-    along the undetermined direction, as they are on a held coefficient's."""
+    stage's effect on the later stages' points, such steps would swamp their jackknife
+    (an Fx0 fit ending at PKX2 ~ 0 would leave most of Mz0's coefficients, which take Fx0's
+    in, not identifiable). Without them, the later stages' intervals are conditional on the
+    value the fit left along the undetermined direction, as they are on a held
+    coefficient's."""
     Js, scale = engine.column_scaled(jac)
     _, sv, Vt = tall_svd(Js, full_matrices=False)  # the thin SVD without forming U
     null = Vt[sv ** 2 < UNDETERMINED_RCOND * sv[0] ** 2] if sv.size else Vt[:0]

@@ -127,14 +127,13 @@ class FitProblem:
         it, the RMS of the residuals of the point's sweep at the optimum, shrunk towards the
         pooled RMS by :data:`PRIOR_POINTS` -- a sensor's additive noise, which a sweep of
         small forces shares with a sweep of large ones (an Fy0 sweep at zero slip angle, Fy
-        ~200 N, carries the same 40 N as a +-12 deg sweep of Fy ~3 kN: with ``"sweep"`` its
-        noise counted 14 times larger than the others', sigma came out 6 % instead of
-        0.8 %, and the sample's Fy0 chain did not converge in 20,905 steps: ``mfid fit
-        --mcmc`` on the bundled sample at commit 7945cea, README "MCMC").
+        ~200 N, carries the same noise as a +-12 deg sweep of Fy ~3 kN: ``"sweep"`` would count
+        its noise over ten times larger than the others', so the likelihood would misstate
+        sigma and the chain would sample a posterior the data do not support).
         A homoscedastic likelihood on data whose noise grows with the value makes the
-        credible intervals of the coefficients set by the largest values too narrow (the
-        calibration trials measured 80-84 % coverage of 90 % intervals for rolling resistance
-        and camber thrust with ``"weights"``).
+        credible intervals of the coefficients set by the largest values too narrow
+        (tests/test_fit_calibration.py checks the coverage of 90 % intervals under relative
+        noise).
     """
 
     relation: str
@@ -170,8 +169,8 @@ class FitProblem:
         object.__setattr__(self, "_group_den", np.bincount(index, self.measured ** 2,
                                                            minlength=levels.size))
         # the objective's weights, once: every residual evaluation multiplies by them (a
-        # pressure measured as all 0 gets an infinite weight, as before, without a warning
-        # for problems whose weights are never used)
+        # pressure measured as all 0 gets an infinite weight, without a warning for problems
+        # whose weights are never used)
         with np.errstate(divide="ignore"):
             weights = np.array(1.0 / np.asarray(self.sigma, dtype=float)
                                if self.sigma is not None

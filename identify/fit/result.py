@@ -15,11 +15,34 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import pandas as pd
+from lmfit import Parameters
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
 
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
 from identify.fit.covariance import t_quantile
+from identify.fit.status import FAILED
+
+
+#: Axis labels of the measured_vs_model.csv columns a result's points vary along.
+_X_LABELS = {"alpha_rad": "slip angle [deg]", "kappa": "slip ratio [-]", "Fz_N": "load [N]",
+             "gamma_deg": "camber [deg]", "pi_bar": "pressure [bar]"}
+
+
+def _swept_column(rows: pd.DataFrame) -> str:
+    """The column the points of a result are swept along: of slip angle, slip ratio, load,
+    camber and pressure, the one with the most distinct values."""
+    counts = {c: rows[c].round(6).nunique() for c in _X_LABELS
+              if c in rows and rows[c].notna().any()}
+    return max(counts, key=counts.get) if counts else "pi_bar"
+
+
+def _lmfit_name(name: str) -> str:
+    """A coefficient's name as lmfit accepts it (a Python identifier)."""
+    return name if name.isidentifier() else "".join(c if c.isalnum() else "_" for c in name)
 
 
 def _float(x: Any, missing: float = math.nan) -> float:
@@ -213,6 +236,14 @@ class FitResult:
                                             when the optimum is the least-squares one: how
                                             much the conditions cost (identify.fit.
                                             identifiability.problems)
+    noise_floor_pct : float                 the error the measurements' own scatter allows
+                                            [%] (identify.fit.status.noise_floor); NaN
+                                            where the points hold no estimate (a table)
+    floor_source : str                      where the floor comes from
+    fit_status : str                        the fit's status (identify.fit.status:
+                                            ok, poorly identified, poor fit, failed),
+                                            weighing its error against the floor and its
+                                            identifiability; "" before it is assessed
     """
 
     relation: str
@@ -251,6 +282,100 @@ class FitResult:
     conditional: Mapping[str, str] = field(default_factory=dict)
     profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     unconstrained_wls: float = math.nan
+    noise_floor_pct: float = math.nan
+    floor_source: str = ""
+    fit_status: str = field(default="", compare=False)  # derived by assess()
+    points: Any = field(default=None, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        state = self.status_text
+        return (f"<FitResult {self.name}: {state}, error {self.error_total_pct:.3g} %, "
+                f"{len(self.free)} free of {len(self.parameters)}, {self.n_points} points>")
+
+    @property
+    def params(self) -> Parameters:
+        """The coefficients as ``lmfit.Parameters``: value, ``vary`` (free or held), bounds,
+        ``stderr`` and ``correl`` (the correlations of the estimates) in one object."""
+        out = Parameters()
+        for name, value in self.parameters.items():
+            free = name in self.free
+            low, high = self.bounds.get(name, (-math.inf, math.inf)) if free else \
+                (-math.inf, math.inf)
+            value = float(value)
+            # lmfit clips a value outside its bounds; a held value keeps open bounds
+            out.add(_lmfit_name(name), value=value, vary=free,
+                    min=min(low, value), max=max(high, value))
+            par = out[_lmfit_name(name)]
+            par.stderr = float(self.stderr[name]) if free and name in self.stderr else None
+            par.correl = {} if free else None
+        for pair, rho in self.correlations.items():
+            a, _, b = pair.partition("|")
+            for x, y in ((a, b), (b, a)):
+                if _lmfit_name(x) in out and out[_lmfit_name(x)].correl is not None:
+                    out[_lmfit_name(x)].correl[_lmfit_name(y)] = float(rho)
+        return out
+
+    def table(self) -> pd.DataFrame:
+        """The free coefficients, one row each: value, standard error, 95 % interval, bounds,
+        whether at a bound or not identifiable on its own."""
+        rows = []
+        for name in self.free:
+            low, high = self.interval(name)
+            bound = self.bounds.get(name, (-math.inf, math.inf))
+            rows.append({"result": self.name, "name": name,
+                         "value": float(self.parameters[name]),
+                         "stderr": float(self.stderr.get(name, math.nan)),
+                         "ci95_low": low, "ci95_high": high, "lower_bound": bound[0],
+                         "upper_bound": bound[1], "at_bound": name in self.at_bound,
+                         "unidentified": self.unidentified.get(name, "")})
+        return pd.DataFrame(rows, columns=["result", "name", "value", "stderr", "ci95_low",
+                                           "ci95_high", "lower_bound", "upper_bound",
+                                           "at_bound", "unidentified"])
+
+    def _repr_html_(self) -> str:
+        head = (f"<p><b>{self.name}</b>: {self.status_text}, total error "
+                f"{self.error_total_pct:.3g} %, {self.n_points} points, standard errors "
+                f"{self.covariance}</p>")
+        return head + self.table().drop(columns="result").to_html(index=False,
+                                                                  float_format="{:.4g}".format)
+
+    def plot(self, ax: Axes | None = None) -> Figure:
+        """Measured points (markers) and the model at them (dots) against the swept variable,
+        one colour per pressure, from the arrays in memory; the residuals below. Returns the
+        figure (a new one unless ``ax`` is given)."""
+        rows = self.points
+        if rows is None or not len(rows):
+            raise ValueError(f"{self.name}: no per-point data in memory (a run from "
+                             "mfid.fit or FitRun.load has them)")
+        x_col = _swept_column(rows)
+        x = rows[x_col].to_numpy(float) * (180 / math.pi if x_col == "alpha_rad" else 1.0)
+        if ax is None:
+            fig = Figure(figsize=(8, 6), layout="constrained")
+            ax, res = fig.subplots(2, 1, sharex=True, height_ratios=(3, 1))
+        else:
+            fig, res = ax.figure, None
+        measured, model = rows["measured"].to_numpy(float), rows["model"].to_numpy(float)
+        pressures = rows["pi_bar"].to_numpy(float)
+        for k, level in enumerate(np.unique(np.round(pressures, 2))):
+            sel = np.round(pressures, 2) == level
+            colour = f"C{k % 10}"
+            ax.plot(x[sel], measured[sel], "o", mfc="none", color=colour, ms=4,
+                    label=f"{level:g} bar measured")
+            ax.plot(x[sel], model[sel], ".", color=colour, ms=3, label=f"{level:g} bar model")
+            if res is not None:
+                res.plot(x[sel], measured[sel] - model[sel], ".", color=colour, ms=3)
+        quantity = str(rows["quantity"].iloc[0]) if "quantity" in rows else "value"
+        unit = str(rows["unit"].iloc[0]) if "unit" in rows else ""
+        ax.set_ylabel(f"{quantity} [{unit}]" if unit else quantity)
+        ax.set_title(f"{self.name}: total error {self.error_total_pct:.3g} % "
+                     f"({self.status_text})")
+        ax.legend(fontsize="small", ncols=2)
+        label = _X_LABELS.get(x_col, x_col)
+        (res if res is not None else ax).set_xlabel(label)
+        if res is not None:
+            res.axhline(0.0, color="0.5", lw=0.8)
+            res.set_ylabel("measured - model")
+        return fig
 
     def quantile(self, name: str, level: float = 0.95) -> float:
         """Standard errors from the value to the end of the two-sided ``level`` interval of
@@ -285,8 +410,11 @@ class FitResult:
 
     @property
     def status_text(self) -> str:
-        """"failed" (did not converge), "poorly identified" or "ok"."""
-        return self.identification if self.converged else "failed"
+        """The fit's status (identify.fit.status.STATUSES): :attr:`fit_status` once assessed,
+        else "failed" (did not converge), "poorly identified" or "ok"."""
+        if not self.converged:
+            return FAILED
+        return self.fit_status or self.identification
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict in the fit.json schema."""
@@ -314,6 +442,8 @@ class FitResult:
             "conditional": dict(self.conditional),
             "profile": {k: [_num(a), _num(b)] for k, (a, b) in self.profile.items()},
             "unconstrained_wls": _num(self.unconstrained_wls),
+            "noise_floor_pct": _num(self.noise_floor_pct), "floor_source": self.floor_source,
+            "fit_status": self.status_text,
             "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
         })
 
@@ -331,7 +461,8 @@ class FitResult:
         TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
         errors, as intervals were before it was recorded); a null one is infinite.
         ``rivals``, ``conditional`` and ``profile`` default to empty,
-        ``unconstrained_wls`` to NaN.
+        ``unconstrained_wls`` to NaN, ``noise_floor_pct`` to NaN and ``fit_status`` to ""
+        (the status then follows the identification, as before it was recorded).
         """
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
         fixed = _floats(d.get("fixed"))
@@ -368,7 +499,10 @@ class FitResult:
                                 for k, v in (d.get("conditional") or {}).items()},
                    profile={str(k): (_float(b[0]), _float(b[1]))
                             for k, b in (d.get("profile") or {}).items()},
-                   unconstrained_wls=_float(d.get("unconstrained_wls")))
+                   unconstrained_wls=_float(d.get("unconstrained_wls")),
+                   noise_floor_pct=_float(d.get("noise_floor_pct")),
+                   floor_source=str(d.get("floor_source") or ""),
+                   fit_status=str(d.get("fit_status") or ""))
 
     @property
     def fitted(self) -> dict[str, float]:
@@ -388,8 +522,11 @@ class FitResult:
 
     def report(self) -> str:
         """Plain-text summary (parameters, errors, search statistics)."""
+        floor = (f" (noise floor {self.noise_floor_pct:.3g} %)"
+                 if math.isfinite(self.noise_floor_pct) else "")
         lines = [f"{self.relation} [{self.form}], objective {self.objective}: "
-                 f"total thesis error {self.error_total_pct:.3f} %"
+                 f"total thesis error {self.error_total_pct:.3f} %{floor}, "
+                 f"status {self.status_text}"
                  f" ({'converged' if self.converged else 'NOT converged: ' + self.message})",
                  f"  global search: {self.starts_at_best}/{self.n_starts} starts at the best value",
                  f"  standard errors: {self.covariance}"
@@ -405,5 +542,5 @@ class FitResult:
         if self.active_constraints:
             lines.append("  active constraints: " + ", ".join(self.active_constraints))
         for why in self.reasons:
-            lines.append(f"  {self.identification}: {why}")
+            lines.append(f"  {self.status_text}: {why}")
         return "\n".join(lines)

@@ -18,6 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import pandas as pd
+
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
@@ -26,6 +28,7 @@ from identify.fit.coverage import StageCoverage
 from identify.fit.forms import FormChoice
 from identify.fit.mcmc import BUDGET_S, MAX_STEPS
 from identify.fit.result import FitResult
+from identify.fit.status import FAILED
 from identify.fit.sources import KINDS, KeySource
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
@@ -78,12 +81,16 @@ class FitSettings:
                            the forces do not follow); off, the raw samples go to the bins,
                            which average the ripple over the passes through each bin without
                            bending a curve that changes within a revolution (docs/intervals.md,
-                           "A published tyre as the truth")
+                           "What the averaging does to the tightest intervals")
     mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
-                           PASS_GAIN; numbers in README ("fit") and docs/intervals.md
+                           PASS_GAIN (docs/commands.md, "mfid fit")
+    pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
+                           again without it (identify.fit.pressure_holdout; the report's
+                           pressure page); off by default: a refit per level can cost as
+                           much as the MF fit itself
     """
 
     seed: int = 0
@@ -102,6 +109,7 @@ class FitSettings:
     segment: bool = True
     revolution_average: bool = True
     mf_passes: int = 2
+    pressure_holdout: bool = False
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
@@ -124,7 +132,8 @@ class FitSettings:
 
 RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
                                      "mcmc_reparam": False, "mcmc_budget_s": None,
-                                     "bin_alpha_deg": None, "bin_kappa": None}
+                                     "bin_alpha_deg": None, "bin_kappa": None,
+                                     "pressure_holdout": False}
 """Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
 pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
 budget before 9b39edb, every trailer sample fitted, no binning, before 631434a)."""
@@ -207,9 +216,11 @@ class Provenance:
 
 
 def failures(results: Sequence[FitResult]) -> tuple[str, ...]:
-    """``relation[form]: message`` of every fit that did not converge (fit.json's
-    ``failed``)."""
-    return tuple(f"{r.relation}[{r.form}]: {r.message}" for r in results if not r.converged)
+    """``relation[form]: why`` of every fit whose status is failed (identify.fit.status: it
+    did not converge, or the model misses the data grossly): fit.json's ``failed``."""
+    return tuple(f"{r.relation}[{r.form}]: "
+                 + (r.message if not r.converged else (r.reasons[0] if r.reasons else FAILED))
+                 for r in results if r.status_text == FAILED)
 
 
 @dataclass(frozen=True)
@@ -240,6 +251,10 @@ class FitRun:
                                       each with its count), the trailer runs segmented, their
                                       segmentation and the channels the fit could not use
                                       (``trailer``); empty when there is nothing to say
+    pressure_holdout : Mapping        each pressure level of the MF fit predicted by the stages
+                                      fitted again without it (identify.fit.
+                                      pressure_holdout.PressureHoldout.to_dict); empty when not
+                                      computed
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
@@ -256,8 +271,37 @@ class FitRun:
     form_choices: tuple[FormChoice, ...] = ()
     coverage: tuple[StageCoverage, ...] = ()
     data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    pressure_holdout: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
+    points: Any = field(default=None, repr=False, compare=False)
+    extraction: Mapping[str, Any] | None = field(default=None, repr=False, compare=False)
+
+    def __repr__(self) -> str:
+        where = f", {self.fit_dir}" if self.fit_dir is not None else ", in memory"
+        worst = ", ".join(self.failed[:2]) if self.failed else ""
+        return (f"<FitRun {self.tyre.id}: {len(self.results)} fits, "
+                f"{len(self.poorly_identified)} poorly identified, {len(self.failed)} failed"
+                f"{' (' + worst + ')' if worst else ''}{where}>")
+
+    def table(self) -> pd.DataFrame:
+        """Every free coefficient of every fit, one row each (:meth:`FitResult.table`), with
+        each fit's status and total error."""
+        frames = [r.table().assign(status=r.status_text, error_total_pct=r.error_total_pct)
+                  for r in self.results]
+        return pd.concat(frames, ignore_index=True) if frames else pd.DataFrame()
+
+    def _repr_html_(self) -> str:
+        rows = "".join(f"<tr><td>{r.name}</td><td>{r.status_text}</td>"
+                       f"<td>{r.error_total_pct:.3g}</td><td>{r.n_points}</td>"
+                       f"<td>{len(r.free)}</td></tr>" for r in self.results)
+        return (f"<p><b>{self.tyre.id}</b>: {len(self.results)} fits</p><table><tr>"
+                "<th>fit</th><th>status</th><th>total error [%]</th><th>points</th>"
+                f"<th>free</th></tr>{rows}</table>")
+
+    def plot(self, name: str, ax=None):
+        """The measured and model points of one fit (:meth:`FitResult.plot`)."""
+        return self.result(name).plot(ax)
 
     # ----- paths -----------------------------------------------------------------------------
     @property
@@ -280,7 +324,8 @@ class FitRun:
 
     @property
     def poorly_identified(self) -> tuple[str, ...]:
-        """``relation/form`` of every converged fit whose status is "poorly identified"."""
+        """``relation/form`` of every converged fit whose coefficients are not all identified
+        (identification "poorly identified", whatever its status)."""
         return tuple(r.name for r in self.results
                      if r.converged and r.identification != "ok")
 
@@ -373,7 +418,8 @@ class FitRun:
                     "forms": [c.to_dict() for c in self.form_choices]},
             "flags": [dict(f) for f in self.flags], "failed": list(self.failed),
             "coverage": [c.to_dict() for c in self.coverage],
-            "data_quality": dict(self.data_quality)})
+            "data_quality": dict(self.data_quality),
+            "pressure_holdout": dict(self.pressure_holdout)})
 
     @classmethod
     def from_dict(cls, doc: Any) -> FitRun:
@@ -416,10 +462,12 @@ class FitRun:
             coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
         with _entry("data_quality"):
             quality = dict(doc.get("data_quality") or {})
+        with _entry("pressure_holdout"):
+            holdout = dict(doc.get("pressure_holdout") or {})
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
                    failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
-                   coverage=coverage, data_quality=quality)
+                   coverage=coverage, data_quality=quality, pressure_holdout=holdout)
 
 
 class _entry:

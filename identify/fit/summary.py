@@ -16,6 +16,7 @@ from typing import Any
 from identify.fit.forms import FormChoice
 from identify.fit.result import FitResult
 from identify.fit.sources import KeySource
+from identify.fit.status import FAILED, OK
 
 __all__ = [
     "SUMMARY_TITLE",
@@ -50,10 +51,13 @@ def fmt(x: Any, digits: int = 4) -> str:
 
 
 def fmt_pct(x: Any) -> str:
-    """A percentage: 3 decimals below 100, 1 above; "n/a" when not finite."""
+    """A percentage: 3 decimals below 100, 1 above, 2 significant digits below 0.001 (a small
+    error is not written as 0.000); "n/a" when not finite."""
     v = num(x)
     if not math.isfinite(v):
         return "n/a"
+    if v != 0 and abs(v) < 0.0005:
+        return f"{v:.2g}"
     return f"{v:.3f}" if abs(v) < 100 else f"{v:.1f}"
 
 
@@ -84,13 +88,14 @@ class SummaryRow:
     converged: bool
     in_tir: bool
     key_coefficients: str
-    status: str = "ok"
+    status: str = OK
     chosen: bool = False
 
     @property
     def status_cell(self) -> str:
-        """The status as the table shows it: ok, poorly identified, FAILED."""
-        return "FAILED" if not self.converged else self.status
+        """The status as the table shows it (identify.fit.status.STATUSES; failed in capitals:
+        ok, poorly identified, poor fit, FAILED)."""
+        return "FAILED" if not self.converged or self.status == FAILED else self.status
 
     @property
     def tir_cell(self) -> str:
@@ -104,27 +109,34 @@ def summary_rows(results: Iterable[FitResult], key_sources: Mapping[str, KeySour
     chosen = {(c.relation, c.form) for c in form_choices}
     return [SummaryRow(r.relation, r.form, num(r.error_total_pct), int(r.n_points),
                        bool(r.converged), bool(tir_keys(r, key_sources)), key_coefficients(r),
-                       r.identification, (r.relation, r.form) in chosen)
+                       r.status_text, (r.relation, r.form) in chosen)
             for r in results]
 
 
 def notes_lines(form_choices: Sequence[FormChoice] = (),
                 results: Sequence[FitResult] = ()) -> list[str]:
     """The lines after the summary table: the form each nested relation took and why
-    (x* in the .tir column), then the count of poorly identified fits and each one's first
-    reason."""
+    (x* in the .tir column), then the fits whose status is not ok (failed, poor fit, poorly
+    identified: identify.fit.status), counted per status, each with its first reason."""
     out = []
     for c in form_choices:
         how = "chosen by --form" if c.overridden else "chosen by the data"
         out.append(f"form {c.relation}: {c.form} ({how}): {c.reason}")
-    poor = [r for r in results if r.converged and r.identification != "ok"]
-    if poor:
-        out.append(f"poorly identified: {len(poor)} of {len(list(results))} fits "
-                   "(fit.json 'reasons'; --hold NAME holds a coefficient at its default)")
-        for r in poor:
+    results = list(results)
+    for status in (FAILED, "poor fit", "poorly identified"):
+        those = [r for r in results if r.status_text == status and r.converged]
+        if not those:
+            continue
+        hint = ("; --hold NAME holds a coefficient at its default"
+                if status == "poorly identified" else "")
+        out.append(f"{status}: {len(those)} of {len(results)} fits (fit.json 'reasons'{hint})")
+        for r in those:
             first = r.reasons[0] if r.reasons else ""
             more = f" (+{len(r.reasons) - 1} more)" if len(r.reasons) > 1 else ""
-            out.append(f"  {r.name}: {first}{more}")
+            floor = (f" [error {fmt_pct(r.error_total_pct)} %, noise floor "
+                     f"{fmt_pct(r.noise_floor_pct)} %]"
+                     if math.isfinite(r.noise_floor_pct) else "")
+            out.append(f"  {r.name}{floor}: {first}{more}")
     return out
 
 

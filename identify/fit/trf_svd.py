@@ -5,11 +5,9 @@ scipy's ``trf`` (``tr_solver="exact"``) takes the SVD U s V^T of its scaled n x 
 (augmented by k rows on bounds) at every iteration and uses U only as U^T f (f the residuals).
 LAPACK's gesdd of a tall matrix first factors it as Q R, then decomposes R = U_R s V^T and
 forms U = Q U_R explicitly (n x k: generating Q and a matrix product). Here U^T f is computed
-as U_R^T (Q^T f) from the Householder reflectors instead, U never formed: the same s (bit
-for bit in a one-off check: gesdd decomposes the same R), V and U^T f to round-off, in 35-50 %
-of the time (4096 x 24: 1.15 -> 0.55 ms, 6418 x 26: 2.7 -> 0.97 ms, 10382 x 11: 0.84 -> 0.38
-ms, one BLAS thread, best of 30, one-off /tmp scratch script, 2026-11-24). The MF stages'
-solves spent a fifth of their time in these SVDs (bench/fit_cost.py).
+as U_R^T (Q^T f) from the Householder reflectors instead, U never formed: the same s (gesdd
+decomposes the same R), V and U^T f to round-off, without generating Q or the n x k product.
+These SVDs are a sizeable share of the MF stages' solves (bench/fit_cost.py times them).
 
 scipy's solver calls ``svd`` through its module's name; :func:`qr_svd` replaces that name for
 the duration of a solve, only when the installed scipy's source uses U as U^T f alone

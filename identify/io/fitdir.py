@@ -28,6 +28,7 @@ from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
 from identify.fit.sources import KeySource
 from identify.io.atomic import atomic_path, atomic_write_text
 from identify.io.tir import format_tir, read_tir
+from identify.io.tir.write import FIT_DIGITS
 
 __all__ = [
     "CSV_COLUMNS",
@@ -37,6 +38,8 @@ __all__ = [
     "SCHEMA",
     "FitDir",
     "read_fit_dir",
+    "rows_of",
+    "with_points",
     "write_fit_dir",
     "write_fit_json",
 ]
@@ -109,7 +112,7 @@ class FitDir:
     # ----- rows and chains of one fit -------------------------------------------------------
     def rows(self, result: FitResult) -> pd.DataFrame:
         """The measured-vs-model rows of one fit (its relation and form)."""
-        return _rows_of(self.points, result)
+        return rows_of(self.points, result)
 
     def mf_rows(self) -> pd.DataFrame:
         """The rows of the Magic Formula stages (relation "MF")."""
@@ -133,7 +136,8 @@ class FitDir:
         return None
 
 
-def _rows_of(points: pd.DataFrame, result: FitResult) -> pd.DataFrame:
+def rows_of(points: pd.DataFrame, result: FitResult) -> pd.DataFrame:
+    """The rows of measured_vs_model.csv (``points``) that belong to ``result``."""
     if points.empty:
         return points
     sel = (points["relation"].astype(str) == result.relation) & \
@@ -141,11 +145,11 @@ def _rows_of(points: pd.DataFrame, result: FitResult) -> pd.DataFrame:
     return points[sel].reset_index(drop=True)
 
 
-def _with_points(result: FitResult, rows: pd.DataFrame) -> FitResult:
+def with_points(result: FitResult, rows: pd.DataFrame) -> FitResult:
     """``result`` with its per-point arrays from its measured_vs_model rows."""
     col = (lambda c: rows[c].to_numpy(float) if len(rows) else np.empty(0))
     return dataclasses.replace(result, predicted=col("model"), measured=col("measured"),
-                               pressure_bar=col("pi_bar"))
+                               pressure_bar=col("pi_bar"), points=rows)
 
 
 # ----- reading ------------------------------------------------------------------------------------
@@ -221,7 +225,7 @@ def read_fit_dir(path: str | Path) -> FitDir:
         extraction = _read_json(epath)
     run = dataclasses.replace(
         run, fit_dir=root, tir_values=dict(tir or {}),
-        results=tuple(_with_points(r, _rows_of(points, r)) for r in run.results))
+        results=tuple(with_points(r, rows_of(points, r)) for r in run.results))
     return FitDir(root, run, points, tir, extraction, tuple(notes))
 
 
@@ -266,7 +270,8 @@ def write_fit_dir(run: FitRun, fit_dir: str | Path, *, points: pd.DataFrame,
     run = dataclasses.replace(run, fit_dir=fit_dir)
     texts = {run.tir_path: format_tir(run.tir_values, fittyp=run.fittyp,
                                       comment_lines=_tir_comment(run),
-                                      sources=dict(run.key_sources) or None),
+                                      sources=dict(run.key_sources) or None,
+                                      digits=FIT_DIGITS),
              run.csv_path: points.to_csv(index=False, lineterminator="\n"),
              run.json_path: json_text(run.to_dict())}
     if extraction is not None:

@@ -74,6 +74,9 @@ class MeasurementSet:
         object.__setattr__(self, "checksums", MappingProxyType(dict(self.checksums)))
         object.__setattr__(self, "warnings", tuple(self.warnings))
 
+    def __repr__(self) -> str:
+        return f"<MeasurementSet {self.summary()}; {len(self.warnings)} warning(s)>"
+
     def dropped_channels(self) -> dict[str, dict[str, str]]:
         """Run -> {channel: why} for the channels dropped as implausible while loading."""
         out: dict[str, dict[str, str]] = {}

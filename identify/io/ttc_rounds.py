@@ -15,7 +15,8 @@ from identify.io.quirks import unused_slip_warning
 from identify.io.trailer_channels import Channels
 from identify.io.ttc_names import TTC_TO_TYDEX
 
-__all__ = ["SR_FREE_ROLLING", "SR_FREE_ROLLING_RUN", "SR_MIN_LOAD", "TTC_OPTIONAL",
+__all__ = ["SR_FREE_ROLLING", "SR_FREE_ROLLING_RUN", "SR_FREE_SAMPLES", "SR_LINEAR",
+           "SR_MIN_LOAD", "TTC_OPTIONAL",
            "sr_as_kappa", "ttc_substitutes"]
 
 
@@ -46,6 +47,11 @@ SR_FREE_ROLLING = 0.02
 #: |Fx| / Fz that no loaded sample of a free-rolling run (no drive or brake torque) exceeds
 #: [-]: a slip-ratio sweep of any tyre drives |Fx| / Fz far beyond it [-].
 SR_FREE_ROLLING_RUN = 0.25
+#: Samples near free rolling that the offset of SR needs at least [-].
+SR_FREE_SAMPLES = 50
+#: |Fx| / Fz within which a slip-ratio sweep is taken as linear in SR for the zero crossing
+#: (the slip stiffness holds to about a third of the peak force) [-].
+SR_LINEAR = 0.3
 #: Share of the run's median |Fz| below which a sample is not free rolling but unloaded [-].
 SR_MIN_LOAD = 0.2
 
@@ -60,6 +66,9 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     :data:`SR_FREE_ROLLING` of Fz (the MF force at zero slip is small) and whose Fz is above
     :data:`SR_MIN_LOAD` of the median (not lifted off), and subtracted; each term is held
     within its range on those samples (no extrapolation to loads free rolling never reached).
+    A drive/brake run passes free rolling in a few samples per sweep: with fewer than
+    :data:`SR_FREE_SAMPLES` such samples, SR0 is the zero crossing of the sweeps' linear range
+    (a slope term e Fx/Fz added, the samples below :data:`SR_LINEAR` of Fz).
     """
     sr, fz = frame["kappa"].to_numpy(float), frame["Fz"].to_numpy(float)
     fx = frame["Fx"].to_numpy(float)
@@ -77,12 +86,24 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     free = (np.abs(frame["Fx"].to_numpy(float)) < SR_FREE_ROLLING * np.abs(fz)) \
         & (np.abs(fz) > SR_MIN_LOAD * np.median(np.abs(fz)))
     what = "no slip ratio SL: kappa is SR, the slip ratio based on the loaded radius"
-    if free.sum() < 10:
-        return frame, (f"{what}, as read (fewer than 10 free-rolling samples to find its "
-                       "offset: the Fx fits take it for a slip)")
     x = np.column_stack([np.ones(fz.size), fz / 1e3, frame["p"].to_numpy(float) / 1e5,
                          frame["alpha"].to_numpy(float) ** 2])
-    coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
+    how = (f"a + b Fz + c p + d alpha^2 fitted on {int(free.sum())} samples with |Fx| < "
+           f"{100 * SR_FREE_ROLLING:g} % of Fz")
+    if free.sum() >= SR_FREE_SAMPLES:
+        coef, *_ = np.linalg.lstsq(x[free], sr[free], rcond=None)
+    else:
+        # a slip-ratio sweep passes free rolling in a few samples: take the zero crossing of
+        # the linear range instead, SR = SR0 + e Fx/Fz on the samples below SR_LINEAR of Fz
+        free = (np.abs(fx) < SR_LINEAR * np.abs(fz)) & loaded
+        if free.sum() < SR_FREE_SAMPLES:
+            return frame, (f"{what}, as read (fewer than {SR_FREE_SAMPLES} samples near free "
+                           "rolling to find its offset: the Fx fits take it for a slip)")
+        slope = fx / np.where(fz != 0, np.abs(fz), np.nan)
+        coef, *_ = np.linalg.lstsq(np.column_stack([x, slope])[free], sr[free], rcond=None)
+        coef = coef[:-1]
+        how = (f"a + b Fz + c p + d alpha^2 + e Fx/Fz fitted on {int(free.sum())} samples "
+               f"with |Fx| < {100 * SR_LINEAR:g} % of Fz, taken at Fx = 0")
     # evaluated within the conditions it was fitted on: a load, pressure or slip angle beyond
     # them takes the nearest one's offset. A slope from the noise of a narrow spread is not
     # extrapolated, and a term constant on the free-rolling samples (one load, one pressure),
@@ -92,5 +113,4 @@ def sr_as_kappa(frame: pd.DataFrame) -> tuple[pd.DataFrame, str]:
     mid = float(np.median(offset))
     return frame.assign(kappa=(1.0 + sr) / (1.0 + offset) - 1.0), (
         f"{what}, scaled to its free-rolling value ({mid:+.4f} at the median load and pressure; "
-        f"a + b Fz + c p + d alpha^2 fitted on {int(free.sum())} samples with |Fx| < "
-        f"{100 * SR_FREE_ROLLING:g} % of Fz)")
+        f"{how})")

@@ -1,6 +1,8 @@
 """The PDF comparing the tyres of one ``mfid batch`` side by side (``batch_summary.pdf``).
 
-Pages: an overview table (tyre, batch status, fits, nominal conditions, message), then per
+Pages: an overview table (tyre, batch status, its fits counted by status, nominal conditions,
+message or the fits that are not ok), every fit of every tyre with its status as ``mfid fit``
+gives it (ok, poorly identified, failed) and its first reason, then per
 group of up to :data:`PER_PAGE` tyres: the pressure sensitivities of the stiffnesses (relative
 slope at the nominal pressure, bars one per tyre, and the .tir pressure coefficients), the
 stiffnesses Cz, Cx, Cy against pressure, and the cornering stiffness and relaxation length
@@ -30,15 +32,17 @@ from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE
-from identify.report.layout import GREY, RED, Page, draw_table, new_page, rows_fitting
-from identify.report.tables import chunks, fmt
+from identify.report.layout import GREY, ORANGE, RED, Page, draw_table, new_page, rows_fitting
+from identify.report.tables import chunks, fmt, fmt_pct
 
 if TYPE_CHECKING:  # pragma: no cover
     from identify.report.batch_summary import BatchEntry
 
-__all__ = ["PER_PAGE", "QUANTITIES", "Quantity", "comparison_pages", "tyre_curves",
-           "write_comparison"]
+__all__ = ["PER_PAGE", "QUANTITIES", "Quantity", "comparison_pages", "fit_counts",
+           "tyre_curves", "write_comparison"]
 
+OK_FIT, POOR_FIT, FAILED_FIT = "ok", "poorly identified", "failed"
+"""The statuses of one fit (``FitResult.status_text``)."""
 PER_PAGE = 10
 """Tyres per comparison page (one colour each)."""
 N_PRESSURES = 41
@@ -71,8 +75,8 @@ class Quantity:
 QUANTITIES = (
     Quantity("Cz", "vertical stiffness Cz", "N/mm", 1e-3, ("VERTICAL_STIFFNESS",), "PFZ1"),
     Quantity("Cx", "longitudinal stiffness Cx", "N/mm", 1e-3, ("LONGITUDINAL_STIFFNESS",),
-             "PCFX1"),
-    Quantity("Cy", "lateral stiffness Cy", "N/mm", 1e-3, ("LATERAL_STIFFNESS",), "PCFY1"),
+             "PCFX3"),
+    Quantity("Cy", "lateral stiffness Cy", "N/mm", 1e-3, ("LATERAL_STIFFNESS",), "PCFY3"),
     Quantity("Kya", "cornering stiffness |K_ya|", "N/deg", math.pi / 180, ("PKY1",), "PPY1"),
     Quantity("sigmay", "relaxation length sigma_y", "mm", 1e3, ("PKY1", "LATERAL_STIFFNESS"),
              ""),
@@ -139,31 +143,99 @@ def _footer(fig, text: str) -> None:
     fig.text(0.96, 0.02, text, fontsize=7, color=GREY, ha="right")
 
 
+def fit_counts(fd: FitDir | None) -> dict[str, int]:
+    """How many of a tyre's fits have each status (ok, poorly identified, failed), as
+    ``mfid fit`` and fit.json give it; empty without a fit directory."""
+    counts: dict[str, int] = {}
+    for r in fd.results if fd is not None else ():
+        counts[r.status_text] = counts.get(r.status_text, 0) + 1
+    return counts
+
+
+def _fits_cell(counts: dict[str, int]) -> str:
+    n = sum(counts.values())
+    if not n:
+        return ""
+    parts = [f"{counts[s]} {s}" for s in (OK_FIT, POOR_FIT, FAILED_FIT) if counts.get(s)]
+    return ", ".join(parts) + f" of {n}"
+
+
+def _tyre_message(e: BatchEntry) -> str:
+    """The task's message, else the fits that are not ok, stage by stage."""
+    if e.message:
+        return e.message
+    fd = e.fit
+    poor = [r.name for r in fd.results if r.status_text != OK_FIT] if fd is not None else []
+    return ("not ok: " + ", ".join(poor)) if poor else ""
+
+
 def _overview(entries: Sequence[BatchEntry]) -> list[Page]:
     rows, colours = [], []
     for e in entries:
         fd = e.fit
-        n_ok = sum(r.converged for r in fd.results) if fd is not None else 0
-        n = len(fd.results) if fd is not None else 0
+        counts = fit_counts(fd)
         nominal = (f"{fmt(fd.nominal_pressure_bar, 3)} bar, {fmt(fd.nominal_load_N)} N"
                    if fd is not None else "")
-        rows.append([e.tyre_id or "?", e.status, f"{n_ok}/{n}" if n else "", nominal,
-                     (e.message or "")[:95]])
-        colours.append("black" if e.status in ("ok", "up to date") else RED)
+        message = _tyre_message(e)
+        rows.append([e.tyre_id or "?", e.status, _fits_cell(counts), nominal,
+                     message[:80] + (" ..." if len(message) > 80 else "")])
+        colours.append(RED if e.status not in ("ok", "up to date") or counts.get(FAILED_FIT)
+                       else ORANGE if counts.get(POOR_FIT) else "black")
     per = rows_fitting(0.80 * 8.27, 8.0)
     pages = []
     parts = chunks(list(zip(rows, colours)), per) or [[]]
     for i, part in enumerate(parts):
         fig = new_page(f"Batch summary: {len(entries)} tyres",
                        "status of every folder (ok, failed: a fit did not converge, bad input, "
-                       "lost: its worker died too often, up to date: not refitted); fits "
-                       "converged / fitted")
+                       "lost: its worker died too often, up to date: not refitted, missing: "
+                       "the fit directory of an earlier batch is gone); its fits "
+                       "by status as mfid fit gives them (each fit on the pages 'Fits of "
+                       "every tyre')")
         ax = fig.add_axes((0.04, 0.08, 0.92, 0.80))
-        draw_table(ax, ["tyre", "status", "fits ok", "nominal", "message"],
-                   [r for r, _ in part], [0.16, 0.09, 0.07, 0.15, 0.53], fontsize=8.0,
+        draw_table(ax, ["tyre", "status", "fits", "nominal", "message"],
+                   [r for r, _ in part], [0.14, 0.08, 0.22, 0.13, 0.43], fontsize=8.0,
                    colours=[c for _, c in part])
         _footer(fig, f"overview {i + 1}/{len(parts)}")
         pages.append(("overview", fig))
+    return pages
+
+
+def _fit_rows(entries: Sequence[BatchEntry]) -> list[tuple[list[str], str]]:
+    """One row per fit of every tyre: tyre, relation, form, total error, points, status, why
+    (the first reason it is poorly identified, or why it failed)."""
+    out = []
+    for e in entries:
+        if e.fit is None:
+            continue
+        for r in e.fit.results:
+            why = r.message if not r.converged else r.reasons[0] if r.reasons else ""
+            more = len(r.reasons) - 1 if r.converged and r.reasons else 0
+            why = why[:95] + (" ..." if len(why) > 95 else "") + (f" (+{more} more)"
+                                                                  if more else "")
+            colour = (RED if r.status_text == FAILED_FIT else
+                      ORANGE if r.status_text != OK_FIT else "black")
+            out.append(([e.tyre_id, r.relation, r.form, fmt_pct(r.error_total_pct),
+                         str(r.n_points), r.status_text, why], colour))
+    return out
+
+
+def _fit_pages(entries: Sequence[BatchEntry]) -> list[Page]:
+    rows = _fit_rows(entries)
+    per = rows_fitting(0.82 * 8.27, 7.0)
+    parts = chunks(rows, per) if rows else []
+    pages = []
+    for i, part in enumerate(parts):
+        fig = new_page(f"Fits of every tyre ({i + 1}/{len(parts)})",
+                       "each fit's status as mfid fit and fit.json give it (ok, poorly "
+                       "identified, failed) with its first reason (fit.json 'reasons')")
+        ax = fig.add_axes((0.04, 0.06, 0.92, 0.82))
+        draw_table(ax, ["tyre", "relation", "form", "total error %", "points", "status",
+                        "why"], [r for r, _ in part],
+                   [0.13, 0.07, 0.10, 0.08, 0.06, 0.11, 0.45], fontsize=7.0,
+                   colours=[c for _, c in part],
+                   align=["left", "left", "left", "right", "right", "left", "left"])
+        _footer(fig, f"fits {i + 1}/{len(parts)}")
+        pages.append(("fits", fig))
     return pages
 
 
@@ -230,6 +302,7 @@ def _curve_page(title: str, names: Sequence[str], group: list[TyreCurves], tag: 
 def comparison_pages(entries: Sequence[BatchEntry]) -> Iterator[Page]:
     """Every page of the comparison PDF, in order (made one group of tyres at a time)."""
     yield from _overview(entries)
+    yield from _fit_pages(entries)
     fits = [e.fit for e in entries if e.fit is not None]
     groups = chunks(fits, PER_PAGE)
     for g, group in enumerate(groups):

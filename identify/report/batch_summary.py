@@ -1,10 +1,12 @@
 """The summary across the tyres of one ``mfid batch``: ``batch_summary.csv`` and the PDF.
 
 ``<out>/batch_summary.csv`` has one row per fit of every tyre (tyre, folder, the tyre's batch
-status, relation, form, total thesis error [%], points, the fit's status, whether it supplied
-.tir keys, every fitted coefficient as ``NAME=value``, message), and one row without a fit for
-a folder that has no outputs (bad input, a lost task). ``<reports>/batch_summary.pdf`` compares
-the tyres side by side (:mod:`identify.report.batch_compare`).
+status, relation, form, total thesis error [%], points, the fit's status as ``mfid fit`` and
+fit.json give it: ok, poorly identified or failed, whether it supplied .tir keys, every fitted
+coefficient as ``NAME=value``, message: why it failed or is poorly identified), and one row
+without a fit for a folder that has no outputs (bad input, a lost task).
+``<reports>/batch_summary.pdf`` compares the tyres side by side
+(:mod:`identify.report.batch_compare`).
 
 Both are rewritten only when the table changed (or the PDF is missing or older than the CSV),
 so a second batch with nothing to do leaves them alone.
@@ -65,10 +67,11 @@ def summary_frame(entries: Sequence[BatchEntry]) -> pd.DataFrame:
         for r in results:
             rows.append({**base, "relation": r.relation, "form": r.form,
                          "error_total_pct": r.error_total_pct, "n_points": r.n_points,
-                         "status": "ok" if r.converged else "failed",
+                         "status": r.status_text,
                          "in_tir": bool(tir_keys(r, e.fit.key_sources)),
                          "key_coefficients": _coefficients(r),
-                         "message": "" if r.converged else r.message})
+                         "message": r.message if not r.converged else "; ".join(r.reasons)
+                         if r.identification != "ok" else ""})
         if not results:
             rows.append({**base, "relation": "", "form": "", "error_total_pct": float("nan"),
                          "n_points": 0, "status": e.status, "in_tir": False,

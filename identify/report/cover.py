@@ -2,9 +2,14 @@
 appendix of input files when the cover cannot list them all."""
 from __future__ import annotations
 
+from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.version import __version__
+from identify.fit.status import OK, POOR_FIT
+from identify.fit.sources import FITTED, KINDS
 from identify.io.fitdir import FitDir
+from identify.io.tir import read_tir
+from identify.io.tir.write import ZERO_MARK, holds_zero
 from identify.report import tables as T
 from identify.report.layout import (
     ORANGE,
@@ -17,6 +22,28 @@ from identify.report.layout import (
     rows_fitting,
     wrap,
 )
+
+
+def written_source_counts(fd: FitDir) -> tuple[dict[str, int], int]:
+    """How many keys of the written .tir came from each kind of source, counted as its header
+    counts them (the keys the file holds: a key left out for its FITTYP at its default is not
+    in it), and how many fitted keys are marked :data:`ZERO_MARK`. Without a readable .tir:
+    every key of fit.json's sources, and no mark counted."""
+    sources = fd.run.key_sources
+    try:
+        tir = read_tir(fd.tir_path)
+    except (InputError, OSError):
+        return fd.run.source_counts(), 0
+    absent = set(tir.defaults_used)
+    counts: dict[str, int] = {}
+    zero = 0
+    for key, src in sources.items():
+        if key in absent:
+            continue
+        counts[src.kind] = counts.get(src.kind, 0) + 1
+        zero += src.kind == FITTED and holds_zero(tir.values.get(key, ""), src.stderr)
+    order = {k: i for i, k in enumerate(KINDS)}
+    return dict(sorted(counts.items(), key=lambda kv: order.get(kv[0], len(order)))), zero
 
 
 def cover(fd: FitDir) -> list[Page]:
@@ -44,10 +71,12 @@ def cover(fd: FitDir) -> list[Page]:
     ]
     lines += wrap("settings          ", setting_text, 70)
     lines += wrap("command           ", prov.command or "n/a", 70)
-    counts = fd.run.source_counts()
+    counts, zero = written_source_counts(fd)
     if counts:
-        lines += wrap(".tir key sources  ", ", ".join(f"{n} {k}" for k, n in counts.items()),
-                      70)
+        text = ", ".join(f"{n} {k}" for k, n in counts.items())
+        if zero:
+            text += f"; {zero} fitted marked {ZERO_MARK}"
+        lines += wrap(".tir key sources  ", text, 70)
     for c in fd.run.form_choices:
         how = "chosen by --form" if c.overridden else "chosen by the data"
         lines.append(f"form {c.relation:<13}{c.form} ({how}, F test p = {c.p_value:.2g})")
@@ -98,8 +127,8 @@ def cover(fd: FitDir) -> list[Page]:
                    [0.07, 0.11, 0.08, 0.05, 0.12, 0.05, 0.52], fontsize=fs,
                    title="Every fit: total thesis error (mean of the per-pressure errors); "
                          "x* = the form the data (or --form) chose",
-                   colours=[RED if not r.converged else ORANGE if r.status_cell != "ok"
-                            else "black" for r in part],
+                   colours=[RED if r.status_cell in ("FAILED", POOR_FIT)
+                            else ORANGE if r.status_cell != OK else "black" for r in part],
                    align=["left", "left", "right", "right", "left", "left", "left"])
         if not rows:
             tax.text(0, 0.8, "no fits", fontsize=9, transform=tax.transAxes)

@@ -92,7 +92,8 @@ def group_key(rows: pd.DataFrame, cols: list[str]) -> list[tuple]:
     """Per row: the secondary condition levels as ((column, level), ...)."""
     if not cols:
         return [()] * len(rows)
-    tol = {"Fz_N": 100.0, "gamma_deg": 0.25, "Vx_mps": 0.5}
+    tol = {"Fz_N": 100.0, "gamma_deg": 0.25, "Vx_mps": 0.5, "alpha_rad": np.deg2rad(0.5),
+           "kappa": 0.02}
     lv = {c: levels(rows[c].to_numpy(float), tol.get(c, 1e-6)) for c in cols}
     return [tuple((c, float(np.round(lv[c][i], 6))) for c in cols) for i in range(len(rows))]
 

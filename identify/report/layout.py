@@ -29,13 +29,15 @@ Page = tuple[str, Figure]
 
 def new_page(title: str, subtitle: str = "") -> Figure:
     fig = Figure(figsize=PAGE)
-    fig.text(0.04, 0.955, title, fontsize=15, weight="bold", va="top")
+    # the subtitle's two lines end above 0.88, where the pages' tables and panels start
+    fig.text(0.04, 0.965, title, fontsize=15, weight="bold", va="top")
     if subtitle:
         lines = textwrap.wrap(subtitle, 165)
         if len(lines) > 2:
             lines = lines[:2]
             lines[1] = lines[1][:160] + " ..."
-        fig.text(0.04, 0.915, "\n".join(lines), fontsize=9, color=GREY, va="top")
+        fig.text(0.04, 0.93, "\n".join(lines), fontsize=9, color=GREY, va="top",
+                 linespacing=1.15)
     return fig
 
 

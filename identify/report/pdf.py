@@ -3,8 +3,12 @@
 Pages, in order: cover (tyre, provenance, settings, every fit with its total thesis error);
 one page per fit (measured points and model lines, residuals, the thesis error per pressure
 with the total first, the parameter table); the MF slip pages (Fy-alpha, Fx-kappa, Mz-alpha,
-Mx-gamma, friction ellipse) when the fit has MF rows; MCMC pages when MCMC ran; the
-data-quality page; an appendix of input files when the cover cannot list them all.
+Mx-gamma, friction ellipse) when the fit has MF rows; the pressure prediction page (each
+pressure level predicted by the MF stages fitted without it) when the fit has MF force stages;
+MCMC pages when MCMC ran; the
+data-quality page; the trailer pages; the vehicle pages when ``mfid fit --vehicle`` wrote
+``vehicle/vehicle.json`` into the fit directory; an appendix of input files when the cover
+cannot list them all.
 
 matplotlib ``Figure`` objects (no pyplot state) go into ``PdfPages`` one per page and are
 released after saving. matplotlib writes no document outline, so pypdf (a runtime dependency
@@ -31,9 +35,11 @@ from identify.io.fitdir import FitDir, read_fit_dir
 from identify.report.cover import cover, inputs_appendix
 from identify.report.fit_pages import fit_pages
 from identify.report.mcmc_pages import mcmc_pages
+from identify.report.pressure_pages import pressure_pages
 from identify.report.quality_pages import quality_pages
 from identify.report.trailer_pages import trailer_pages
 from identify.report.slip_pages import mf_slip_pages, slip_pages
+from identify.report.vehicle_pages import fit_vehicle_pages
 
 
 @dataclass(frozen=True)
@@ -93,10 +99,12 @@ def build_pages(fd: FitDir, progress: Progress | None = None):
     if slip and progress:
         progress("report: MF slip pages")
     yield from slip_pages(fd, slip)
+    yield from pressure_pages(fd)
     yield from _per_fit(fd, [f for f in fd.results if f.mcmc is not None], mcmc_pages, "MCMC ",
                         progress, notes)
     yield from quality_pages(fd, notes)
     yield from trailer_pages(fd)
+    yield from fit_vehicle_pages(fd)  # fits/<id>/vehicle/vehicle.json (mfid fit --vehicle)
     yield from inputs_appendix(fd)
     return notes
 

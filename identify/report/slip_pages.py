@@ -4,9 +4,11 @@ The curves are the written .tir evaluated with ``identify.model.evaluate`` over 
 camber and load ranges of the MF rows of measured_vs_model.csv; the measured points of the MF
 stages near pure slip are drawn over them (not the camber sweeps at a fixed slip angle, nor the
 slip sweeps at a fixed camber, which would stand as vertical bars). The friction ellipse is
-drawn at the measured combined slip angles, with the measured combined points (Fx and Fy of
-one operating point) as markers. One panel per pressure, one colour per load (one legend entry
-each), one y-scale across the panels of a page.
+drawn at the measured combined slip angles, each with its own sign and over the slip ratios
+measured at it only (nothing is drawn where nothing was measured), with the measured combined
+points (Fx and Fy of one operating point) as markers; without any, it is left out. One panel
+per pressure, one colour per load (one legend entry each), one y-scale across the panels of a
+page.
 """
 from __future__ import annotations
 
@@ -155,32 +157,38 @@ def mf_slip_pages(fd: FitDir) -> tuple[list[SlipPage], list[str]]:
         notes.append("Mx-gamma page left out: the MF rows hold no camber range")
     if a_rng is not None and k_rng is not None:
         combined = _combined_pairs(mf, pis, loads)
-        measured_alphas = np.unique(np.round(np.abs(combined["alpha_deg"]), 1)) \
-            if len(combined) else np.empty(0)
-        measured_alphas = measured_alphas[measured_alphas > 0]
-        if 0 < measured_alphas.size <= len(STYLES):
-            alphas = tuple(float(a) for a in measured_alphas)
-        else:
-            amax = max(abs(a_rng[0]), abs(a_rng[1]))
-            alphas = tuple(float(np.rad2deg(a)) for a in (amax / 3, 2 * amax / 3, amax))
+        measured = (np.unique(np.round(combined["alpha_deg"].to_numpy(float), 1))
+                    if len(combined) else np.empty(0))
+        if measured.size == 0:
+            notes.append("friction-ellipse page left out: no combined-slip point (Fx and Fy "
+                         "of one operating point at a non-zero slip angle and slip ratio) was "
+                         "measured")
+            return pages, notes
+        if measured.size > len(STYLES):  # as many as the line styles tell apart, spread out
+            idx = np.unique(np.round(np.linspace(0, measured.size - 1, len(STYLES))))
+            measured = measured[idx.astype(int)]
+        alphas = tuple(float(a) for a in measured)
+        alpha_of = np.round(combined["alpha_deg"].to_numpy(float), 1)
+        kappa_of = combined["kappa"].to_numpy(float)
         panels = []
         for p in pressures:
             curves, points = [], []
             for fz in load_levels:
-                for sign in (1.0, -1.0):
-                    for a_deg in alphas:
-                        grid = np.linspace(*k_rng, N_DENSE)
-                        r = model(p, fz, grid, np.deg2rad(sign * a_deg), 0.0, ("Fx", "Fy"))
-                        curves.append((r["Fx"], r["Fy"]))
-                sel = (combined["pi_bar"] == round(p, 2)) & (combined["Fz_level"] == fz) \
-                    if len(combined) else np.zeros(0, bool)
+                for a_deg in alphas:
+                    # the slip ratios measured at this slip angle: nothing drawn beyond them
+                    span = kappa_of[alpha_of == round(a_deg, 1)]
+                    grid = np.linspace(float(span.min()), float(span.max()), N_DENSE)
+                    r = model(p, fz, grid, np.deg2rad(a_deg), 0.0, ("Fx", "Fy"))
+                    curves.append((r["Fx"], r["Fy"]))
+                sel = (combined["pi_bar"] == round(p, 2)) & (combined["Fz_level"] == fz)
                 points.append((combined["Fx"].to_numpy(float)[sel],
-                               combined["Fy"].to_numpy(float)[sel]) if len(combined)
-                              else (np.empty(0), np.empty(0)))
+                               combined["Fy"].to_numpy(float)[sel]))
             panels.append(SlipPanel(p, tuple(load_levels), tuple(curves), tuple(points)))
         pages.append(SlipPage("Friction ellipse (combined slip: Fy vs Fx, kappa swept at "
                               "fixed slip angles)", "Fx [N]", "Fy [N]", tuple(panels),
-                              ellipse=True, alphas_deg=alphas))
+                              ellipse=True, alphas_deg=alphas,
+                              note="model at the measured slip angles over the slip ratios "
+                                   "measured at each"))
     return pages, notes
 
 
@@ -199,6 +207,7 @@ def _combined_pairs(mf: pd.DataFrame, pis: np.ndarray, loads: np.ndarray) -> pd.
     both = fx.merge(fy, on=keys, suffixes=("_x", "_y"))
     return pd.DataFrame({"pi_bar": both["pi_bar"], "Fz_level": both["Fz_level"],
                          "alpha_deg": np.rad2deg(both["alpha_rad"].to_numpy(float)),
+                         "kappa": both["kappa"],
                          "Fx": both["measured_x"], "Fy": both["measured_y"]})
 
 
@@ -210,7 +219,8 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
     for sp in pages:
         fig = new_page(f"MF: {sp.title}",
                        "model from the written .tir (identify.model.evaluate, useMode 211) "
-                       "over the measured range; measured points of the MF stages as markers;"
+                       + (sp.note or "over the measured range")
+                       + "; measured points of the MF stages as markers;"
                        " one panel per pressure, one colour per load")
         n = len(sp.panels)
         ncol = n if n <= 3 else 3 if n != 4 else 2
@@ -226,9 +236,8 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
                 na = len(sp.alphas_deg)
                 for j, fz in enumerate(panel.loads):
                     for m in range(na):
-                        for sign in (0, 1):  # +alpha and -alpha
-                            xs, ys = panel.curves[(2 * j + sign) * na + m]
-                            ax.plot(xs, ys, STYLES[m % len(STYLES)], color=lcol[fz], lw=1.1)
+                        xs, ys = panel.curves[j * na + m]
+                        ax.plot(xs, ys, STYLES[m % len(STYLES)], color=lcol[fz], lw=1.1)
                     if panel.points and panel.points[j][0].size:
                         px, py = panel.points[j]
                         ax.plot(px, py, "o", color=lcol[fz], ms=2.0, alpha=0.5, ls="none")
@@ -250,7 +259,7 @@ def slip_pages(fd: FitDir, pages: Sequence[SlipPage]) -> list[Page]:
                        for fz, c in lcol.items()]
             if sp.ellipse:
                 handles += [Line2D([], [], color="black", ls=STYLES[m % len(STYLES)],
-                                   label=f"alpha +/-{a:.1f} deg")
+                                   label=f"alpha {a:+.1f} deg")
                             for m, a in enumerate(sp.alphas_deg)]
                 if any(pt[0].size for panel in sp.panels for pt in panel.points):
                     handles.append(Line2D([], [], color="black", marker="o", ls="none", ms=3,

@@ -10,6 +10,7 @@ from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
+from identify.fit.bounds import bound_kinds
 from identify.fit.result import FitResult, MCMCSummary
 from identify.fit.run import FitRun
 from identify.fit.sources import KeySource
@@ -83,6 +84,7 @@ class ParamRow:
     in_tir: bool
     median: float = math.nan  # MCMC posterior median (NaN without MCMC)
     unidentified: str = ""    # why it is not identifiable on its own ("" when it is)
+    bound_kind: str = ""      # at_bound: "physical" or "arbitrary" (identify.fit.bounds)
 
 
 _COVARIANCE = {"sweep-jackknife": " (sweep jackknife)",
@@ -115,9 +117,16 @@ def parameter_rows(fit: FitResult, key_sources: Mapping[str, KeySource] | None =
                    else f"LS +/-{fit.quantile(name):.3g} s.e.")
             how += _COVARIANCE.get(fit.covariance, "")
         lower, upper = fit.bounds.get(name, (-math.inf, math.inf))
+        kind = ""
+        if name in fit.at_bound:
+            side = 0 if abs(v - num(lower)) <= abs(v - num(upper)) else 1
+            try:
+                kind = bound_kinds(name, v)[side]
+            except KeyError:  # not a table key (a relation's own scale)
+                kind = "arbitrary"
         rows.append(ParamRow(name, v, se, lo, hi, how, num(lower), num(upper),
                              name in fit.at_bound, name in keys, num(med.get(name)),
-                             fit.unidentified.get(name, "")))
+                             fit.unidentified.get(name, ""), kind))
     return rows
 
 
@@ -180,7 +189,10 @@ def fit_diagnostics(run: FitRun) -> list[str]:
         if not fit.converged and not any(f.startswith(tag) for f in run.failed):
             out.append(f"{name}: did not converge ({fit.message})")
         if fit.at_bound:
-            out.append(f"{name}: on a bound: {', '.join(fit.at_bound)}")
+            kinds = {r.name: r.bound_kind for r in parameter_rows(fit)}
+            out.append(f"{name}: on a bound: "
+                       + ", ".join(f"{n} ({kinds.get(n) or 'arbitrary'})"
+                                   for n in fit.at_bound))
         if fit.active_constraints:
             out.append(f"{name}: active constraint(s): {'; '.join(fit.active_constraints)}")
         n, best = fit.n_starts, fit.starts_at_best

@@ -37,7 +37,7 @@ def coverage_rows(coverage) -> list[list[str]]:
             continue
         n = len(c.identifiable) + len(c.not_identifiable)
         rows.append([c.stage, str(c.points), _values(c.loads, 1e-3, ".1f"),
-                     _values(c.pressures, 1e-3, ".0f"), _values(c.cambers, 1, ".1f"),
+                     _values(c.pressures, 1e-3, ".0f"), c.camber_text(),
                      _values(c.alpha_deg, 1, ".1f", " .. "), _values(c.kappa, 1, ".2f", " .. "),
                      f"{len(c.identifiable)}/{n}"])
     return rows
@@ -47,8 +47,12 @@ def segment_lines(quality: Mapping[str, Any]) -> list[str]:
     """The segmentation as text: runs, sample counts, segments per kind, levels, filters."""
     trailer = quality.get("trailer") or {}
     seg = trailer.get("segmentation")
+    turned = trailer.get("mz_turnaround_samples") or 0
+    turn = ([f"Mz left out at slip-angle turn-arounds (the rig's steering transient): "
+             f"{turned} samples"] if turned else [])
     if not seg:
-        return ["No run was segmented (only continuous session logs, TTC .mat/.dat, are)."]
+        return ["No run was segmented (only continuous session logs, TTC .mat/.dat, are).",
+                *turn]
     kinds: dict[str, int] = {}
     for s in seg.get("segments") or ():
         kinds[s["kind"]] = kinds.get(s["kind"], 0) + 1
@@ -65,7 +69,7 @@ def segment_lines(quality: Mapping[str, Any]) -> list[str]:
     for f in seg.get("filters") or ():
         state = "" if f["applied"] else f" (not applied: {f['note']})"
         lines.append(f"  {f['name']}: {f['removed']} removed, {f['remaining']} left{state}")
-    return lines
+    return lines + ([""] + turn if turn else [])
 
 
 def warning_rows(quality: Mapping[str, Any]) -> list[list[str]]:
@@ -93,7 +97,7 @@ def trailer_pages(fd: FitDir) -> list[Page]:
     if coverage:
         draw_table(ax, ["stage", "points", "loads [kN]", "p [kPa]", "camber [deg]",
                         "alpha [deg]", "kappa", "identifiable"], coverage_rows(coverage),
-                   [0.08, 0.07, 0.22, 0.13, 0.12, 0.13, 0.13, 0.09], fontsize=7.5,
+                   [0.08, 0.07, 0.20, 0.12, 0.15, 0.13, 0.13, 0.09], fontsize=7.5,
                    title="Coverage of the MF stages (before fitting)",
                    align=["left", "right", "left", "left", "left", "left", "left", "right"])
     else:

@@ -8,7 +8,14 @@ default) or, with a ``scheduler``, on Dask (:mod:`identify.workflows.batch_dask`
 extra ``mfid[dask]``). A worker that dies costs its task one of ``retries``; a task that fails
 (bad input, a fit that did not converge) is reported and the others go on. At the end the
 summary across tyres is written: ``<out>/batch_summary.csv`` and, with reports,
-``<reports>/batch_summary.pdf`` (:mod:`identify.report.batch_summary`).
+``<reports>/batch_summary.pdf`` (:mod:`identify.report.batch_summary`). The summary is the
+state of every tyre fitted into ``<out>``: a tyre of an earlier batch that this one did not
+touch keeps its rows (its fit directory read again), so a batch of a few folders, or one that
+fails on bad input, never drops the others.
+
+Folders are told apart by their tyre id (the name of their outputs). The same folder given
+twice is fitted once; of distinct folders that share an id the first is fitted and each later
+one is refused as bad input, its message naming the folder that keeps the id.
 
 Exit code rule (:attr:`BatchRun.exit_code`): 2 when any folder had bad input; else 1 when any
 fit failed or a task was lost (its worker died more often than ``retries`` allow); else 0.
@@ -24,10 +31,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+import pandas as pd
+
 from identify.core.errors import InputError
 from identify.fit.run import FitSettings
 from identify.io.fitdir import read_fit_dir
-from identify.report.batch_summary import BatchEntry, write_batch_summary
+from identify.report.batch_summary import SUMMARY_CSV, BatchEntry, write_batch_summary
 from identify.workflows.batch_engines import Engine, PoolEngine, WorkerDied
 from identify.workflows.batch_plan import freshness, manifest_of
 from identify.workflows.batch_task import (
@@ -153,7 +162,7 @@ def _plan(folders: Sequence[str | Path], out_root: Path, reports: Path | None,
           ) -> list[FitTask | TaskOutcome]:
     """One FitTask (to run) or TaskOutcome (bad input, up to date) per folder, in order."""
     planned: list[FitTask | TaskOutcome] = []
-    owner: dict[str, str] = {}
+    owner: dict[str, tuple[str, Path]] = {}
     for given in folders:
         name = str(given)
         try:
@@ -163,11 +172,15 @@ def _plan(folders: Sequence[str | Path], out_root: Path, reports: Path | None,
             continue
         tyre_id = manifest.tyre.id
         if tyre_id in owner:
+            first, where = owner[tyre_id]
+            if where == folder.resolve():  # the same folder again: fitted once
+                continue
             planned.append(TaskOutcome(name, tyre_id, BAD_INPUT, InputError(
-                manifest.path, f"tyre id '{tyre_id}' is also the id of {owner[tyre_id]}: their "
-                               "outputs would overwrite each other", key="tyre.id").__str__()))
+                manifest.path, f"tyre id '{tyre_id}' is also the id of {first}, which is "
+                               f"fitted: {name} is refused (their outputs would overwrite "
+                               "each other; give it another tyre.id)", key="tyre.id").__str__()))
             continue
-        owner[tyre_id] = name
+        owner[tyre_id] = (name, folder.resolve())
         fit_dir = out_root / tyre_id
         report = None if reports is None else reports / f"{tyre_id}.pdf"
         if not force:
@@ -239,6 +252,40 @@ def _run_tasks(engine: Engine, tasks: list[FitTask], retries: int, marker_dir: P
         raise
     engine.close()
     return {dataclasses.replace(t, marker=None): o for t, o in outcomes.items()}
+
+
+def _fit_dir(out_root: Path, tyre_id: str):
+    try:
+        return read_fit_dir(out_root / tyre_id)
+    except InputError:
+        return None
+
+
+def _earlier_entries(out_root: Path, current: Sequence[BatchEntry]) -> list[BatchEntry]:
+    """The tyres of the batch summary already in ``out_root`` that this batch did not touch
+    (neither their tyre id nor their folder is among ``current``), in their order, each with
+    its fit directory read again; none when there is no readable summary."""
+    try:
+        earlier = pd.read_csv(out_root / SUMMARY_CSV, dtype=str, keep_default_na=False)
+    except (OSError, ValueError):
+        return []
+    if not {"tyre", "folder", "task", "message"} <= set(earlier.columns):
+        return []
+    ids = {e.tyre_id for e in current if e.tyre_id}
+    folders = {e.folder for e in current}
+    out, seen = [], set()
+    for row in earlier.itertuples(index=False):
+        key = (row.tyre, row.folder)
+        if key in seen or (row.tyre and row.tyre in ids) or row.folder in folders:
+            continue
+        seen.add(key)
+        fd = _fit_dir(out_root, row.tyre) if row.tyre and row.relation else None
+        task, message = row.task, "" if fd is not None else row.message
+        if fd is None and row.relation:  # its fits are gone: the summary cannot vouch for them
+            task = "missing"
+            message = f"{out_root / row.tyre}: its fit directory is missing or unreadable"
+        out.append(BatchEntry(row.tyre, row.folder, task, message, fd))
+    return out
 
 
 def _entries(outcomes: Sequence[TaskOutcome], out_root: Path) -> list[BatchEntry]:
@@ -324,5 +371,7 @@ def run_batch(folders: Sequence[str | Path], *, out_root: str | Path = "fits",
     else:
         events.start("", 0, planned)
     outcomes = tuple(done[p] if isinstance(p, FitTask) else p for p in planned)
-    csv, pdf = write_batch_summary(_entries(outcomes, out_root), out_root, reports)
+    entries = _entries(outcomes, out_root)
+    csv, pdf = write_batch_summary(_earlier_entries(out_root, entries) + entries, out_root,
+                                   reports)
     return BatchRun(outcomes, engine_name, csv, pdf, time.perf_counter() - t0)

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
@@ -45,6 +46,7 @@ from identify.model.parameters import spec
 from identify.report.discovery import write_pdf
 from identify.segment import SegmentSettings, segment_trailer
 from identify.simulate import default_tir_path
+from identify.workflows.trailer_prep import SEGMENTED_SUFFIXES
 
 __all__ = ["DiscoveryRun", "discover_folder", "start_tir"]
 
@@ -110,24 +112,44 @@ def _characteristics(mset, notes: list[str]):
     return chars
 
 
-def sweeps_only(trailer: pd.DataFrame | None, notes: list[str]) -> pd.DataFrame | None:
+def sweeps_only(trailer: pd.DataFrame | None, notes: list[str],
+                continuous: tuple[str, ...] | frozenset = ()) -> pd.DataFrame | None:
     """The samples of ``trailer`` inside sweeps (:func:`identify.segment.segment_trailer`,
     no revolution averaging or binning: every sample keeps its own values) when the table is
-    a continuous log of a session, recognised by its warm-ups; else the table as it is (a
-    folder of test runs, whose steady camber and rolling-resistance runs are no sweeps).
+    a continuous log of a session: its runs named in ``continuous`` (the session files
+    ``mfid fit`` segments too, :data:`identify.workflows.trailer_prep.SEGMENTED_SUFFIXES`),
+    or recognised by their warm-ups; else the table as it is (a folder of test runs, whose
+    steady camber and rolling-resistance runs are no sweeps).
 
     A TTC session holds warm-ups, transitions and stops the Magic Formula does not describe:
     fitted as they are, they made a 40 % base error and a 32 % noise floor on MF/Fy of a
-    generated session and hid the pressure effects in it."""
+    generated session and hid the pressure effects in it. A real session whose warm-ups the
+    segmentation does not recognise as such is still a session log: taken whole, its load and
+    pressure ramps became sweeps of their own at one pressure each, and discovery saw another
+    design than ``mfid fit`` on the same folder."""
     if trailer is None or trailer.empty or "t" not in trailer:
         return trailer
+    named = trailer["run"].astype(str).isin(set(continuous)).to_numpy() \
+        if "run" in trailer and continuous else np.zeros(len(trailer), dtype=bool)
     seg = segment_trailer(trailer, SegmentSettings(revolution_average=False))
-    kept = seg.table
-    if kept.empty or not any(g.kind == "warmup" for g in seg.segmentation.segments):
+    warm = any(g.kind == "warmup" for g in seg.segmentation.segments)
+    if warm or named.all():
+        kept, parts = seg.table, len(trailer)
+    elif named.any():
+        kept = segment_trailer(trailer[named], SegmentSettings(revolution_average=False)).table
+        parts = int(named.sum())
+    else:
         return trailer
-    notes.append(f"trailer: {len(kept)} of {len(trailer)} samples in sweeps "
+    if kept.empty:
+        return trailer
+    notes.append(f"trailer: {len(kept)} of {parts} samples of the session logs in sweeps "
                  f"(identify.segment); warm-ups, transitions and stops left out")
-    return kept.drop(columns=["sweep"]).rename(columns={"segment": "segment_id"})
+    kept = kept.drop(columns=["sweep"]).rename(columns={"segment": "segment_id"})
+    if parts == len(trailer):
+        return kept
+    rest = trailer[~named].copy()
+    rest["segment_id"] = np.nan  # label_sweeps splits these by time, run and load
+    return pd.concat([kept, rest], ignore_index=True)
 
 
 def _enriched(tir: dict, d: Discovery) -> tuple[dict, dict]:
@@ -197,7 +219,9 @@ def discover_folder(source: str | Path, *, base_tir: str | Path | None = None,
     has_rr = any(p.extra.get("name") == "RR" for p in relations)
     # model-state order (identify.discover.state): the trailer's MF stages own the keys they
     # fit, as in `mfid fit`; the relations read them
-    trailer = sweeps_only(mset.trailer, notes)
+    continuous = frozenset(r.id for r in mset.manifest.runs if r.kind == "trailer"
+                           and Path(r.file).suffix.lower() in SEGMENTED_SUFFIXES)
+    trailer = sweeps_only(mset.trailer, notes, continuous)
     problems = trailer_problems(trailer, tir, ctx, tests, with_rr=not has_rr) + relations
     if base.form is not None:
         problems = [p for p in problems if base.form.selects(p.extra["name"])]

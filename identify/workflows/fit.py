@@ -18,6 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from threadpoolctl import threadpool_limits
 
 from identify.core.errors import InputError
 from identify.core.names import name_problem
@@ -33,20 +34,22 @@ from identify.fit.mf_stages import fit_mf, stage_mcmc
 from identify.fit.mf_profile import profile_intervals
 from identify.fit.mf_uncertainty import propagate
 from identify.fit.plan import PLAN, RELATION_NAMES
+from identify.fit.pressure_holdout import pressure_holdout
 from identify.fit.relations import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
 from identify.fit.sources import DEFAULT, FITTED, KeySource
 from identify.io.atomic import atomic_path
-from identify.io.fitdir import write_fit_dir
-from identify.io.folder import load_folder
+from identify.io.fitdir import rows_of, write_fit_dir
+from identify.io.folder import MeasurementSet, load_folder
 from identify.model.parameters import defaults
 from identify.model.parameters import spec
 from identify.workflows import tir_assembly as TA
 from identify.workflows.sweep_bins import mf_table, segment_settings
 from identify.workflows.trailer_prep import prepare_trailer
 
-__all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "only_names"]
+__all__ = ["GEOMETRY_INPUTS", "FitRun", "FitSettings", "fit_folder", "fit_measurements",
+           "only_names"]
 
 ChainProgressFn = Callable[[str, ChainProgress], None]
 """Called with a chain's name (``MF_Fy0``, ``CFy_relaxation``) and where it stands."""
@@ -273,26 +276,62 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
         The folder or file is malformed, or an output cannot be written (exit 2 from the
         CLI).
     """
-    with _Chains(settings, out_root, chain_progress) as chains:
-        return _fit_folder(source, out_root, settings, progress, nominal_pressure_Pa,
-                           nominal_load_N, command, chains)
+    with _Chains(settings, out_root, chain_progress) as chains, _one_blas_thread():
+        run = _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
+                          command, chains, out_root=out_root)
+        _say(progress, f"write: {Path(out_root) / run.tyre.id} ({len(run.points)} points)")
+        return write_fit_dir(run, Path(out_root) / run.tyre.id, points=run.points,
+                             extraction=run.extraction)
 
 
-def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | None,
-                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains) -> FitRun:
+def fit_measurements(source: str | Path | MeasurementSet, *,
+                     settings: FitSettings = FitSettings(), progress: Progress | None = None,
+                     nominal_pressure_Pa: float | None = None,
+                     nominal_load_N: float | None = None, command: str = "",
+                     chain_progress: ChainProgressFn | None = None) -> FitRun:
+    """Fit a measurement folder, a characteristics CSV or a loaded ``MeasurementSet`` in
+    memory: the same fit as :func:`fit_folder`, nothing written.
+
+    The run holds what a fit directory would: its results (each with its measured and
+    model points), the .tir values, ``points`` (the rows of measured_vs_model.csv) and
+    ``extraction``; :func:`identify.io.fitdir.write_fit_dir` writes them. MCMC chains are
+    summarised in the results but their samples are not kept (``save_chains`` is off).
+    """
+    settings = dataclasses.replace(settings, save_chains=False)
+    with _Chains(settings, ".", chain_progress) as chains, _one_blas_thread():
+        return _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
+                           command, chains, out_root=None)
+
+
+def _one_blas_thread():
+    """One BLAS thread for the whole fit: its linear algebra is on small dense matrices
+    (Jacobians of a few thousand rows and tens of columns), where a second thread gains
+    nothing and, on a machine busy with other work, makes each decomposition wait for a
+    core: the profile intervals' SVDs and the jackknife's eigendecompositions ran two orders
+    of magnitude slower with two threads than with one on a loaded two-core machine."""
+    return threadpool_limits(limits=1, user_api="blas")
+
+
+def _fit_folder(source, settings: FitSettings, progress: Progress | None,
+                nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains, *,
+                out_root) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
                                f"{', '.join(RELATION_NAMES)}", key="--only")
     overrides = TA.form_overrides(settings.forms)
     hold = TA.hold_names(settings.hold)
-    _say(progress, f"load: {source}")
-    mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
-                       nominal_load_N=nominal_load_N)
+    if isinstance(source, MeasurementSet):
+        mset = source
+    else:
+        _say(progress, f"load: {source}")
+        mset = load_folder(source, nominal_pressure_Pa=nominal_pressure_Pa,
+                           nominal_load_N=nominal_load_N)
     tyre = mset.manifest.tyre
     if name_problem(tyre.id):  # load_folder refuses it; a second lock on the output paths
         raise InputError(mset.manifest.path, name_problem(tyre.id), key="tyre.id")
-    chains.folder = Path(out_root) / tyre.id / "mcmc"
+    if out_root is not None:
+        chains.folder = Path(out_root) / tyre.id / "mcmc"
     chars, flags, extraction = _characteristics(mset, progress)
     tir = _base_tir(mset, settings.fittyp)
     key_sources: dict[str, KeySource] = TA.apply_tyre(tir, tyre)
@@ -320,6 +359,7 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                             if k in ef.result.parameters})
 
     coverage: tuple = ()
+    holdout: dict = {}  # the pressure page's record (identify.fit.pressure_holdout)
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
@@ -328,6 +368,9 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             sg = td.segmentation
             _say(progress, f"segment: {', '.join(td.segmented_runs)}: {sg.kept} of "
                            f"{sg.samples} samples kept in {sg.counts().get('sweep', 0)} sweeps")
+        if td.mz_turnaround:
+            _say(progress, f"turn-arounds: Mz of {td.mz_turnaround} samples at slip-angle "
+                           "turn-arounds left out (the rig's steering transient)")
         quality["trailer"] = td.to_dict()
         trailer = _mf_trailer(td, float(tyre.nominal_load_N), settings, progress)
         coverage = mf_coverage(trailer, float(tyre.nominal_load_N), unavailable=td.unavailable)
@@ -351,6 +394,8 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
             _say(progress, "MF 95 % intervals: profiles of the objective (refits with each "
                            "coefficient held)")
             mf = profile_intervals(trailer, mf, progress)
+            if settings.pressure_holdout:
+                holdout = pressure_holdout(trailer, mf, progress=progress).to_dict()
             fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:
@@ -406,9 +451,10 @@ def _fit_folder(source, out_root, settings: FitSettings, progress: Progress | No
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
-                 data_quality=quality)
-    _say(progress, f"write: {Path(out_root) / tyre.id} ({len(points)} points)")
-    return write_fit_dir(run, Path(out_root) / tyre.id, points=points, extraction=extraction)
+                 data_quality=quality, pressure_holdout=holdout, points=points,
+                 extraction=extraction)
+    return dataclasses.replace(run, results=tuple(
+        dataclasses.replace(r, points=rows_of(points, r)) for r in run.results))
 
 
 def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:

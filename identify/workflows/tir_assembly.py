@@ -11,7 +11,8 @@ came from (:class:`identify.fit.sources.KeySource`):
 - for a relation with a nested pair of forms the form chosen by the data
   (:func:`identify.fit.forms.choose_form`) or by ``--form``, whose keys (and implied constants,
   CMZ_FORM ...) go into the .tir (:func:`write_relation`);
-- the validity limits from the measured ranges of the fitted points (:func:`apply_limits`);
+- the validity limits from the measured ranges of the points that fitted the force model: the
+  MF stages' when there are any, else every relation's (:func:`apply_limits`);
 - every other key: its default, marked as not identified by these data (:func:`complete`).
 """
 from __future__ import annotations
@@ -298,7 +299,19 @@ def relation_reach(chars: pd.DataFrame, ctx, wanted: Callable[[str], bool]) -> d
 
 
 def apply_limits(tir: dict, sources: dict[str, KeySource], points: pd.DataFrame) -> None:
-    """Set the validity limits to the ranges of the fitted points (measured_vs_model rows)."""
+    """Set the validity limits to the ranges of the fitted points (measured_vs_model rows)
+    that fitted the force model.
+
+    FZMIN ... CAMMAX bound where a user of the .tir may evaluate the Magic Formula; when MF
+    stages were fitted, their points are the range its coefficients were identified over (the
+    relations' Flatplank points, at other loads and cambers, say nothing about the slip
+    curves there). Without MF stages the relations' points are all the file was fitted on.
+    """
+    if "relation" in points and (points["relation"].astype(str) == "MF").any():
+        points = points[points["relation"].astype(str) == "MF"]
+        basis = "of the MF stages' fitted data"
+    else:
+        basis = "of the fitted data"
     limits = measured_limits(points)
     for (lo, hi), (column, _) in LIMIT_COLUMNS.items():
         if lo not in limits:
@@ -309,7 +322,7 @@ def apply_limits(tir: dict, sources: dict[str, KeySource], points: pd.DataFrame)
         what = ", ".join(quantities[:6]) + (" ..." if len(quantities) > 6 else "")
         for key in (lo, hi):
             tir[key] = limits[key]
-            sources[key] = KeySource(MEASURED, f"of the fitted data ({what})")
+            sources[key] = KeySource(MEASURED, f"{basis} ({what})")
 
 
 def complete(sources: Mapping[str, KeySource], fittyp: int) -> dict[str, KeySource]:

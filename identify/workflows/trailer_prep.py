@@ -23,6 +23,7 @@ import pandas as pd
 
 from identify.fit.mf_data import SEGMENT_COLUMN
 from identify.segment import LEVEL_COLUMNS, Segmentation, SegmentSettings, segment_trailer
+from identify.segment.turnaround import turnaround_mask
 
 __all__ = ["SEGMENTED_SUFFIXES", "TrailerData", "prepare_trailer", "unavailable_channels"]
 
@@ -46,19 +47,24 @@ class TrailerData:
                                  there were none)
     segmented_runs : tuple of str   the runs that were segmented
     unavailable : mapping        tidy column -> why it cannot be used
+    mz_turnaround : int          samples whose Mz was taken out (NaN) at a slip-angle
+                                 turn-around (identify.segment.turnaround), before any
+                                 segmentation
     """
 
     table: pd.DataFrame
     segmentation: Segmentation | None
     segmented_runs: tuple[str, ...] = ()
     unavailable: Mapping[str, str] = field(default_factory=dict)
+    mz_turnaround: int = 0
 
     def to_dict(self) -> dict[str, Any]:
         """The trailer part of fit.json's ``data_quality``."""
         return {"segmented_runs": list(self.segmented_runs),
                 "segmentation": None if self.segmentation is None
                 else self.segmentation.to_dict(),
-                "unavailable": dict(self.unavailable), "rows_fitted": len(self.table)}
+                "unavailable": dict(self.unavailable), "rows_fitted": len(self.table),
+                "mz_turnaround_samples": self.mz_turnaround}
 
 
 def unavailable_channels(trailer: pd.DataFrame, warnings) -> dict[str, str]:
@@ -86,13 +92,15 @@ def prepare_trailer(mset, settings: SegmentSettings = SegmentSettings(), *,
                     segment: bool = True) -> TrailerData:
     """The trailer table of a MeasurementSet ready for the MF stages (see the module notes);
     ``settings`` go to the segmentation (bin widths: FitSettings), ``segment=False`` keeps
-    every run as loaded (``mfid fit --no-segment``)."""
-    trailer = mset.trailer
+    every run as loaded (``mfid fit --no-segment``). Either way the Mz of the samples at a
+    slip-angle turn-around is taken out (NaN; identify.segment.turnaround): the rig's steering
+    transient, not the tyre's steady state."""
+    trailer, turned = _without_turnaround_mz(mset.trailer)
     continuous = {r.id for r in mset.manifest.runs if r.kind == "trailer"
                   and Path(r.file).suffix.lower() in SEGMENTED_SUFFIXES}
     unavailable = unavailable_channels(trailer, mset.warnings)
     if not segment or not continuous or trailer is None or trailer.empty:
-        return TrailerData(trailer, None, (), unavailable)
+        return TrailerData(trailer, None, (), unavailable, turned)
     is_cont = trailer["run"].astype(str).isin(continuous)
     seg = segment_trailer(trailer[is_cont], settings)
     # the segment of each sample stays as the sweep label (the clusters of the covariance)
@@ -100,4 +108,15 @@ def prepare_trailer(mset, settings: SegmentSettings = SegmentSettings(), *,
         .rename(columns={"segment": SEGMENT_COLUMN})
     table = pd.concat([kept, trailer[~is_cont]], ignore_index=True)
     runs = tuple(sorted(set(trailer.loc[is_cont, "run"].astype(str))))
-    return TrailerData(table, seg.segmentation, runs, unavailable)
+    return TrailerData(table, seg.segmentation, runs, unavailable, turned)
+
+
+def _without_turnaround_mz(trailer: pd.DataFrame | None) -> tuple[pd.DataFrame | None, int]:
+    """``trailer`` with Mz NaN at the slip-angle turn-arounds (a copy when any), and how many
+    samples that took out."""
+    if trailer is None or trailer.empty or "Mz" not in trailer.columns:
+        return trailer, 0
+    turn = turnaround_mask(trailer) & trailer["Mz"].notna().to_numpy()
+    if not turn.any():
+        return trailer, 0
+    return trailer.assign(Mz=trailer["Mz"].where(~turn)), int(turn.sum())

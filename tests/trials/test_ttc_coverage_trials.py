@@ -11,14 +11,15 @@ noise, AR(1) 0.7, drift, warm-ups, logging quirks), ``mfid import``, ``mfid fit`
    >= 9 of the 10 seeds (>= 90 % of the seeds where it is identifiable); (b) in >= 9 of the 10
    seeds every identifiable coefficient's interval holds the truth.
 
-Neither reading of 2 is met today (docs/intervals.md has the numbers): the tests are marked
+Neither reading of 2 is met (bench/ttc_truth.py prints the numbers, docs/intervals.md says how
+to read them): the tests are marked
 xfail(strict) so that the day they pass is seen. Reading (b) cannot be met by calibrated 95 %
 intervals at all (a seed holds ~90 identifiable ones, all inside with probability
-0.95^90 = 1 %); reading (a) fails for 12.7-19.3 of ~100 coefficients by chance alone (the
-sums bench/ttc_truth.py printed in the runs of docs/intervals.md). What the intervals do
+0.95^90 = 1 %); reading (a) fails for more than a dozen of ~100 coefficients by chance alone
+(the sum bench/ttc_truth.py prints). What the intervals do
 achieve is asserted as well: the pooled coverage of the identifiable coefficient-seeds is at
 least :data:`POOLED_MIN` (0.93-0.94 measured; the iid standard errors held 0.47), and reading
-(c): no coefficient misses beyond chance at family-wise 5 % (met on seeds 0-9, 2026-11-28).
+(c): no coefficient misses beyond chance at family-wise 5 %.
 """
 from __future__ import annotations
 

@@ -5,7 +5,10 @@ Layout (docs/tir-files.md): the 21 sections in the standard order, each after it
 a ``!``-comment header after the ``[MDI_HEADER]`` keys (tool, provenance, the NOMPRES warning),
 unknown keys and tabular sections carried over from an input file, and last mfid's own
 ``[MFID_EXTENSIONS]`` (keys prefixed ``MFID_``). Numbers use the shortest round-trip form
-(``repr``), integers are written as integers, so that read -> write -> read is exact.
+(``repr``), integers are written as integers, so that read -> write -> read is exact; a fitted
+file is written with ``digits`` significant digits instead (:data:`FIT_DIGITS` for
+``mfid fit``): the digits the data determine, and far more than its standard errors allow,
+rather than the 17 of a binary double.
 
 Written for the simplest reader: CRLF line endings as in the reference files (some readers cut
 each line at "newline minus 2"), and no ``=`` anywhere but between a key and its value (a
@@ -14,7 +17,9 @@ nothing else), and plain ASCII as the header declares (``FILE_FORMAT : ASCII``):
 letters in file names, tyre names or carried-over strings lose their accents, other non-ASCII
 characters become ``?``. With ``sources``, each key's comment also says where its value came from
 (fitted, with its standard error; taken from an input .tir; measured range; tyre.toml; or
-default, not identified by the data). Written atomically.
+default, not identified by the data); a fitted coefficient whose 95 % interval holds zero
+(``|value| < ZERO_T x standard error``) is marked in its comment with :data:`ZERO_MARK`: the
+data cannot tell it from 0. Written atomically.
 """
 from __future__ import annotations
 
@@ -28,7 +33,7 @@ from identify.model.parameters import PARAMETERS, SECTIONS, defaults, spec
 from identify.io.atomic import atomic_write_text
 
 __all__ = ["write_tir", "format_tir", "format_value", "source_text", "comment_text",
-           "DEFAULT_SOURCE"]
+           "DEFAULT_SOURCE", "FIT_DIGITS", "ZERO_MARK", "ZERO_T", "holds_zero"]
 
 _SI_UNITS = {"LENGTH": ("meter", {"meter", "meters", "metre", "metres", "m"}),
              "FORCE": ("newton", {"newton", "newtons", "n"}),
@@ -49,12 +54,21 @@ _EXTENSION_NOTE = (
 )
 DEFAULT_SOURCE = "default, not identified by these data"
 """The source comment of a key that kept its default value."""
+FIT_DIGITS = 8
+"""Significant digits of the numbers of a fitted .tir: a relative rounding of at most 5e-9, far
+below any standard error of a fit, so the written file reproduces the fit to that precision."""
+ZERO_T = 1.96
+"""A fitted coefficient within this many standard errors of 0 has a 95 % interval (normal
+quantile) that holds 0."""
+ZERO_MARK = "95 % INTERVAL HOLDS 0"
+"""The mark in the comment of a fitted coefficient the data cannot tell from 0."""
 LINE_END = "\r\n"
 """Line ending of written files (as the reference .tir files)."""
 
 
-def format_value(value: float | str) -> str:
-    """Format one value: integers as integers, other floats as ``repr``, strings quoted.
+def format_value(value: float | str, digits: int | None = None) -> str:
+    """Format one value: integers as integers, other floats as ``repr`` (or with ``digits``
+    significant digits), strings quoted.
 
     Raises
     ------
@@ -72,9 +86,17 @@ def format_value(value: float | str) -> str:
     number = float(value)
     if not math.isfinite(number):
         raise ValueError(f"cannot write a non-finite number: {value!r}")
+    if digits is not None:
+        number = float(f"{number:.{digits}g}")
     if number.is_integer() and abs(number) < 1e15:
         return str(int(number))
     return repr(number)
+
+
+def holds_zero(value: float | str, stderr: float) -> bool:
+    """Whether a fitted ``value`` lies within :data:`ZERO_T` standard errors of 0."""
+    return (not isinstance(value, str) and math.isfinite(stderr) and stderr > 0
+            and abs(float(value)) < ZERO_T * stderr)
 
 
 def ascii_text(text: str) -> str:
@@ -98,8 +120,8 @@ def source_text(kind: str, detail: str = "", stderr: float | None = None) -> str
     return comment_text(text)
 
 
-def _line(key: str, value: float | str, comment: str) -> str:
-    text = format_value(value)
+def _line(key: str, value: float | str, comment: str, digits: int | None = None) -> str:
+    text = format_value(value, digits)
     return f"{key:<{_KEY_WIDTH}}= {text:<{_VALUE_WIDTH}}$ {comment_text(comment)}".rstrip()
 
 
@@ -128,7 +150,8 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
                comment_lines: Sequence[str] = (),
                unknown: Mapping[str, float | str] | None = None,
                tables: Mapping[str, Sequence[str]] | None = None,
-               sources: Mapping[str, object] | None = None) -> str:
+               sources: Mapping[str, object] | None = None,
+               digits: int | None = None) -> str:
     """Return the text of a .tir file; see :func:`write_tir` for the parameters."""
     if fittyp not in (61, 62):
         raise ValueError(f"fittyp must be 61 (MF 6.1) or 62 (MF 6.2), not {fittyp!r}")
@@ -153,6 +176,11 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
         given = sources.get(name)
         if hasattr(given, "kind"):  # a typed source (identify.fit.sources.KeySource)
             kind, text = str(given.kind), str(given.text())
+            stderr = float(getattr(given, "stderr", math.nan))
+            if kind == "fitted" and holds_zero(value, stderr):
+                counts[ZERO_MARK] = counts.get(ZERO_MARK, 0) + 1
+                text += (f"; {ZERO_MARK} (|value| is {abs(float(value)) / stderr:.2g} "
+                         "standard errors)")
         else:
             text = given or (DEFAULT_SOURCE if value == spec(name).default else "")
             kind = text.split(",", 1)[0].split(" ", 1)[0] if text else "unstated"
@@ -169,7 +197,8 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
                 value = _unit_value(p.name, value)
             elif fittyp not in p.write_for and value == p.default:
                 continue
-            lines.append(_line(p.tir_key, value, p.meaning + source(p.name, value)))
+            lines.append(_line(p.tir_key, value, p.meaning + source(p.name, value),
+                               None if p.is_string else digits))
         for key, value in extra.pop(section, []):
             lines.append(_line(key, value, "(not an MFeval key: kept from the input file)"))
         if section == "MDI_HEADER":
@@ -191,8 +220,10 @@ def format_tir(values: Mapping[str, float | str], *, fittyp: int,
         if sources is None:
             del lines[at]
         else:
+            zero = counts.pop(ZERO_MARK, 0)
             lines[at] = comment_text("! : COMMENT : key sources (in each comment): " + ", ".join(
-                f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1])))
+                f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1]))
+                + (f"; {zero} fitted marked {ZERO_MARK}" if zero else ""))
     return ascii_text(LINE_END.join(lines) + LINE_END)
 
 
@@ -200,7 +231,8 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
               comment_lines: Sequence[str] = (),
               unknown: Mapping[str, float | str] | None = None,
               tables: Mapping[str, Sequence[str]] | None = None,
-              sources: Mapping[str, object] | None = None) -> Path:
+              sources: Mapping[str, object] | None = None,
+              digits: int | None = None) -> Path:
     """Write a complete MF 6.1 or 6.2 .tir file atomically.
 
     Parameters
@@ -226,7 +258,11 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
         source with ``kind`` and ``text()`` (:class:`identify.fit.sources.KeySource`),
         appended to the key's comment; a key without an entry is marked
         :data:`DEFAULT_SOURCE` when it holds its default. The header counts the sources by
-        kind. None: no source comments.
+        kind. A fitted key whose standard error puts 0 in its 95 % interval is marked
+        :data:`ZERO_MARK`. None: no source comments.
+    digits : int, optional
+        Significant digits of every number (:data:`FIT_DIGITS` for a fitted file); None: the
+        shortest form that reads back exactly.
 
     Returns
     -------
@@ -241,5 +277,5 @@ def write_tir(path: str | Path, values: Mapping[str, float | str], *, fittyp: in
         For an unsupported ``fittyp`` or a value that cannot be written (NaN, inf ...).
     """
     text = format_tir(values, fittyp=fittyp, comment_lines=comment_lines, unknown=unknown,
-                      tables=tables, sources=sources)
+                      tables=tables, sources=sources, digits=digits)
     return atomic_write_text(path, text, encoding="ascii")

@@ -1,0 +1,129 @@
+"""The pure parts of bench/realdata.py, the real-data judge: its error metric, its held-out
+splits and its verdict, on hand-made numbers and on a small simulated TTC session."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from tests.bench_modules import load_bench
+
+R = load_bench("realdata")
+
+
+def test_rms_and_thesis_metric_closed_form():
+    measured = np.array([1.0, -1.0, 2.0, -2.0])
+    model = np.array([1.1, -0.9, 2.0, -2.0])
+    # pooled: sqrt((0.01 + 0.01) / 10)
+    assert R.rms_pct(measured, model) == pytest.approx(100 * math.sqrt(0.02 / 10))
+    groups = np.array([0, 0, 1, 1])
+    e = R.channel_error(measured, model, groups)
+    # per group: sqrt(0.02 / 2) = 10 % and 0 %; the thesis metric is their plain mean
+    assert e.thesis_pct == pytest.approx(5.0)
+    assert e.pooled_pct == pytest.approx(100 * math.sqrt(0.002))
+    assert e.n == 4
+    assert math.isnan(R.rms_pct(np.zeros(3), np.ones(3)))  # no measured signal: no ratio
+
+
+def test_pressure_folds_partition_the_samples_by_nearest_level():
+    p = np.array([55e3, 56e3, 70e3, 82e3, 84e3, np.nan])
+    folds = R.pressure_folds(p, [55.5e3, 83e3])
+    assert [f.name for f in folds] == ["p 56 kPa", "p 83 kPa"]
+    held = np.vstack([f.rows for f in folds])
+    # every finite sample held out exactly once, the transition sample at its nearest level
+    assert held.sum(axis=0).tolist() == [1, 1, 1, 1, 1, 0]
+    assert folds[1].rows.tolist() == [False, False, True, True, True, False]
+
+
+def test_pressure_levels_split_at_a_slow_pressure_change():
+    rng = np.random.default_rng(0)
+    p = np.r_[55e3 + 300 * rng.standard_normal(500), 83e3 + 300 * rng.standard_normal(500),
+              np.linspace(56e3, 82e3, 5)]  # a few samples of the pressure change
+    levels = R.pressure_levels(p)
+    assert len(levels) == 2
+    assert levels[0] == pytest.approx(55e3, abs=100) and levels[1] == pytest.approx(83e3, abs=100)
+    # a ramp between the levels with no step above the gap (the sorted values chain) still
+    # leaves two levels; a level of fewer than 2 % of the samples is none
+    ramp = np.r_[p[:1000], np.linspace(55.5e3, 82.5e3, 20)]
+    assert np.max(np.diff(np.sort(ramp))) < R.PRESSURE_GAP
+    assert len(R.pressure_levels(ramp)) == 2
+    assert len(R.pressure_levels(np.r_[ramp, np.full(15, 110e3)])) == 2
+    assert R.pressure_levels(np.full(10, 8e4)) == [8e4]
+
+
+def test_sweep_folds_deal_every_sweep_once_and_are_seeded():
+    sweep_of_row = np.repeat(np.arange(-1, 7), 3)  # rows of no sweep (-1), then sweeps 0..6
+    folds = R.sweep_folds(sweep_of_row, 3, seed=4)
+    assert len(folds) == 3
+    held = np.vstack([f.rows for f in folds])
+    assert held.sum(axis=0).tolist() == [0] * 3 + [1] * 21
+    again = R.sweep_folds(sweep_of_row, 3, seed=4)
+    assert [f.name for f in again] == [f.name for f in folds]
+    assert [f.name for f in R.sweep_folds(sweep_of_row, 3, seed=5)] != [f.name for f in folds]
+    assert R.sweep_folds(np.zeros(5, int), 3, seed=0) == []  # one sweep: nothing to hold out
+
+
+def test_verdict_ties_within_five_percent():
+    held = {"default": {"Fx": 10.0, "Fy": 5.2, "Mz": 20.0, "Mx": math.nan},
+            "no-segment": {"Fx": 9.6, "Fy": 4.0, "Mz": 21.0, "Mx": 30.0}}
+    v = R.verdict(held)
+    assert v["Fx"]["ok"] and v["Fx"]["best"] == "no-segment"  # 10 / 9.6 = 1.04
+    assert not v["Fy"]["ok"] and v["Fy"]["ratio"] == pytest.approx(1.3)
+    assert v["Mz"]["ok"] and v["Mz"]["best"] == "default"
+    assert "Mx" not in v  # no default error to judge
+
+
+def test_left_out_counts_segments_by_kind_and_filters():
+    seg = {"segments": [{"kind": "sweep", "start": 0, "stop": 10},
+                        {"kind": "transition", "start": 10, "stop": 14},
+                        {"kind": "warmup", "start": 14, "stop": 40},
+                        {"kind": "transition", "start": 40, "stop": 41}],
+           "filters": [{"name": "low speed", "removed": 3}, {"name": "cold tread", "removed": 0}]}
+    assert R.left_out(seg) == [("warmup", 1, 26), ("transition", 2, 5),
+                               ("filter: low speed", -1, 3)]
+    assert R.left_out(None) == []
+
+
+@pytest.fixture(scope="module")
+def simulated(tmp_path_factory):
+    """A simulated TTC cornering session, imported and loaded, with its segmentation."""
+    from identify.io.folder import load_folder
+    from identify.io.tir import read_tir
+    from identify.segment import segment_trailer
+    from identify.simulate import default_tir_path
+    from identify.simulate.ttc import simulate_ttc
+    from identify.workflows.import_session import import_session
+
+    root = tmp_path_factory.mktemp("ttc")
+    simulate_ttc(read_tir(default_tir_path()).params(), root / "raw", seed=1,
+                 cornering_only=True)
+    import_session(sorted((root / "raw").glob("*.mat")), root / "set")
+    table = load_folder(root / "set").trailer.reset_index(drop=True)
+    return table, segment_trailer(table).segmentation
+
+
+def test_sweep_rows_map_the_segments_onto_the_loaded_table(simulated):
+    table, seg = simulated
+    segments = [s.to_dict() for s in seg.segments]
+    rows = R.sweep_rows(table, segments)
+    sweeps = [s for s in seg.segments if s.kind == "sweep"]
+    assert rows.max() == len(sweeps) - 1
+    for k, s in enumerate(sweeps):
+        at = rows == k
+        assert at.sum() == s.stop - s.start
+        # the rows labelled are the segment's: their medians are the ones it recorded
+        for c in ("Fz", "p"):
+            assert np.median(table.loc[at, c]) == pytest.approx(s.medians[c], rel=1e-9)
+
+
+def test_the_simulated_session_splits_into_one_fold_per_pressure(simulated):
+    table, seg = simulated
+    levels = seg.level_values("p")
+    assert len(levels) >= 2
+    folds = R.pressure_folds(table["p"].to_numpy(float), levels)
+    assert len(folds) == len(levels)
+    held = np.vstack([f.rows for f in folds]).sum(axis=0)
+    assert np.all(held == 1)
+    for f, level in zip(folds, levels):
+        assert np.median(table.loc[f.rows, "p"]) == pytest.approx(level, rel=0.02)
