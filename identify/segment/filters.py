@@ -23,8 +23,15 @@ In the order applied:
     Samples of a slip-ratio sweep further than ``set_alpha_deg`` from the segment's set slip
     angle (the ramps between set slip angles inside a quasi-steady stretch) are removed.
 ``cold tread``
-    Samples whose tread centre temperature is below ``cold_below_K`` are removed (a cold tread
-    has a different friction and stiffness than the warm one the model describes).
+    Samples of a tread that has not reached the temperature the run works it at are removed (a
+    cold tread has a different friction and stiffness than the warm one the model describes):
+    per run, below ``cold_below_K`` or below halfway from the ambient temperature to the run's
+    working temperature (the median tread centre temperature of its warmest sweep: what the
+    programme brings the tread to once it is warmed), whichever is lower. The halfway mark
+    follows the programme: a small tyre swept at a low speed works its tread at 30-45 degC,
+    where a fixed 40 degC would call most of its sweeps cold, while the first sweep after a
+    pause (the tread cooled towards ambient while the pressure was changed) still starts cold.
+    Without an ambient channel the mark is ``cold_below_K`` alone.
 ``low speed``
     Samples slower than ``min_speed`` are removed.
 ``binning`` (optional)
@@ -44,7 +51,8 @@ import pandas as pd
 from identify.segment.result import FilterCount
 from identify.segment.settings import SegmentSettings
 
-__all__ = ["binning", "cold_tread", "low_speed", "revolution_average", "set_slip_angle"]
+__all__ = ["binning", "cold_mark", "cold_tread", "low_speed", "revolution_average",
+           "set_slip_angle"]
 
 
 def _numeric(frame: pd.DataFrame) -> list[str]:
@@ -207,15 +215,33 @@ def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFram
                             "slip angle")
 
 
+def cold_mark(frame: pd.DataFrame, s: SegmentSettings) -> pd.Series:
+    """The tread centre temperature below which a sample is cold [K], per run (see module):
+    ``cold_below_K``, or halfway from the run's ambient (median of ``T_ambient``) to its
+    working temperature (the largest median of ``T_tread_centre`` over its ``segment``
+    values, the sweeps) where that is lower."""
+    tread = (frame.groupby(["run", "segment"], sort=False)["T_tread_centre"].median()
+             .groupby(level=0, sort=False).max())
+    if "T_ambient" in frame:
+        ambient = frame.groupby("run", sort=False)["T_ambient"].median()
+        halfway = ambient + 0.5 * (tread - ambient)
+        return halfway.where(halfway < s.cold_below_K, s.cold_below_K).fillna(s.cold_below_K)
+    return pd.Series(s.cold_below_K, index=tread.index)
+
+
 def cold_tread(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, FilterCount]:
-    """Drop samples whose tread centre temperature is below ``cold_below_K``."""
+    """Drop samples of a tread colder than its run works it at (see module)."""
     name = "cold tread"
     if "T_tread_centre" not in frame or frame["T_tread_centre"].isna().all():
         return frame, FilterCount(name, 0, len(frame), False, "no tread temperature channel")
-    cold = frame["T_tread_centre"] < s.cold_below_K  # NaN (unknown) is kept
+    mark = cold_mark(frame, s)
+    cold = frame["T_tread_centre"] < frame["run"].map(mark).to_numpy(float)  # NaN is kept
     out = frame[~cold]
+    marks = sorted({round(float(v) - 273.15) for v in mark.dropna()})
     return out, FilterCount(name, int(cold.sum()), len(out), True,
-                            f"tread centre below {s.cold_below_K - 273.15:g} degC")
+                            "tread centre below " + "/".join(f"{v:g}" for v in marks)
+                            + " degC (halfway from ambient to the run's working temperature, "
+                            f"at most {s.cold_below_K - 273.15:g})")
 
 
 def low_speed(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, FilterCount]:

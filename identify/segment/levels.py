@@ -13,7 +13,10 @@ angles and speed): single-linkage clustering in one dimension, the 1-D case of D
 ``min_samples = 1``. It needs no number of levels and no starting guess, and one outlying
 segment cannot pull two levels together (it only ever adds its own). A cluster of fewer than
 ``min_segments`` segments is not a level (a warm-up that looked like a sweep, a stray set-up
-move): its segments are dropped. A level's value is the sample-weighted median of its
+move) unless its one sweep held the channel: it starts and ends at the same value, within the
+resolution (a set point the programme visits once, such as one sweep at a pressure of its
+own; a sweep during which a set point was changed starts at one and ends at the other).
+Otherwise its segments are dropped. A level's value is the sample-weighted median of its
 segments' medians; ``low`` and ``high`` give the drift.
 """
 from __future__ import annotations
@@ -52,7 +55,8 @@ def _weighted_median(values: np.ndarray, weights: np.ndarray) -> float:
 
 
 def cluster(channel: str, medians: np.ndarray, weights: np.ndarray, s: SegmentSettings,
-            min_segments: int = MIN_SEGMENTS) -> tuple[tuple[Level, ...], np.ndarray]:
+            min_segments: int = MIN_SEGMENTS, held: np.ndarray | None = None
+            ) -> tuple[tuple[Level, ...], np.ndarray]:
     """Levels of one channel from its segment medians.
 
     Parameters
@@ -64,6 +68,10 @@ def cluster(channel: str, medians: np.ndarray, weights: np.ndarray, s: SegmentSe
     weights : ndarray
         Samples per segment.
     s : SegmentSettings
+    min_segments : int
+        Fewest segments of a level.
+    held : ndarray of bool, optional
+        Segments that held the channel from start to end: one alone makes a level.
 
     Returns
     -------
@@ -83,7 +91,7 @@ def cluster(channel: str, medians: np.ndarray, weights: np.ndarray, s: SegmentSe
     levels = []
     for g in np.unique(group):  # a handful of clusters
         members = order[group == g]
-        if members.size < min_segments:
+        if members.size < min_segments and (held is None or not held[members].all()):
             continue
         levels.append((members, _weighted_median(medians[members], weights[members])))
     out = []

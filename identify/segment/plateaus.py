@@ -2,8 +2,15 @@
 
 A sample is quasi-steady when none of the condition channels (load, pressure, inclination,
 speed), smoothed by a running median over ``smooth_s``, changes by more than its rate limit
-over one second around it. A maximal run of quasi-steady samples at least ``min_duration_s``
-long (broken at time gaps) is a plateau; what lies between plateaus is a transition.
+over one second around it. While the slip is being swept, the channels that respond to the
+slip (:data:`FOLLOWS_SLIP`: the load, whose control lags the side and longitudinal force by up
+to a quarter of the load at a high slip; the gas pressure, which moves with the tyre's
+deflection and heat; the speed, which droops with the braking force) are not tested: a test
+programme changes its set points with the slip at rest or while the logger pauses, so their
+drift during a sweep is the sweep's, not a new set point. The inclination is set by the rig
+and does not follow the slip; it is tested throughout. A maximal run of quasi-steady samples
+at least ``min_duration_s`` long (broken at time gaps) is a plateau; what lies between
+plateaus is a transition.
 
 Each plateau is then classified by its slip channels, smoothed over 0.25 s and taken every
 0.1 s (so that noise does not add up): of the two (alpha, kappa) whose 1-99 % span reaches the
@@ -12,31 +19,36 @@ the time (a slip-ratio sweep after the tail of a warm-up wiggle, or before a sli
 is a slip-ratio sweep); the total variation over the span says how often it was traversed. A
 sweep (0 -> +A -> -A -> 0: ratio 2) goes up to ``warmup_ratio``; more is a warm-up (the slip
 angle oscillating); a span below the minimum, or below ``sweep_fraction`` of the run's
-largest, is ``steady`` or ``partial``.
+full sweep (:func:`full_span`), is ``steady`` or ``partial``.
 """
 from __future__ import annotations
 
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import median_filter
+from scipy.ndimage import maximum_filter1d, median_filter, minimum_filter1d
 
 from identify.segment.settings import CONDITIONS, SegmentSettings
 
 __all__ = [
+    "FOLLOWS_SLIP",
     "MOVING_ALPHA",
     "MOVING_KAPPA",
     "Plateau",
     "classify",
     "find_plateaus",
+    "full_span",
     "interval",
     "running_median",
+    "slip_moving",
     "steady_mask",
 ]
 
 #: Rates above which the slip angle [rad/s] and the slip ratio [1/s] count as moving.
 MOVING_ALPHA = np.deg2rad(1.0)
 MOVING_KAPPA = 0.015
+#: The condition channels whose drift while the slip moves belongs to the sweep (see module).
+FOLLOWS_SLIP = ("Fz", "p", "Vx")
 
 
 @dataclass(frozen=True)
@@ -46,6 +58,7 @@ class Plateau:
     start: int
     stop: int
     medians: dict
+    ends: dict
     alpha_span: float
     kappa_span: float
     alpha_ratio: float
@@ -65,9 +78,28 @@ def running_median(x: np.ndarray, n: int) -> np.ndarray:
     return median_filter(np.asarray(x, dtype=float), size=n, mode="nearest")
 
 
+def slip_moving(cols: dict[str, np.ndarray], t: np.ndarray,
+                s: SegmentSettings) -> np.ndarray:
+    """Samples where the slip angle or the slip ratio is being swept: the channel, smoothed
+    over 0.25 s, spans at least half of what it travels at the moving rate
+    (:data:`MOVING_ALPHA`, :data:`MOVING_KAPPA`) over the ``smooth_s`` window about the sample
+    (half: at the turn of a sweep the window holds the way up and the way back)."""
+    dt = interval(t)
+    n = max(round(s.smooth_s / dt), 1) // 2 * 2 + 1
+    out = np.zeros(t.size, dtype=bool)
+    for c, rate in (("alpha", MOVING_ALPHA), ("kappa", MOVING_KAPPA)):
+        x = running_median(cols[c], max(round(0.25 / dt), 1))
+        if not np.isfinite(x).all():
+            x = np.where(np.isfinite(x), x, np.nanmedian(x) if np.isfinite(x).any() else 0.0)
+        span = maximum_filter1d(x, n, mode="nearest") - minimum_filter1d(x, n, mode="nearest")
+        out |= span >= 0.5 * rate * n * dt
+    return out
+
+
 def steady_mask(cols: dict[str, np.ndarray], t: np.ndarray,
                 s: SegmentSettings) -> np.ndarray:
-    """Quasi-steady samples: every condition channel within its rate limit (see module)."""
+    """Quasi-steady samples: every condition channel within its rate limit, the channels that
+    follow the slip only where it is at rest (see module)."""
     dt = interval(t)
     n = max(round(s.smooth_s / dt), 1)
     h = n // 2
@@ -77,10 +109,12 @@ def steady_mask(cols: dict[str, np.ndarray], t: np.ndarray,
     limits = {"Fz": s.rate_Fz * abs(float(np.median(cols["Fz"]))),
               "p": s.rate_p * abs(float(np.median(cols["p"]))),
               "gamma": np.deg2rad(s.rate_gamma_deg), "Vx": s.rate_Vx}
+    moving = slip_moving(cols, t, s)
     ok = np.ones(t.size, dtype=bool)
     for c in CONDITIONS:
         x = running_median(cols[c], n)
-        ok &= np.abs(x[hi] - x[lo]) / span_t <= limits[c]
+        steady = np.abs(x[hi] - x[lo]) / span_t <= limits[c]
+        ok &= (steady | moving) if c in FOLLOWS_SLIP else steady
     return ok
 
 
@@ -117,25 +151,43 @@ def _shape(x: np.ndarray, dt: float, moving: float) -> tuple[float, float, float
 
 
 def describe(cols: dict[str, np.ndarray], t: np.ndarray, starts, stops) -> list[Plateau]:
-    """Medians of the conditions and the slip content of each plateau."""
+    """Medians of the conditions, their change from the plateau's first to its last tenth
+    (``ends``: the medians of the two tenths apart [SI]) and the slip content of each
+    plateau."""
     dt = interval(t)
     out = []
     for a, b in zip(starts, stops):  # a few hundred plateaus, each handled as a whole array
         med = {c: float(np.median(cols[c][a:b])) for c in CONDITIONS}
+        tenth = max((b - a) // 10, 1)
+        ends = {c: float(abs(np.median(cols[c][b - tenth:b]) - np.median(cols[c][a:a + tenth])))
+                for c in CONDITIONS}
         sa, ra, ma = _shape(cols["alpha"][a:b], dt, MOVING_ALPHA)
         sk, rk, mk = _shape(cols["kappa"][a:b], dt, MOVING_KAPPA)
-        out.append(Plateau(int(a), int(b), med, sa, sk, ra, rk, ma, mk))
+        out.append(Plateau(int(a), int(b), med, ends, sa, sk, ra, rk, ma, mk))
     return out
+
+
+def full_span(spans: list[float]) -> float:
+    """The span of a full sweep of the run: the largest that at least a quarter of the
+    candidate plateaus (two at least) reach. A test programme repeats its sweep at every
+    set point; one plateau stretched by a stray excursion (a slip-ratio spike as the wheel
+    slows, a lock-up at the end of a drive/brake run) would otherwise make every real sweep
+    look partial."""
+    if not spans:
+        return 0.0
+    ordered = np.sort(spans)[::-1]
+    k = min(len(ordered), max(2, -(-len(ordered) // 4)))
+    return float(ordered[k - 1])
 
 
 def classify(plateaus: list[Plateau], s: SegmentSettings) -> list[tuple[str, str]]:
     """(kind, swept variable) of each plateau: ``sweep``, ``warmup``, ``partial`` or
     ``steady``; ``alpha``, ``kappa`` or ""."""
     min_a, min_k = np.deg2rad(s.min_span_alpha_deg), s.min_span_kappa
-    max_a = max((p.alpha_span for p in plateaus if p.alpha_ratio <= s.warmup_ratio),
-                default=0.0)
-    max_k = max((p.kappa_span for p in plateaus if p.kappa_ratio <= s.warmup_ratio),
-                default=0.0)
+    max_a = full_span([p.alpha_span for p in plateaus
+                       if p.alpha_ratio <= s.warmup_ratio and p.alpha_span >= min_a])
+    max_k = full_span([p.kappa_span for p in plateaus
+                       if p.kappa_ratio <= s.warmup_ratio and p.kappa_span >= min_k])
     out = []
     for p in plateaus:
         fa = p.alpha_span / max_a if max_a > 0 and p.alpha_span >= min_a else 0.0

@@ -6,8 +6,9 @@ Steps (pure computation on the tidy table of :mod:`identify.io.trailer`):
    between plateaus lie transitions;
 2. the condition levels, by 1-D clustering of the sweep plateaus' medians over all runs
    together (:mod:`~identify.segment.levels`): load, pressure, inclination, speed, and the set
-   slip angle of slip-ratio sweeps; a sweep whose median falls in no level (a cluster of one)
-   becomes ``isolated`` and is dropped;
+   slip angle of slip-ratio sweeps; a sweep whose median falls in no level (a cluster of one
+   that did not hold the channel from its start to its end) becomes ``isolated`` and is
+   dropped;
 3. the named filters on the sweeps' samples (:mod:`~identify.segment.filters`).
 
 Warm-ups, transitions, steady stretches (a pause, the tyre lifted for a pressure change) and
@@ -25,7 +26,7 @@ import numpy as np
 import pandas as pd
 
 from identify.segment import filters as F
-from identify.segment.levels import cluster
+from identify.segment.levels import cluster, resolution
 from identify.segment.plateaus import (
     classify,
     describe,
@@ -79,6 +80,7 @@ def _runs(table: pd.DataFrame, s: SegmentSettings):
             if p.start > edge:
                 yield run, "transition", "", offset + edge, offset + p.start, {}, t, offset
             med = dict(p.medians)
+            med.update({f"{c}_ends": v for c, v in p.ends.items()})
             if var == "kappa":
                 med["alpha"] = _set_alpha(cols["alpha"][p.start:p.stop],
                                           cols["kappa"][p.start:p.stop])
@@ -96,7 +98,9 @@ def _levels(records: list, sweeps: list[int], s: SegmentSettings):
     levels, index = {}, {}
     for c in CONDITIONS:
         med = np.array([records[i][5][c] for i in sweeps])
-        levels[c], index[c] = cluster(c, med, weights, s)
+        ends = np.array([records[i][5][f"{c}_ends"] for i in sweeps])
+        held = ends <= np.array([resolution(c, m, s) for m in med])
+        levels[c], index[c] = cluster(c, med, weights, s, held=held)
     kappa_sweeps = [j for j, i in enumerate(sweeps) if records[i][2] == "kappa"]
     med = np.array([records[sweeps[j]][5]["alpha"] for j in kappa_sweeps])
     levels["alpha"], found = cluster("alpha", med, weights[kappa_sweeps], s)
@@ -144,8 +148,9 @@ def segment_trailer(table: pd.DataFrame,
             seg_of_row[a:b] = len(segments)
             for c, k in lv.items():
                 level_cols[c][a:b] = levels[c][k].value
+        medians = {k: v for k, v in med.items() if not k.endswith("_ends")}
         segments.append(Segment(str(run), kind, var, a - off, b - off, float(t[a - off]),
-                                float(t[b - off - 1]), lv, med))
+                                float(t[b - off - 1]), lv, medians))
     chosen = seg_of_row >= 0
     frame = table[chosen].assign(
         segment=seg_of_row[chosen],

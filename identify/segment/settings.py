@@ -39,8 +39,9 @@ class SegmentSettings:
     min_span_alpha_deg, min_span_kappa : float
         Smallest 1-99 % span of the swept variable in a segment that is a sweep.
     sweep_fraction : float
-        A sweep must span at least this fraction of the largest span of its variable in the
-        run (smaller ones are ``partial``: a warm-up wiggle, a stray set-up move).
+        A sweep must span at least this fraction of a full sweep of its variable in the run
+        (identify.segment.plateaus.full_span; smaller ones are ``partial``: a warm-up
+        wiggle, a stray set-up move).
     warmup_ratio : float
         A segment whose swept variable travels more than this many times its span (total
         variation / span; a sweep 0 -> +A -> -A -> 0 gives 2) is a warm-up.
@@ -48,7 +49,8 @@ class SegmentSettings:
         Samples of a slip-ratio sweep further than this from its set slip angle are dropped
         (the slip-angle ramps between set points).
     cold_below_K : float
-        Tread centre temperature below which a sample is cold [K] (313.15 K = 40 degC).
+        Tread centre temperature below which a sample is cold [K] (313.15 K = 40 degC); lower
+        for a run whose tread works cooler (identify.segment.filters, ``cold tread``).
     min_speed : float
         Speed below which a sample is dropped [m/s].
     revolution_average : bool
