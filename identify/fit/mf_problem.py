@@ -153,8 +153,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
         (:class:`StagePoints`) are reused instead of selected and read again.
     sweeps : mf_data.Sweeps, optional
         mf_data.run_sweeps of ``trailer``, when the caller has them (identify.fit.mf_stages
-        takes them once for every stage: ~4 ms a table of the bundled sample's size, twice
-        per stage otherwise; cProfile of fit_mf on the sample, one-off, 2026-11-24).
+        takes them once for every stage rather than twice per stage).
 
     Returns
     -------

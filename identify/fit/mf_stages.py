@@ -1,4 +1,4 @@
-"""Fit the Magic Formula slip coefficients to trailer data in stages (issue 5).
+"""Fit the Magic Formula slip coefficients to trailer data in stages.
 
 Stages, in order (identify.fit.mf_stage_defs.DEFAULT_STAGES): Fx0, Fy0, Mz0 on pure-slip
 points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point, then vertical

@@ -135,8 +135,9 @@ RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
                                      "bin_alpha_deg": None, "bin_kappa": None,
                                      "pressure_holdout": False}
 """Settings of a fit recorded before the setting existed: what such a fit ran with (one MF
-pass before f7d0963, no segmentation before 9127d5d, neither Fy0 reparametrisation nor MCMC
-budget before 9b39edb, every trailer sample fitted, no binning, before 631434a)."""
+pass, no segmentation, neither Fy0 reparametrisation nor an MCMC budget, every trailer sample
+fitted without binning, no pressure hold-out), so that an older fit.json reads back as what
+it was."""
 
 
 @dataclass(frozen=True)

@@ -11,8 +11,8 @@ It waits at most :data:`PROBE_SECONDS`; a child that does not finish, or dies of
 a corrupt file. Exceptions in the child are left to the parent's own reading, which turns them
 into its one-line errors.
 
-The child is a new interpreter running this file (0.2-0.3 s with the h5py import, one-off
-timings; see identify.io.child_fate for why not a fork).
+The child is a new interpreter running this file (the cost of an h5py import; see
+identify.io.child_fate for why not a fork).
 """
 from __future__ import annotations
 

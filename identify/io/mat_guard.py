@@ -28,8 +28,8 @@ from identify.io.child_fate import TIMEOUT, child_fate
 
 __all__ = ["mat_problem", "loadmat_crash"]
 
-#: Longest a child may take to parse a .mat file with scipy.io [s] (a TTC session: < 2 s, a
-#: one-off timing).
+#: Longest a child may take to parse a .mat file with scipy.io [s]: far beyond what a TTC
+#: session takes, so that only a hung parser reaches it.
 PARSE_SECONDS = 120.0
 
 _CHILD = ("import io, sys, scipy.io; "
@@ -200,8 +200,8 @@ def loadmat_crash(data: bytes, timeout: float = PARSE_SECONDS) -> str | None:
 
     :func:`mat_problem` walks the elements the way scipy's reader does, but one hypothesis
     trial of 30,000 still crashed the process on a file it passed, with no Python frame on the
-    stack. So the bytes are parsed once in a new interpreter (0.3-0.5 s with the scipy
-    import, one-off timings; identify.io.child_fate); a child killed by a signal, or one that
+    stack. So the bytes are parsed once in a new interpreter (the cost of a scipy import;
+    identify.io.child_fate); a child killed by a signal, or one that
     does not finish in ``timeout`` [s], is a corrupt file. An exception in the child is left to
     the caller's own parse, which reports it in its one line.
     """

@@ -172,7 +172,7 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
         if warnings is not None:
             warnings.append(DataWarning(ch.file, ch.run, "channel", ("SR",), n, n, detail,
                                         "used as kappa"))
-    # one median per channel (0.1-0.15 s each at 5e6 samples, one-off timings): the cleaned
+    # one median per channel (each costs a sort of the channel): the cleaned
     # required channels are finite, so the median is that of the finite samples the checks want
     medians = {c: float(np.median(frame[c].to_numpy())) for c in ("p", "Fz", "Vx")}
     _plausible(frame, ch, names, problems, warnings, medians)

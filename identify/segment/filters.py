@@ -95,9 +95,8 @@ def revolution_average(frame: pd.DataFrame,
             twice, j = _revolution_mean(angle[i], once)  # at stretch[i[j]]
             taken.append(stretch[i[j]])
             averaged.append(2 * once[j] - twice)
-    # one copy of the kept rows and one assignment, not one of each per stretch (pandas
-    # overhead per stretch: mf_table of a generated TTC session 0.55 -> 0.38 s, timed in
-    # bench/fit_cost.py --ttc 0, one run)
+    # one copy of the kept rows and one assignment, not one of each per stretch (pandas has
+    # an overhead per call; bench/fit_cost.py --ttc 0 times the whole table)
     result = frame.iloc[np.concatenate(taken) if taken else []].copy()
     if taken:
         result[cols] = np.concatenate(averaged)
