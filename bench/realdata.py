@@ -334,7 +334,11 @@ def find_sets(dirs: Sequence[str] | None) -> list[Path]:
 
 
 def _stages(fit_json: Mapping) -> dict[str, dict[str, object]]:
-    return {f["form"]: {"status": f.get("identification") if f.get("converged") else "failed",
+    def status(f: Mapping) -> object:  # the fit's status; older fit.json: identification
+        return f.get("fit_status") or (f.get("identification") if f.get("converged")
+                                       else "failed")
+
+    return {f["form"]: {"status": status(f),
                         "error_pct": f.get("error_total_pct"),
                         "points": f.get("n_points")}
             for f in fit_json.get("fits", []) if f.get("relation") == "MF"}
