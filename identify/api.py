@@ -106,6 +106,19 @@ def _as_api(run: _FitRun) -> FitRun:
     return FitRun(**{f.name: getattr(run, f.name) for f in dataclasses.fields(_FitRun)})
 
 
+def _settings_of(settings: FitSettings | None, only: Iterable[str],
+                 options: dict[str, Any]) -> tuple[FitSettings, dict[str, float]]:
+    """The FitSettings of a call (given whole, or as keywords with ``only``) and the nominal
+    conditions of a single characteristics CSV among the keywords."""
+    nominal = {k: options.pop(k) for k in ("nominal_pressure_Pa", "nominal_load_N")
+               if k in options}
+    if settings is None:
+        return FitSettings(only=tuple(only), **options), nominal
+    if options or only:
+        raise TypeError("give settings or its fields as keywords, not both")
+    return settings, nominal
+
+
 def _notebook_progress() -> Progress | None:
     """A progress line that updates in place in a Jupyter notebook (the elapsed time and the
     current step), or None outside one."""
@@ -147,12 +160,7 @@ def fit(source: str | Path | MeasurementSet, *, settings: FitSettings | None = N
     FitRun
         ``run.save(dir)`` writes it; ``run.failed`` lists the fits that did not converge.
     """
-    nominal = {k: options.pop(k) for k in ("nominal_pressure_Pa", "nominal_load_N")
-               if k in options}
-    if settings is None:
-        settings = FitSettings(only=tuple(only), **options)
-    elif options or only:
-        raise TypeError("give settings or its fields as keywords, not both")
+    settings, nominal = _settings_of(settings, only, options)
     if progress is None:
         progress = _notebook_progress()
     elif progress is True:
@@ -195,12 +203,7 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     FitRun
         ``run.failed`` lists the fits that did not converge (outputs are written anyway).
     """
-    nominal = {k: options.pop(k) for k in ("nominal_pressure_Pa", "nominal_load_N")
-               if k in options}
-    if settings is None:
-        settings = FitSettings(only=tuple(only), **options)
-    elif options or only:
-        raise TypeError("give settings or its fields as keywords, not both")
+    settings, nominal = _settings_of(settings, only, options)
     return _as_api(_fit_folder(source, out_root=out_root, settings=settings, **nominal))
 
 
