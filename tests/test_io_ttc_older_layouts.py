@@ -75,10 +75,9 @@ def test_a_file_without_channel_struct_in_psi_is_read_as_uscs(tmp_path):
                                    atol=1e-9)
 
 
-def test_the_psi_threshold_separates_every_tyre_pressure():
-    # the lowest pressure any tyre is tested at in kPa (an FSAE tyre at 8 psi = 55 kPa)
-    # lies above it, the highest in psi (a truck tyre at 120 psi is 827 kPa... but 120 psi
-    # is above it too): the rule reads psi only below a value no kPa pressure reaches
+def test_the_psi_threshold_lies_below_every_pressure_in_kpa():
+    # no tyre is tested below 6.5 psi (45 kPa), so a kPa file is never read as psi; a psi file
+    # above 45 psi (a truck tyre) is read as kPa and needs --units (the warning says so)
     assert 6 * PSI / 1e3 < PSI_BELOW < 55.0
 
 
@@ -163,3 +162,12 @@ def test_sr_of_a_drive_brake_run_is_taken_at_the_zero_crossing_of_its_linear_ran
     at_zero = np.abs(frame["Fx"]) < 0.02 * frame["Fz"]
     assert np.abs(frame.loc[at_zero, "kappa"]).max() < 2e-3  # not the -0.03 of SR
     assert any("taken at Fx = 0" in w.detail for w in warnings)
+
+
+def test_import_without_usable_rl_takes_the_effective_radius_from_the_wheel_speed(tmp_path):
+    ch = _session()  # V / omega = 0.25 m at every load
+    ch["RL"] = ch["RL"] / 2.54 * 0.3048
+    result = import_session([_mat(tmp_path / "B1run1.mat", ch, tireid="Hoosier 20.5x7.0-13")],
+                            tmp_path / "out", nominal_pressure_Pa=83_000, nominal_load_N=1100)
+    assert result.unloaded_radius_m == pytest.approx(0.25, abs=1e-4)  # not the size's 0.2604
+    assert any("V / omega" in n for n in result.notes)

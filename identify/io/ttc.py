@@ -259,8 +259,10 @@ def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], st
     Older TTC files (and files converted by teams) carry no ``channel`` struct. The TTC SI
     convention is then assumed (ET s, V kph, N rpm, SA/IA deg, RL/RE cm, P kPa, forces N,
     moments N-m, temperatures deg C); a file whose median pressure is below
-    :data:`PSI_BELOW` is in the USCS convention (psi, lbf, ft-lb, mph, in, deg F), the
-    only channel whose magnitude tells the two apart for every tyre.
+    :data:`PSI_BELOW` is in the USCS convention (psi, lbf, ft-lb, mph, in, deg F): no tyre is
+    tested below 45 kPa, so a kPa file is never read as psi. A USCS file of a tyre above
+    45 psi (a truck tyre) reads as kPa; its pressure is then implausibly low for the load,
+    and ``--units`` (named in the warning) sets the file's units.
     """
     pressure = data.get("P")
     finite = pressure[np.isfinite(pressure)] if pressure is not None else np.empty(0)

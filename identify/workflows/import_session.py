@@ -164,9 +164,10 @@ def _effective_radius_at_zero_load(table: pd.DataFrame, p_level: float) -> float
     need = ("Vx", "omega", "alpha", "kappa", "Fx", "Fz")
     if any(c not in table for c in need):
         return float("nan")
-    rows = table[table["p_level"] == p_level] if "p_level" in table else table
-    if rows["omega"].notna().sum() < 50:  # too few at the level: every pressure
-        rows = table
+    # the loaded samples as read (the segmented table keeps no wheel speed), within 5 % of
+    # the pressure level
+    near = (table["p"] - p_level).abs() < 0.05 * p_level
+    rows = table[near] if near.any() and table.loc[near, "omega"].notna().sum() >= 50 else table
     v, w = rows["Vx"].to_numpy(float), rows["omega"].to_numpy(float)
     fz = rows["Fz"].to_numpy(float)
     free = (np.abs(rows["alpha"].to_numpy(float)) < np.deg2rad(1.0)) \
@@ -179,15 +180,15 @@ def _effective_radius_at_zero_load(table: pd.DataFrame, p_level: float) -> float
     return float(intercept)
 
 
-def _radius_at_zero_load(table: pd.DataFrame, p_level: float,
+def _radius_at_zero_load(table: pd.DataFrame, loaded: pd.DataFrame, p_level: float,
                          tireids: Sequence[str]) -> tuple[float, str]:
-    """The unloaded radius [m] and how it was found: the loaded radius RL extrapolated to
-    zero load, else the effective radius V / omega extrapolated to zero load, else the
-    nominal radius of the tyre size in the tireid; NaN when none is at hand."""
+    """The unloaded radius [m] and how it was found (``table`` segmented, ``loaded`` as
+    read): the loaded radius RL extrapolated to zero load, else the effective radius V / omega
+    extrapolated to zero load, else the nominal radius of the tyre size in the tireid; NaN when none is at hand."""
     radius = round(_unloaded_radius(table, p_level), 4)
     if np.isfinite(radius) and radius > 0:
         return radius, "RL extrapolated to zero load at the nominal pressure"
-    radius = round(_effective_radius_at_zero_load(table, p_level), 4)
+    radius = round(_effective_radius_at_zero_load(loaded, p_level), 4)
     if np.isfinite(radius) and radius > 0:
         return radius, ("no usable loaded radius RL: the effective radius V / omega of the "
                         "free-rolling samples extrapolated to zero load at the nominal pressure")
@@ -328,7 +329,7 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
                      f"{', '.join(f'{v:.0f}' for v in fz_levels)} N")
     if unloaded_radius_m is None:
         level = min(p_levels, key=lambda v: abs(v - nominal_pressure_Pa)) if p_levels else 0
-        unloaded_radius_m, how = _radius_at_zero_load(seg.table, level, tireids)
+        unloaded_radius_m, how = _radius_at_zero_load(seg.table, table, level, tireids)
         if not np.isfinite(unloaded_radius_m) or unloaded_radius_m <= 0:
             raise InputError(None, "no loaded-radius channel (RL), no wheel speed and no "
                                    "tyre size in the tireid to find the unloaded radius "
