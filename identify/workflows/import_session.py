@@ -184,7 +184,8 @@ def _radius_at_zero_load(table: pd.DataFrame, loaded: pd.DataFrame, p_level: flo
                          tireids: Sequence[str]) -> tuple[float, str]:
     """The unloaded radius [m] and how it was found (``table`` segmented, ``loaded`` as
     read): the loaded radius RL extrapolated to zero load, else the effective radius V / omega
-    extrapolated to zero load, else the nominal radius of the tyre size in the tireid; NaN when none is at hand."""
+    extrapolated to zero load, else the nominal radius of the tyre size in the tireid; NaN
+    when none is at hand."""
     radius = round(_unloaded_radius(table, p_level), 4)
     if np.isfinite(radius) and radius > 0:
         return radius, "RL extrapolated to zero load at the nominal pressure"
