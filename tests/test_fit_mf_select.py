@@ -64,7 +64,12 @@ def test_clean_kappa_selects_as_before():
     assert corner[select(t, "lateral", "Fy")].sum() == corner.sum()
     drive = ~corner
     longitudinal = select(t, "longitudinal", "Fx")
-    assert drive[longitudinal].all() and len(longitudinal) == 1000
+    # the drive/brake run's zero-angle sweep, and the cornering run's points at zero slip
+    # angle: its Fx at kappa = 0 pins the offsets at its loads and pressures
+    zero = corner & (np.abs(t["alpha"].to_numpy()) <= np.deg2rad(0.25))
+    assert drive[longitudinal].sum() == 1000 and zero.sum() == 50  # 0.01 deg apart
+    np.testing.assert_array_equal(np.flatnonzero(zero | (drive & (t["alpha"] == 0))),
+                                  longitudinal)
 
 
 def test_a_rolling_runs_kappa_is_taken_as_zero_a_held_slip_ratio_is_not():
@@ -206,3 +211,31 @@ def test_the_overturning_moment_is_fitted_on_the_rolling_runs_or_on_all_without_
     # a rolling run whose Mx is all NaN does not count: the other runs are fitted
     no_mx = t.assign(Mx=np.where(t["run"] == "corner", np.nan, 1.0))
     assert set(no_mx.iloc[select(no_mx, "rolling_runs", "Mx")]["run"]) == {"drive", "held"}
+
+
+def test_the_drag_and_the_arm_of_fx_are_fitted_where_they_act():
+    """The Fx stage's reduction Gxa is the whole of a cornering run's Fx at kappa = 0
+    (Gxa(alpha) Fx0(0): the run's drag), and the Mz stage's arm s of Fx acts at alpha = 0 as
+    well (a drive/brake run's Mz is -t Fy + Mzr + s Fx): the Fx stage fits the combined
+    points and the cornering run's points off zero slip angle, the Mz stage every point with
+    a slip ratio, at any slip angle; neither fits a cornering point as combined slip."""
+    t = _table(kappa_noise=0.003)
+    corner = (t["run"] == "corner").to_numpy()
+    a = np.abs(t["alpha"].to_numpy())
+    drag = select(t, "drag", "Fx")
+    np.testing.assert_array_equal(
+        drag, np.flatnonzero((corner & (a > np.deg2rad(0.25)))
+                             | np.isin(np.arange(len(t)), select(t, "combined", "Fx"))))
+    arm = select(t, "any_kappa", "Mz")
+    assert not corner[arm].any()
+    np.testing.assert_array_equal(arm, np.flatnonzero(~corner & (np.abs(t["kappa"]) > 0.002)))
+    # a session without combined slip: the Mz stage still has its points; Fy has none
+    pure = t[(t["run"] == "corner") | (t["alpha"] == 0)].reset_index(drop=True)
+    assert select(pure, "any_kappa", "Mz").size == 990
+    assert select(pure, "kappa_slip", "Fy").size == 0
+    fnomin = float(defaults()["FNOMIN"])
+    skipped = {c.stage: c.skipped for c in mf_coverage(pure, fnomin,
+                                                       stages=("Fx0", "Fy0", "Mz0", "Fx",
+                                                               "Fy", "Mz"))}
+    assert skipped == {"Fx0": "", "Fy0": "", "Mz0": "", "Fx": "", "Mz": "",
+                       "Fy": "no slip-ratio sweep at a non-zero slip angle (combined slip)"}

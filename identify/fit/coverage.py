@@ -177,7 +177,12 @@ def _sweep_reason(stage: str, trailer: pd.DataFrame, kappa_sweep: np.ndarray,
         return "no slip-ratio sweep"
     if stage == "Fx0" and not (kappa_sweep & (a <= PURE_ALPHA)).any():
         return "no slip-ratio sweep at zero slip angle"
-    if stage in ("Fx", "Fy", "Mz") and not (kappa_sweep & (a > PURE_ALPHA)).any():
+    if stage == "Fx" and not (kappa_sweep & (a > PURE_ALPHA)).any() and not (
+            ~kappa_sweep & angle_sweep).any():
+        return "no slip-ratio sweep at a non-zero slip angle and no slip-angle sweep"
+    if stage == "Mz" and not kappa_sweep.any():
+        return "no slip-ratio sweep"
+    if stage == "Fy" and not (kappa_sweep & (a > PURE_ALPHA)).any():
         return ("no slip-ratio sweep" if not kappa_sweep.any()
                 else "no slip-ratio sweep at a non-zero slip angle (combined slip)")
     if stage in ("Fy0", "Mz0") and not angle_sweep.any():

@@ -137,7 +137,7 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
         The trailer table.
     selection : str
         ``"free_rolling"``, ``"longitudinal"``, ``"lateral"``, ``"combined"``, ``"kappa_slip"``,
-        ``"rolling_runs"`` or ``"all"``
+        ``"drag"``, ``"any_kappa"``, ``"rolling_runs"`` or ``"all"``
         (see StageDef).
     quantity : str
         The fitted channel (``"Re"``: Vx/omega, ``"Rl"``: rl; see quantity_values).
@@ -152,7 +152,9 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
         ok &= ((k <= FREE_KAPPA) & ~kappa_sweep
                & (frame["Vx"].to_numpy(float) >= FREE_MIN_SPEED))
     elif selection == "longitudinal":
-        ok &= (a <= PURE_ALPHA) & kappa_sweep
+        # with the zero-slip points of the rolling runs: Fx at kappa = 0 (the offsets SHx,
+        # SVx), measured there at every load, pressure and camber of the cornering programme
+        ok &= (a <= PURE_ALPHA) & (kappa_sweep | (rolling & lateral_sweep))
     elif selection == "lateral":
         # in a run that rolls freely kappa is the channel's noise (SL of a real cornering
         # run scatters by a few 0.001), not a slip to select on
@@ -162,6 +164,10 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
     elif selection == "kappa_slip":  # needs combined slip; then alpha = 0 too
         slip = (k > PURE_KAPPA) & ~rolling
         ok &= slip & bool(np.any(ok & slip & (a > PURE_ALPHA)))
+    elif selection == "drag":  # combined slip, and the slip angles of the rolling runs
+        ok &= (a > PURE_ALPHA) & (((k > PURE_KAPPA) & ~rolling) | (rolling & lateral_sweep))
+    elif selection == "any_kappa":  # slip ratio at any slip angle, without combined slip too
+        ok &= (k > PURE_KAPPA) & ~rolling
     elif selection == "rolling_runs":  # the freely rolling runs; every run without one
         ok &= rolling if bool(np.any(ok & rolling)) else True
     elif selection != "all":

@@ -54,6 +54,14 @@ class StageDef:
                            there are combined points at all: the Fy
                            stage, whose kappa-induced SVyk acts at alpha = 0 too, where only
                            a slip-ratio sweep at zero slip angle pins it),
+                           ``"drag"`` (the combined points, and every point of a run that
+                           rolls freely at |alpha| > PURE_ALPHA: the Fx stage, whose
+                           reduction Gxa at kappa = 0 is the whole of a cornering run's Fx,
+                           Gxa(alpha) Fx0(0), the drag the session logs on most of its
+                           samples), ``"any_kappa"`` (|kappa| > PURE_KAPPA at any slip angle
+                           in runs that do not roll freely: the Mz stage, whose arm s of Fx
+                           acts at alpha = 0 as well, where a drive/brake run's Mz is mostly
+                           s Fx),
                            ``"rolling_runs"`` (every point of the runs that roll freely --
                            cornering and camber runs: no kappa sweep, no held slip ratio --
                            and every point of the table when it has no such run: the Mx
@@ -91,10 +99,10 @@ STAGES: dict[str, StageDef] = {s.name: s for s in (
     StageDef("Mz0", "Mz", "N m", "lateral", _names(
         "QDZ1 QBZ1 QCZ1 QEZ1 QDZ2 QBZ2 QEZ2 QHZ1 QHZ2 QDZ6 QDZ7 QBZ9 QBZ10 QBZ3 QEZ3 QEZ4 "
         "PPZ1 QDZ3 QDZ4 QBZ4 QBZ5 QHZ3 QHZ4 QDZ8 QDZ9 QDZ10 QDZ11 QEZ5 PPZ2")),
-    StageDef("Fx", "Fx", "N", "combined", _names("RBX1 RBX2 RCX1 REX1 REX2 RHX1 RBX3")),
+    StageDef("Fx", "Fx", "N", "drag", _names("RBX1 RBX2 RCX1 REX1 REX2 RHX1 RBX3")),
     StageDef("Fy", "Fy", "N", "kappa_slip", _names(
         "RBY1 RBY2 RCY1 REY1 REY2 RHY1 RHY2 RBY3 RVY1 RVY2 RVY4 RVY5 RVY6 RBY4 RVY3")),
-    StageDef("Mz", "Mz", "N m", "combined", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
+    StageDef("Mz", "Mz", "N m", "any_kappa", _names("SSZ1 SSZ2 SSZ3 SSZ4")),
     # Mx on the runs that roll freely: its MF equation reads Fz, gamma and Fy, no Fx. On a
     # real drive/brake run the measured Mx follows Fx at zero slip angle and camber, and the
     # run carries a zero of its own (its Mx at zero forces is not the cornering run's); fitted
