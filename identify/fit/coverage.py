@@ -16,7 +16,9 @@ A stage is skipped when
   pure-slip points are told apart by it);
 - the sweep it needs is not in the data: a slip-ratio sweep (a run whose kappa spans more than
   ``mf_data.SWEEP_KAPPA``) at zero slip angle for Fx0, at a non-zero slip angle for the
-  combined stages Fx, Fy, Mz (noise on a cornering run's kappa is no combined-slip data); a
+  combined Fy stage (noise on a cornering run's kappa is no combined-slip data), at any slip
+  angle for the Mz stage (its arm s of Fx acts at zero slip angle too), and for the Fx stage
+  either that or a slip-angle sweep of a rolling run (its drag, Gxa Fx0 at kappa = 0); a
   slip-angle or camber sweep for Fy0 and Mz0;
 - it has fewer than :data:`MIN_POINTS` points;
 - a stage it builds on is skipped (Fx on Fx0, Fy on Fy0, Mz on Mz0 and Fx0).
@@ -177,11 +179,11 @@ def _sweep_reason(stage: str, trailer: pd.DataFrame, kappa_sweep: np.ndarray,
         return "no slip-ratio sweep"
     if stage == "Fx0" and not (kappa_sweep & (a <= PURE_ALPHA)).any():
         return "no slip-ratio sweep at zero slip angle"
+    if stage in ("Fx", "Mz") and not kappa_sweep.any():  # Fx0, which both take, neither
+        return "no slip-ratio sweep"
     if stage == "Fx" and not (kappa_sweep & (a > PURE_ALPHA)).any() and not (
             ~kappa_sweep & angle_sweep).any():
         return "no slip-ratio sweep at a non-zero slip angle and no slip-angle sweep"
-    if stage == "Mz" and not kappa_sweep.any():
-        return "no slip-ratio sweep"
     if stage == "Fy" and not (kappa_sweep & (a > PURE_ALPHA)).any():
         return ("no slip-ratio sweep" if not kappa_sweep.any()
                 else "no slip-ratio sweep at a non-zero slip angle (combined slip)")
