@@ -239,16 +239,3 @@ def test_the_drag_and_the_arm_of_fx_are_fitted_where_they_act():
                                                                "Fy", "Mz"))}
     assert skipped == {"Fx0": "", "Fy0": "", "Mz0": "", "Fx": "", "Mz": "",
                        "Fy": "no slip-ratio sweep at a non-zero slip angle (combined slip)"}
-
-
-def test_the_rolling_runs_zero_slip_points_join_fx0_at_the_slip_ratio_sweeps_pressures():
-    """Fx0 fits the rolling runs' points at zero slip angle (Fx at kappa = 0: the offsets) at
-    the pressures of its slip-ratio sweeps only: at another pressure they would be a pressure
-    group of rolling resistance alone, weighed as a whole drive/brake sweep."""
-    t = _table(kappa_noise=0.0)
-    t.loc[7, "kappa"] = 0.0
-    other = t[t["run"] == "corner"].assign(run="corner2", p=2.6e5)
-    t = pd.concat([t, other], ignore_index=True)
-    rows = t.iloc[select(t, "longitudinal", "Fx")]
-    assert set(rows["run"]) == {"drive", "corner"}
-    assert (rows["p"] == 2e5).all()

@@ -152,17 +152,9 @@ def select(frame: pd.DataFrame, selection: str, quantity: str,
         ok &= ((k <= FREE_KAPPA) & ~kappa_sweep
                & (frame["Vx"].to_numpy(float) >= FREE_MIN_SPEED))
     elif selection == "longitudinal":
-        # with the zero-slip points of the rolling runs at the pressures of the slip-ratio
-        # sweeps: Fx at kappa = 0 (the offsets SHx, SVx, which have no pressure term),
-        # measured there at every load and camber of the cornering programme; at a pressure
-        # with no slip-ratio sweep they would make a pressure group of rolling resistance
-        # alone, weighed as much as a whole drive/brake sweep (identify.fit.metric)
-        longi = ok & (a <= PURE_ALPHA) & kappa_sweep
-        zero = ok & (a <= PURE_ALPHA) & rolling & lateral_sweep
-        if longi.any() and zero.any():
-            zero &= near_levels(frame["p"].to_numpy(float), frame["p"].to_numpy(float)[longi],
-                                PRESSURE_RESOLUTION)
-        ok = longi | zero
+        # with the zero-slip points of the rolling runs: Fx at kappa = 0 (the offsets SHx,
+        # SVx), measured there at every load, pressure and camber of the cornering programme
+        ok &= (a <= PURE_ALPHA) & (kappa_sweep | (rolling & lateral_sweep))
     elif selection == "lateral":
         # in a run that rolls freely kappa is the channel's noise (SL of a real cornering
         # run scatters by a few 0.001), not a slip to select on
@@ -252,17 +244,6 @@ def both_signs(x: np.ndarray, pure: float) -> bool:
         return False
     neg, pos = -float(np.quantile(x, 0.005)), float(np.quantile(x, 0.995))
     return min(neg, pos) > max(pure, SIGN_SHARE * max(neg, pos))
-
-
-def near_levels(x: np.ndarray, of: np.ndarray, resolution: float) -> np.ndarray:
-    """Whether each ``x`` lies within ``resolution`` of a level of ``of`` (its values merged
-    as :func:`level_values`; False where ``x`` is not finite)."""
-    lv = level_values(of, resolution)
-    x = np.asarray(x, dtype=float)
-    if lv.size == 0:
-        return np.zeros(x.shape, bool)
-    with np.errstate(invalid="ignore"):
-        return np.min(np.abs(x[:, None] - lv[None, :]), axis=1) <= resolution
 
 
 def levels(x: np.ndarray, resolution: float) -> int:
