@@ -1,0 +1,155 @@
+"""All-sample error of fitted .tir files on real sessions, per channel and per kind of run.
+
+For every set of real trailer files (the sub-folders of ``../shared/realdata`` from the
+repository root that hold trailer files; ``--sets DIR ...`` for others), this imports the
+files with ``mfid import``, fits the loaded set in this process for each variant (the default
+pipeline, ``--no-segment``, ``--no-bin``: :func:`identify.workflows.fit.fit_measurements`) and
+evaluates each fit's .tir, steady state, on every loaded sample with a positive load: the
+pooled error 100 RMS(model - measured) / RMS(measured) of Fx, Fy, Mz and Mx over all samples
+and over the samples of each kind of run:
+
+``cornering``    the runs the import classed as cornering (free rolling, slip angle swept);
+``drive/brake``  the other runs' samples at |alpha| < 1 deg (pure longitudinal slip);
+``combined``     the other runs' samples at |alpha| >= 1 deg.
+
+A freely rolling run's slip-ratio channel is taken as 0, as the fit takes it (bench/realdata.py).
+``--tir SET=FILE`` evaluates another .tir (a published fit) on the same samples.
+
+    nice python bench/allsample.py                           # every set, every variant
+    python bench/allsample.py --sets DIR --variants default  # one set, the default only
+
+Tables to stdout and bench/results/allsample.{md,json} (git-ignored).
+"""
+from __future__ import annotations
+
+import os
+
+for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")
+
+import argparse  # noqa: E402
+import json  # noqa: E402
+import shutil  # noqa: E402
+import sys  # noqa: E402
+import tempfile  # noqa: E402
+import time  # noqa: E402
+from collections.abc import Mapping, Sequence  # noqa: E402
+from pathlib import Path  # noqa: E402
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import realdata as RD  # noqa: E402
+
+KINDS = ("all", "cornering", "drive/brake", "combined")
+VARIANTS = ("default", "no-segment", "no-bin")
+PURE_ANGLE_DEG = 1.0
+"""[deg] samples of a non-cornering run below this |alpha| are pure longitudinal slip."""
+
+
+def run_kinds(tests: Mapping[str, str], table: pd.DataFrame) -> np.ndarray:
+    """The kind of run of every sample (see the module notes); ``tests``: run id -> the
+    manifest's test of the run."""
+    test = table["run"].astype(str).map(dict(tests)).to_numpy()
+    a = np.abs(np.rad2deg(table["alpha"].to_numpy(float)))
+    return np.where(test == "cornering", "cornering",
+                    np.where(a < PURE_ANGLE_DEG, "drive/brake", "combined"))
+
+
+def kind_errors(inputs: pd.DataFrame, model: Mapping[str, np.ndarray], kinds: np.ndarray,
+                ok: np.ndarray) -> dict[str, dict[str, float]]:
+    """Kind -> channel -> pooled error [%] (and ``n``, the samples)."""
+    out = {}
+    for k in KINDS:
+        rows = ok if k == "all" else ok & (kinds == k)
+        if not rows.any():
+            continue
+        out[k] = {c: RD.rms_pct(inputs[c].to_numpy(float)[rows], model[c][rows])
+                  for c in RD.CHANNELS if c in inputs.columns}
+        out[k]["n"] = int(rows.sum())
+    return out
+
+
+def judge_set(folder: Path, work: Path, variants: Sequence[str], tirs: Sequence[Path],
+              say) -> dict:
+    from identify.io.folder import load_folder
+    from identify.workflows.fit import fit_measurements
+    files = RD.trailer_files(folder)
+    rec: dict = {"set": folder.name, "fits": {}}
+    meas = work / folder.name / "measurement"
+    _w, _c, code, out = RD.mfid("import", *map(str, files), "--out", str(meas))
+    if code != 0:
+        rec["skipped"] = f"import failed (exit {code}): {out[-300:]}"
+        return rec
+    mset = load_folder(meas)
+    table = mset.trailer.reset_index(drop=True)
+    inputs = RD.model_inputs(table)
+    ok = RD.evaluable(inputs)
+    kinds = run_kinds({r.id: r.test for r in mset.manifest.runs}, table)
+    for v in variants:
+        say(f"{folder.name}: fit {v}")
+        t0 = time.perf_counter()
+        run = fit_measurements(mset, settings=RD.variant_settings(v))
+        params = {n: float(x) for n, x in run.tir_values.items() if isinstance(x, (int, float))}
+        rec["fits"][v] = {"seconds": time.perf_counter() - t0, "failed": list(run.failed),
+                          "errors": kind_errors(inputs, RD.predict(params, inputs), kinds, ok)}
+    for tir in tirs:
+        rec["fits"][f"tir {tir.name}"] = {"errors": kind_errors(
+            inputs, RD.predict(RD._tir_params(tir), inputs), kinds, ok)}
+    return rec
+
+
+def table_md(recs: Sequence[dict]) -> str:
+    lines = []
+    for r in recs:
+        lines += [f"## {r['set']}", ""]
+        if "skipped" in r:
+            lines += [f"skipped: {r['skipped']}", ""]
+            continue
+        lines += ["| fit | kind | samples | " + " | ".join(RD.CHANNELS) + " |",
+                  "|---|---|---|" + "---|" * len(RD.CHANNELS)]
+        for name, f in r["fits"].items():
+            for k, e in f["errors"].items():
+                lines.append(f"| {name} | {k} | {e['n']} | "
+                             + " | ".join(f"{e[c]:.2f}" for c in RD.CHANNELS if c in e) + " |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--sets", nargs="+", metavar="DIR")
+    ap.add_argument("--variants", nargs="+", choices=VARIANTS, default=list(VARIANTS))
+    ap.add_argument("--tir", action="append", default=[], metavar="SET=FILE",
+                    help="also evaluate this .tir on the samples of SET (repeatable)")
+    ap.add_argument("--out", type=Path, default=RD.RESULTS)
+    a = ap.parse_args(argv)
+    sets = RD.find_sets(a.sets)
+    if not sets:
+        print(f"allsample: no real measurement sets at {RD.REALDATA} (nothing to judge)")
+        return 0
+    tirs: dict[str, list[Path]] = {}
+    for item in a.tir:
+        key, _, path = item.partition("=")
+        if not path or not Path(path).is_file():
+            print(f"allsample: --tir {item}: give SET=FILE.tir of an existing file",
+                  file=sys.stderr)
+            return 2
+        tirs.setdefault(key, []).append(Path(path))
+    work = Path(tempfile.mkdtemp(prefix="mfid-allsample-"))
+    try:
+        recs = [judge_set(s, work, a.variants, tirs.get(s.name, []),
+                          lambda t: print(t, flush=True)) for s in sets]
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    md = table_md(recs)
+    print(md)
+    a.out.mkdir(parents=True, exist_ok=True)
+    (a.out / "allsample.md").write_text(md)
+    (a.out / "allsample.json").write_text(json.dumps(recs, indent=1, default=float))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
