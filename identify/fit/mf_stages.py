@@ -1,7 +1,8 @@
 """Fit the Magic Formula slip coefficients to trailer data in stages.
 
 Stages, in order (identify.fit.mf_stage_defs.DEFAULT_STAGES): Fx0, Fy0, Mz0 on pure-slip
-points, then Fx, Fy, Mz on combined-slip points, then Mx and My on every point, then vertical
+points, then Fx, Fy, Mz on combined-slip points (Fx with the rolling runs' drag, Mz with every
+point that has a slip ratio: identify.fit.mf_stage_defs), then Mx and My, then vertical
 (the loaded radius Rl, a trailer's RL channel, on free-rolling points, with the fitted forces:
 Q_RE0, VERTICAL_STIFFNESS, PFZ1, Q_FZ2, Q_V1, Q_V2, Q_FCY, the last held at 0 when not
 significant, identify.fit.mf_even; skipped without a loaded radius or a wheel
