@@ -2,9 +2,11 @@
 that cannot be used named, and the data-quality record that goes into fit.json and the report.
 
 Continuous session logs (the runs read from TTC ``.mat``/``.dat`` files: sweeps, warm-ups and
-transitions in one stream) are segmented first (identify.segment.segment_trailer with its
-default settings): only the sweep segments at their condition levels are kept, after the named
-filters (revolution average, set slip angle, cold tread, low speed). Runs in the other formats
+transitions in one stream) other than drive/brake and combined-slip runs
+(:data:`SLIP_RATIO_TESTS`, left to identify.workflows.sweep_bins.mf_table) are segmented
+first (identify.segment.segment_trailer with its default settings): only the sweep segments
+at their condition levels are kept, after the named filters (revolution average, set slip
+angle, cold tread, low speed). Runs in the other formats
 are test-by-test files whose every sample is a measurement, and are used as loaded.
 
 A channel is unavailable to the fit when it is absent from every run or was dropped as
@@ -27,6 +29,13 @@ from identify.segment.turnaround import turnaround_mask
 
 __all__ = ["SEGMENTED_SUFFIXES", "TrailerData", "prepare_trailer", "unavailable_channels"]
 
+SLIP_RATIO_TESTS = ("braking_driving", "combined")
+"""Tests of the runs not segmented here with the cornering programme: a drive/brake or
+combined-slip run is handed on as logged, and identify.workflows.sweep_bins.mf_table segments
+it on its own when it holds a warm-up (its condition levels its own, not found together with
+the slip-angle programme's, which kept only part of its slip-ratio sweeps) and bins its dense
+sweeps. The fitted model is judged on every sample of a session; the slip-ratio sweeps' are
+then fitted rather than left out."""
 SEGMENTED_SUFFIXES = (".mat", ".dat")
 """Run files whose runs are continuous logs and are segmented before fitting (TTC)."""
 
@@ -97,7 +106,8 @@ def prepare_trailer(mset, settings: SegmentSettings = SegmentSettings(), *,
     transient, not the tyre's steady state."""
     trailer, turned = _without_turnaround_mz(mset.trailer)
     continuous = {r.id for r in mset.manifest.runs if r.kind == "trailer"
-                  and Path(r.file).suffix.lower() in SEGMENTED_SUFFIXES}
+                  and Path(r.file).suffix.lower() in SEGMENTED_SUFFIXES
+                  and r.test not in SLIP_RATIO_TESTS}
     unavailable = unavailable_channels(trailer, mset.warnings)
     if not segment or not continuous or trailer is None or trailer.empty:
         return TrailerData(trailer, None, (), unavailable, turned)
