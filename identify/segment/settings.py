@@ -50,9 +50,8 @@ class SegmentSettings:
         (the slip-angle ramps between set points).
     cold_fence : float
         A tread centre temperature more than this many interquartile ranges below the lower
-        quartile of its run's sweep samples is below the run's working range (Tukey's
-        fence), one condition of a cold sample (identify.segment.filters,
-        ``cold tread``) [-].
+        quartile of its run's sweep samples is below the run's working range, one condition
+        of a cold sample (identify.segment.filters, ``cold tread``) [-].
     min_speed : float
         Speed below which a sample is dropped [m/s].
     revolution_average : bool
@@ -78,7 +77,7 @@ class SegmentSettings:
     sweep_fraction: float = 0.5
     warmup_ratio: float = 4.5
     set_alpha_deg: float = 0.5
-    cold_fence: float = 1.5
+    cold_fence: float = 1.0
     min_speed: float = 2.0
     revolution_average: bool = True
     bin_alpha_deg: float | None = None
