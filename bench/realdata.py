@@ -25,7 +25,13 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
    level); the pooled error over all held-out samples is given too, and the in-sample error of
    the full fit on the same samples;
 5. the verdict: per force and moment, whether the default's held-out error is the best or tied
-   (at most ``TIE`` times the best variant's);
+   (at most ``TIE`` times the best variant's). A channel is judged on a fold only where the
+   fold excites it: the RMS of the measured channel over the fold's held-out samples is at
+   least ``EXCITED_SHARE`` of its RMS over all the set's samples (:func:`excitation`).
+   Elsewhere the channel barely leaves zero (Fx on a fold of cornering runs only, where the
+   tyre rolls free), its relative error is a ratio of two small numbers that says nothing
+   of the model, and the fold is reported as "not excited" for that channel and left out of
+   its held-out means (and so of the verdict); a channel no fold excites has no verdict;
 6. where the segmentation leaves samples out: the samples per kind of segment (warm-up,
    transition, partial sweep, isolated sweep, steady stretch) and per filter, from the default
    fit's fit.json.
@@ -84,6 +90,9 @@ QUICK_VARIANTS = ("default", "no-segment")
 TIE = 1.05
 """The default is tied with the best variant when its held-out error is at most this many times
 the best one's."""
+EXCITED_SHARE = 0.25
+"""A fold excites a channel when the channel's RMS over the fold's samples is at least this share
+of its RMS over all the set's samples (:func:`excitation`)."""
 NICE = 10
 """Niceness of the fits: the machine is shared."""
 PRESSURE_GAP = 5000.0
@@ -199,6 +208,26 @@ def sweep_folds(sweep_of_row: np.ndarray, n_folds: int, seed: int) -> list[Fold]
     return folds
 
 
+def excitation(measured: np.ndarray, rows: np.ndarray, every: np.ndarray) -> float:
+    """RMS of ``measured`` over ``rows`` over its RMS over ``every`` (boolean masks; the
+    finite values only): the share of the set's excitation of a channel a fold holds (NaN
+    without finite values, or with an RMS of 0 over ``every``)."""
+    m = np.asarray(measured, float)
+    fin = np.isfinite(m)
+
+    def rms(mask: np.ndarray) -> float:
+        x = m[mask & fin]
+        return float(np.sqrt(np.mean(x ** 2))) if x.size else math.nan
+
+    whole = rms(every)
+    return rms(rows) / whole if whole > 0 else math.nan
+
+
+def excited(share: float, threshold: float = EXCITED_SHARE) -> bool:
+    """Whether a fold with this :func:`excitation` share judges the channel."""
+    return bool(math.isfinite(share) and share >= threshold)
+
+
 def sweep_rows(table: pd.DataFrame, segments: Sequence[Mapping]) -> np.ndarray:
     """Per row of the loaded table, the number of the sweep segment it lies in (-1 for none):
     a segment's ``start``/``stop`` are row positions within its run."""
@@ -232,13 +261,17 @@ def left_out(segmentation: Mapping | None) -> list[tuple[str, int, int]]:
     return rows
 
 
-def verdict(heldout: Mapping[str, Mapping[str, float]], tie: float = TIE
-            ) -> dict[str, dict[str, object]]:
+def verdict(heldout: Mapping[str, Mapping[str, float]], tie: float = TIE,
+            not_excited: Sequence[str] = ()) -> dict[str, dict[str, object]]:
     """Per channel: the best variant, the default's ratio to it, and whether the default is the
     best or tied (ratio at most ``tie``); ``heldout`` is variant -> channel -> error [%]
-    (channels without a finite default error are left out)."""
+    (channels without a finite default error are left out). A channel in ``not_excited`` (no
+    fold excites it) is ``{"not_excited": True}``, judged neither way."""
     out: dict[str, dict[str, object]] = {}
     for ch in CHANNELS:
+        if ch in not_excited:
+            out[ch] = {"not_excited": True}
+            continue
         vals = {v: e[ch] for v, e in heldout.items() if math.isfinite(e.get(ch, math.nan))}
         if "default" not in vals:
             continue
@@ -477,6 +510,12 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         rec["folds_left_out"] = [f.name for k, f in enumerate(folds) if k not in pick]
         folds = [folds[k] for k in sorted(pick)]
     rec.pop("_segments", None)
+    # the channels each fold excites (from the measured values alone: one rule for every
+    # variant)
+    shares = {f.name: {c: excitation(inputs[c].to_numpy(float), f.rows & ok, ok)
+                       for c in CHANNELS if c in inputs.columns} for f in folds}
+    judged = {name: {c: excited(x) for c, x in sh.items()} for name, sh in shares.items()}
+    rec["excitation"] = {"share": EXCITED_SHARE, "folds": shares}
     held: dict[str, dict] = {}
     for v in models:
         per_fold = []
@@ -504,24 +543,30 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
                 "insample": {c: e.pooled_pct
                              for c, e in errors(inputs, models[v], one, rows).items()},
                 "_pred": pm, "_rows": rows})
-        held[v] = _aggregate(inputs, per_fold)
+        held[v] = _aggregate(inputs, per_fold, judged)
     rec["heldout"] = held
+    quiet = [c for c in CHANNELS if folds and not any(judged[f.name].get(c) for f in folds)]
     rec["verdict"] = verdict({v: {c: h["mean_pct"].get(c, math.nan) for c in CHANNELS}
-                              for v, h in held.items()})
+                              for v, h in held.items()}, not_excited=quiet)
     return rec
 
 
-def _aggregate(inputs: pd.DataFrame, per_fold: list[dict]) -> dict:
-    """Mean over the folds (and pooled over every held-out sample) of a variant's errors."""
+def _aggregate(inputs: pd.DataFrame, per_fold: list[dict],
+               judged: Mapping[str, Mapping[str, bool]]) -> dict:
+    """Mean over the folds (and pooled over their held-out samples) of a variant's errors, per
+    channel over the folds that excite it (``judged``: fold name -> channel -> excited)."""
     good = [f for f in per_fold if "heldout" in f]
-    mean = {c: float(np.mean([f["heldout"][c] for f in good if c in f["heldout"]]))
-            for c in CHANNELS if any(c in f["heldout"] for f in good)}
-    mean_in = {c: float(np.mean([f["insample"][c] for f in good if c in f["insample"]]))
-               for c in CHANNELS if any(c in f["insample"] for f in good)}
+
+    def on(c: str) -> list[dict]:  # the folds that judge channel c
+        return [f for f in good if judged.get(f["fold"], {}).get(c) and c in f["heldout"]]
+
+    mean = {c: float(np.mean([f["heldout"][c] for f in on(c)])) for c in CHANNELS if on(c)}
+    mean_in = {c: float(np.mean([f["insample"][c] for f in on(c) if c in f["insample"]]))
+               for c in mean if any(c in f["insample"] for f in on(c))}
     pooled = {}
     for c in mean:
-        meas = np.concatenate([inputs[c].to_numpy(float)[f["_rows"]] for f in good])
-        mod = np.concatenate([f["_pred"][c][f["_rows"]] for f in good])
+        meas = np.concatenate([inputs[c].to_numpy(float)[f["_rows"]] for f in on(c)])
+        mod = np.concatenate([f["_pred"][c][f["_rows"]] for f in on(c)])
         pooled[c] = rms_pct(meas, mod)
     for f in per_fold:
         f.pop("_pred", None)
@@ -587,19 +632,30 @@ def tables(rec: dict) -> str:
     held = rec.get("heldout", {})
     if held:
         skipped = rec.get("folds_left_out")
+        exc = rec.get("excitation", {})
+        share = exc.get("folds", {})
+        limit = exc.get("share", EXCITED_SHARE)
+
+        def judged(fold: str, c: str) -> bool:  # a record without excitation judges all
+            return fold not in share or excited(share[fold].get(c, math.nan), limit)
+
         lines += ["", f"Held-out error ({rec.get('heldout_kind')}"
                       + (f"; folds not run: {', '.join(skipped)}" if skipped else "")
-                      + "): mean over folds of the "
-                      "pooled % on the held-out samples [pooled over all held-out samples] "
-                      "(in-sample % of the full fit on the same samples):", "",
+                      + "): mean over the folds that excite the channel of the "
+                      "pooled % on the held-out samples [pooled over their held-out samples] "
+                      "(in-sample % of the full fit on the same samples); n.e.: no fold "
+                      "excites it:", "",
                   "| variant | folds | " + " | ".join(CHANNELS) + " |",
                   "|---|---|" + "---|" * len(CHANNELS)]
         for v, h in held.items():
             nf = len([f for f in h["folds"] if "heldout" in f])
             cells = [f"{_f(h['mean_pct'].get(c))} [{_f(h['pooled_pct'].get(c))}] "
-                     f"({_f(h['insample_mean_pct'].get(c))})" for c in CHANNELS]
+                     f"({_f(h['insample_mean_pct'].get(c))})" if c in h["mean_pct"]
+                     else "n.e." for c in CHANNELS]
             lines.append(f"| {v} | {nf} | " + " | ".join(cells) + " |")
-        lines += ["", "Per fold, default (held-out % / in-sample %):", "",
+        lines += ["", "Per fold, default (held-out % / in-sample %; n.e.: the fold does not "
+                      f"excite the channel, its RMS there under {limit:g} of the set's, "
+                      "the share in brackets; left out of the means and the verdict):", "",
                   "| fold | samples | " + " | ".join(CHANNELS) + " |",
                   "|---|---|" + "---|" * len(CHANNELS)]
         for f in held.get("default", {}).get("folds", []):
@@ -607,13 +663,15 @@ def tables(rec: dict) -> str:
                 lines.append(f"| {f['fold']} | - | {f.get('error')} |")
                 continue
             cells = [f"{_f(f['heldout'].get(c))} / {_f(f['insample'].get(c))}"
-                     for c in CHANNELS]
+                     if judged(f["fold"], c) else
+                     f"n.e. ({_f(share[f['fold']].get(c), '{:.2f}')})" for c in CHANNELS]
             lines.append(f"| {f['fold']} | {f['samples']} | " + " | ".join(cells) + " |")
     vd = rec.get("verdict", {})
     if vd:
-        parts = [f"{c}: {'ok' if x['ok'] else 'WORSE'} (best {x['best']}, default "
+        parts = [f"{c}: not excited by any fold" if x.get("not_excited") else
+                 f"{c}: {'ok' if x['ok'] else 'WORSE'} (best {x['best']}, default "
                  f"{x['ratio']:.3f}x)" for c, x in vd.items()]
-        overall = all(x["ok"] for x in vd.values())
+        overall = all(x.get("ok", True) for x in vd.values())
         lines += ["", f"Verdict (default best or within {TIE:.2f}x of the best held-out "
                       f"error): {'YES' if overall else 'NO'}; " + "; ".join(parts)]
     lo = rec.get("left_out")
@@ -720,7 +778,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     (a.out / "realdata.md").write_text("# Real-data benchmark\n\n"
                                        + "\n".join(tables(r) for r in records))
     print(f"wrote {a.out / 'realdata.md'} and {a.out / 'realdata.json'}")
-    verdicts = [x["ok"] for r in records for x in r.get("verdict", {}).values()]
+    verdicts = [x["ok"] for r in records for x in r.get("verdict", {}).values() if "ok" in x]
     print("default best or tied on every set and channel: "
           + ("YES" if verdicts and all(verdicts) else "NO" if verdicts else "n/a"))
     return 0

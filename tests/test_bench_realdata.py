@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from tests.bench_modules import load_bench
@@ -72,6 +73,48 @@ def test_verdict_ties_within_five_percent():
     assert not v["Fy"]["ok"] and v["Fy"]["ratio"] == pytest.approx(1.3)
     assert v["Mz"]["ok"] and v["Mz"]["best"] == "default"
     assert "Mx" not in v  # no default error to judge
+
+
+def test_a_fold_excites_a_channel_from_a_quarter_of_its_rms():
+    """Fx of a set of one braking run (+-1000 N) and one cornering run (+-20 N): the braking
+    fold holds 1.41 of the set's RMS, the cornering fold 0.028 of it, not excited; a
+    channel without finite values or all zero has no share."""
+    fx = np.r_[np.tile([1000.0, -1000.0], 50), np.tile([20.0, -20.0], 50)]
+    every = np.ones(fx.size, bool)
+    braking = np.arange(fx.size) < 100
+    whole = math.sqrt((1000 ** 2 + 20 ** 2) / 2)
+    assert R.excitation(fx, braking, every) == pytest.approx(1000 / whole, rel=1e-12)
+    share = R.excitation(fx, ~braking, every)
+    assert share == pytest.approx(20 / whole, rel=1e-12)
+    assert R.excited(R.excitation(fx, braking, every)) and not R.excited(share)
+    assert R.excited(0.25) and not R.excited(0.2499)
+    assert math.isnan(R.excitation(np.zeros(4), every[:4], every[:4]))
+    assert not R.excited(math.nan)
+
+
+def test_a_channel_no_fold_excites_has_no_verdict():
+    held = {"default": {"Fx": 175.7, "Fy": 8.77}, "no-segment": {"Fx": 92.1, "Fy": 9.27}}
+    v = R.verdict(held, not_excited=["Fx"])
+    assert v["Fx"] == {"not_excited": True} and v["Fy"]["ok"]
+    assert not R.verdict(held)["Fx"]["ok"]  # judged, the ratio of two noise levels fails
+
+
+def test_held_out_means_take_only_the_folds_that_excite_the_channel():
+    """Two folds: Fx excited on the first only; its mean and pooled error are the first
+    fold's, Fy's the mean of both."""
+    n = 4
+    inputs = pd.DataFrame({"Fx": [100.0, -100.0, 1.0, -1.0], "Fy": [50.0, -50.0, 50.0, -50.0]})
+    a, b = np.array([1, 1, 0, 0], bool), np.array([0, 0, 1, 1], bool)
+    pred = {"Fx": inputs["Fx"].to_numpy() * 1.1, "Fy": inputs["Fy"].to_numpy() * 1.2}
+    folds = [{"fold": "A", "heldout": {"Fx": 10.0, "Fy": 20.0}, "insample": {"Fx": 9.0},
+              "_pred": pred, "_rows": a},
+             {"fold": "B", "heldout": {"Fx": 10.0 * 100, "Fy": 20.0}, "insample": {"Fx": 9.0},
+              "_pred": pred, "_rows": b}]
+    judged = {"A": {"Fx": True, "Fy": True}, "B": {"Fx": False, "Fy": True}}
+    agg = R._aggregate(inputs.iloc[:n], folds, judged)
+    assert agg["mean_pct"] == {"Fx": 10.0, "Fy": 20.0}
+    assert agg["pooled_pct"]["Fx"] == pytest.approx(10.0, rel=1e-12)
+    assert agg["pooled_pct"]["Fy"] == pytest.approx(20.0, rel=1e-12)
 
 
 def test_left_out_counts_segments_by_kind_and_filters():

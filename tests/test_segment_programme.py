@@ -145,19 +145,53 @@ def test_one_overlong_slip_ratio_span_leaves_the_other_sweeps_whole():
 def test_a_cool_running_tread_is_not_cold():
     """A small tyre at 40 km/h works its tread at 35-40 degC (ambient 22): halfway from
     ambient to that is the cold mark, not 40 degC, so its sweeps are kept; a tread at 24 degC
-    (just lifted for a pressure change) is cold."""
+    (just lifted for a pressure change) is below the run's working range and less than
+    halfway up: cold."""
     rng = np.random.default_rng(5)
     table = _programme([(83.0, 0.0, fz) for fz in (1100.0, 650.0) * 2], rng=rng)
     first = table["t"] < table["t"].iloc[0] + 10.0  # the first sweep's first 5 s: cold
     table.loc[first, "T_tread_centre"] = 273.15 + 24.0
     result = segment_trailer(table)
-    sweeps = result.table  # the warmest sweep: median 35 + 5 * 0.5 = 37.5 degC
+    sweeps = result.table  # median 35 + 5 * 0.5 = 37.5 degC: halfway from 22 is 29.75
     mark = cold_mark(sweeps, SegmentSettings())
     assert 273.15 + 29 < mark["r1"] < 273.15 + 31
     removed = {f.name: f.removed for f in result.segmentation.filters}["cold tread"]
     assert 0 < removed <= first.sum()
-    warm = cold_mark(sweeps.assign(T_tread_centre=273.15 + 70.0), SegmentSettings())
-    assert warm["r1"] == SegmentSettings().cold_below_K
+    assert (result.table["T_tread_centre"] > 273.15 + 30).all()
+
+
+def test_a_sweep_that_heats_its_own_tread_is_not_cold():
+    """Each sweep starts on a tread near ambient (24 degC, ambient 22) and heats it by 20 K at
+    full slip, as a small tyre's hard sweeps do: the cool start of every sweep is inside the
+    run's working range (the fence Q1 - IQR is about 19 degC), nothing is cold, and the
+    small slip angles stay. A mark halfway from ambient to the median alone (28 degC) would
+    have cut about a fifth of every sweep, its small slip angles."""
+    rng = np.random.default_rng(7)
+    table = _programme([(83.0, 0.0, fz) for fz in (1100.0, 650.0) * 2], rng=rng,
+                       tread_C=24.0)
+    table["T_tread_centre"] = 273.15 + 24.0 + 4 * (table["T_tread_centre"] - 273.15 - 24.0)
+    result = segment_trailer(table)
+    assert {f.name: f.removed for f in result.segmentation.filters}["cold tread"] == 0
+    t = result.table["T_tread_centre"] - 273.15
+    halfway = 22.0 + 0.5 * (t.median() - 22.0)
+    assert (t < halfway).mean() > 0.15  # what the fence keeps
+    small = np.abs(np.rad2deg(result.table["alpha"])) < 2.0
+    assert small.sum() > 0.1 * len(result.table)
+
+
+def test_without_an_ambient_channel_the_working_range_alone_decides():
+    """No ambient channel: a stretch at 24 degC in a run worked at 35-40 degC is below the
+    fence (about 34 degC) and cold; the rest is kept."""
+    rng = np.random.default_rng(5)
+    table = _programme([(83.0, 0.0, fz) for fz in (1100.0, 650.0) * 2], rng=rng)
+    first = table["t"] < table["t"].iloc[0] + 10.0
+    table.loc[first, "T_tread_centre"] = 273.15 + 24.0
+    result = segment_trailer(table.drop(columns="T_ambient"))
+    mark = cold_mark(result.table, SegmentSettings())
+    assert 273.15 + 32 < mark["r1"] < 273.15 + 35
+    removed = {f.name: f.removed for f in result.segmentation.filters}["cold tread"]
+    assert 0 < removed <= first.sum()
+    assert (result.table["T_tread_centre"] > 273.15 + 30).all()
 
 
 def test_a_set_point_visited_by_one_sweep_is_a_level_a_sweep_across_a_change_is_not():

@@ -23,15 +23,28 @@ In the order applied:
     Samples of a slip-ratio sweep further than ``set_alpha_deg`` from the segment's set slip
     angle (the ramps between set slip angles inside a quasi-steady stretch) are removed.
 ``cold tread``
-    Samples of a tread that has not reached the temperature the run works it at are removed (a
-    cold tread has a different friction and stiffness than the warm one the model describes):
-    per run, below ``cold_below_K`` or below halfway from the ambient temperature to the run's
-    working temperature (the median tread centre temperature of its warmest sweep: what the
-    programme brings the tread to once it is warmed), whichever is lower. The halfway mark
-    follows the programme: a small tyre swept at a low speed works its tread at 30-45 degC,
-    where a fixed 40 degC would call most of its sweeps cold, while the first sweep after a
-    pause (the tread cooled towards ambient while the pressure was changed) still starts cold.
-    Without an ambient channel the mark is ``cold_below_K`` alone.
+    Samples of a tread colder than the run itself works it at are removed (a cold tread has a
+    different friction and stiffness than the warm one the model describes). The run's own
+    temperatures decide, not a fixed degree: a tread centre sample is cold where it is both
+
+    - well below the run's working range: under the lower fence Q1 - ``cold_fence`` (Q3 - Q1)
+      of the tread centre temperatures of the run's sweep samples (Q1, Q3 their quartiles).
+      A sweep heats its own tread: the temperature climbs from the sweep's start at zero slip
+      to its end at full slip by tens of kelvin, and the first sweeps after a
+      pressure change start a few kelvin cooler than the rest. That is the range the run's
+      forces are measured over and the model describes; a sample inside it, or a little
+      below, is no colder than the tread the fit is made for (cutting the cool starts of the
+      sweeps would remove the small slip angles of the hard sweeps, where the cornering
+      stiffness and the pneumatic trail are measured);
+    - and less than halfway from the ambient temperature (median of ``T_ambient``) to the
+      run's working temperature (the median of the same samples): the tread has not taken
+      half of the rise the programme gives it, as on the first sweep after a long pause
+      (the tread cooled towards ambient while the pressure was changed) that starts without a
+      warm-up. Without an ambient channel the fence alone decides.
+
+    A run whose sweeps all work the tread in one range therefore loses nothing; one that
+    starts a sweep on a tread that has cooled to near ambient while the others run warm
+    loses that stretch.
 ``low speed``
     Samples slower than ``min_speed`` are removed.
 ``binning`` (optional)
@@ -216,16 +229,18 @@ def set_slip_angle(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFram
 
 def cold_mark(frame: pd.DataFrame, s: SegmentSettings) -> pd.Series:
     """The tread centre temperature below which a sample is cold [K], per run (see module):
-    ``cold_below_K``, or halfway from the run's ambient (median of ``T_ambient``) to its
-    working temperature (the largest median of ``T_tread_centre`` over its ``segment``
-    values, the sweeps) where that is lower."""
-    tread = (frame.groupby(["run", "segment"], sort=False)["T_tread_centre"].median()
-             .groupby(level=0, sort=False).max())
-    if "T_ambient" in frame:
-        ambient = frame.groupby("run", sort=False)["T_ambient"].median()
-        halfway = ambient + 0.5 * (tread - ambient)
-        return halfway.where(halfway < s.cold_below_K, s.cold_below_K).fillna(s.cold_below_K)
-    return pd.Series(s.cold_below_K, index=tread.index)
+    the lower of the fence Q1 - ``cold_fence`` (Q3 - Q1) of the run's ``T_tread_centre``
+    and, with ``T_ambient``, halfway from the run's ambient (its median) to its working
+    temperature (the median of ``T_tread_centre``); NaN for a run without a tread
+    temperature."""
+    tread = frame.groupby("run", sort=False)["T_tread_centre"]
+    q1, q3 = tread.quantile(0.25), tread.quantile(0.75)
+    fence = q1 - s.cold_fence * (q3 - q1)
+    if "T_ambient" not in frame:
+        return fence
+    ambient = frame.groupby("run", sort=False)["T_ambient"].median()
+    halfway = ambient + 0.5 * (tread.median() - ambient)
+    return np.fmin(fence, halfway)  # the fence alone where the ambient is unknown
 
 
 def cold_tread(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, FilterCount]:
@@ -236,11 +251,11 @@ def cold_tread(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, F
     mark = cold_mark(frame, s)
     cold = frame["T_tread_centre"] < frame["run"].map(mark).to_numpy(float)  # NaN is kept
     out = frame[~cold]
-    marks = sorted({round(float(v) - 273.15) for v in mark.dropna()})
+    marks = "/".join(f"{v - 273.15:.0f}" for v in mark.dropna())
     return out, FilterCount(name, int(cold.sum()), len(out), True,
-                            "tread centre below " + "/".join(f"{v:g}" for v in marks)
-                            + " degC (halfway from ambient to the run's working temperature, "
-                            f"at most {s.cold_below_K - 273.15:g})")
+                            f"tread centre below {marks or '-'} degC per run (below the run's "
+                            f"working range, Q1 - {s.cold_fence:g} IQR of its sweeps, and "
+                            "less than halfway from ambient to its median)")
 
 
 def low_speed(frame: pd.DataFrame, s: SegmentSettings) -> tuple[pd.DataFrame, FilterCount]:

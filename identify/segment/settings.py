@@ -48,9 +48,10 @@ class SegmentSettings:
     set_alpha_deg : float
         Samples of a slip-ratio sweep further than this from its set slip angle are dropped
         (the slip-angle ramps between set points).
-    cold_below_K : float
-        Tread centre temperature below which a sample is cold [K] (313.15 K = 40 degC); lower
-        for a run whose tread works cooler (identify.segment.filters, ``cold tread``).
+    cold_fence : float
+        A tread centre temperature more than this many interquartile ranges below the lower
+        quartile of its run's sweep samples is below the run's working range, one condition
+        of a cold sample (identify.segment.filters, ``cold tread``) [-].
     min_speed : float
         Speed below which a sample is dropped [m/s].
     revolution_average : bool
@@ -76,7 +77,7 @@ class SegmentSettings:
     sweep_fraction: float = 0.5
     warmup_ratio: float = 4.5
     set_alpha_deg: float = 0.5
-    cold_below_K: float = 313.15
+    cold_fence: float = 1.0
     min_speed: float = 2.0
     revolution_average: bool = True
     bin_alpha_deg: float | None = None

@@ -92,3 +92,19 @@ def test_round6_set_levels():
     _near(np.abs(np.rad2deg(seg.level_values("alpha"))), [0, 3, 6], atol=0.1)
     kinds = [g.kind for g in seg.segments if g.kind not in ("transition", "steady")]
     assert kinds == ["sweep"] * len(kinds) and len(kinds) == 42 + 72
+
+
+def test_round2_pressure_run_keeps_the_cool_starts_of_its_sweeps():
+    """Run 26 changes the pressure between pairs of sweeps: the tread cools towards ambient
+    (21 degC) while the tyre is lifted, and each hard sweep starts at about 20 degC and heats
+    its tread to about 50. That cool start is the run's working range, not a cold tread: the
+    cold-tread filter removes at most the few samples at about ambient (under 5 % of the
+    sweeps'), and every sweep keeps its small slip angles (where the cornering stiffness and
+    the pneumatic trail are measured)."""
+    result = segment_trailer(_table(R2, "B1052run26"))
+    seg = result.segmentation
+    assert {f.name: f.removed for f in seg.filters}["cold tread"] < 0.05 * seg.in_sweeps
+    kept = result.table
+    for k in np.unique(kept["segment"]):
+        alpha = np.rad2deg(kept.loc[kept["segment"] == k, "alpha"].abs())
+        assert (alpha < 1.0).sum() >= 20, k
