@@ -78,10 +78,13 @@ def summary(d: dict) -> dict:
             "conclusion": d.get("conclusion", "")}
 
 
-def candidate_keys() -> frozenset[str]:
-    """The coefficients of the library's candidates (not the nuisance ones)."""
+def candidate_keys(prefix: str = "MF/") -> frozenset[str]:
+    """The coefficients of the library's candidates (not the nuisance ones) of the problems
+    ``--only MF`` analyses (a relation starting with ``prefix``): PFZ1, which the fit's
+    geometry stage fits, is a candidate of the CFz characteristic, not of a trailer stage."""
     from identify.discover.library import load_library
     return frozenset(k for c in load_library().candidates if not c.nuisance
+                     and any(r.startswith(prefix) for r in c.relations)
                      for k in c.coefficients)
 
 
