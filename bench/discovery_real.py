@@ -70,22 +70,36 @@ def summary(d: dict) -> dict:
                                  if not r["testable"]),
             "testable": sorted(f"{r['name']} ({r['problem']})" for r in first
                                if r["testable"]),
+            "testable_keys": sorted({k for r in first if r["testable"]
+                                     for k in r["coefficients"]}),
             "converged": {p["name"]: bool(p.get("converged")) and bool(p.get("stationary"))
                           for p in problems},
             "heldout": {p["name"]: p.get("heldout_scheme") for p in problems},
             "conclusion": d.get("conclusion", "")}
 
 
-def identified(fit_json: dict, limit: float = SE_LIMIT) -> dict[str, float]:
-    """Pressure coefficients of the MF stages fitted beyond ``limit`` standard errors:
-    key -> |value| / stderr."""
+def candidate_keys(prefix: str = "MF/") -> frozenset[str]:
+    """The coefficients of the library's candidates (not the nuisance ones) of the problems
+    ``--only MF`` analyses (a relation starting with ``prefix``): PFZ1, which the fit's
+    geometry stage fits, is a candidate of the CFz characteristic, not of a trailer stage."""
+    from identify.discover.library import load_library
+    return frozenset(k for c in load_library().candidates if not c.nuisance
+                     and any(r.startswith(prefix) for r in c.relations)
+                     for k in c.coefficients)
+
+
+def identified(fit_json: dict, limit: float = SE_LIMIT,
+               keys: frozenset[str] | None = None) -> dict[str, float]:
+    """Library candidate coefficients (``keys``, default :func:`candidate_keys`) the MF
+    stages fitted beyond ``limit`` standard errors: key -> |value| / stderr."""
+    keys = candidate_keys() if keys is None else keys
     out = {}
     for r in fit_json.get("fits", []):
         if r.get("relation") != "MF":
             continue
         for k, v in (r.get("parameters") or {}).items():
             se = (r.get("stderr") or {}).get(k)
-            if PRESSURE.match(k) and se and se > 0 and abs(v) / se > limit:
+            if k in keys and se and se > 0 and abs(v) / se > limit:
                 out[k] = max(out.get(k, 0.0), abs(v) / se)
     return out
 
@@ -106,8 +120,8 @@ def run_set(name: str, work: Path, skip_fit: bool = False) -> dict:
     fit_json = next((work / f"{name}-fits").rglob("fit.json"))
     tir = next(fit_json.parent.glob("*.tir"))
     rec["fit_identified"] = identified(_read(fit_json))
-    testable = {t.split(" ")[0] for t in rec["default"]["testable"]}
-    rec["identified_not_testable"] = sorted(set(rec["fit_identified"]) - testable)
+    rec["identified_not_testable"] = sorted(set(rec["fit_identified"])
+                                            - set(rec["default"]["testable_keys"]))
     _, rec["discover_base_s"] = _mfid("discover", str(folder), "--only", "MF", "--base",
                                       str(tir), "--out", str(work / f"{name}-discovery-fitted"))
     rec["fitted_base"] = summary(_read(work / f"{name}-discovery-fitted" / "discovery.json"))

@@ -18,6 +18,7 @@ from identify.discover.noise import Sweeps, whiten
 from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
 from identify.fit.problem import FitProblem
 from scipy.linalg import qr
+from scipy.optimize import lsq_linear
 
 __all__ = ["Objective", "Solution", "problem_name"]
 
@@ -138,20 +139,69 @@ class Objective:
         keep[np.flatnonzero(ok)[good]] = True
         return keep
 
-    def solve(self, x0: np.ndarray, max_nfev: int | None = None) -> Solution:
+    def solve(self, x0: np.ndarray, max_nfev: int | None = None,
+              central: bool = False) -> Solution:
         """Least squares from ``x0`` within the bounds (the engine's solver, DISCOVERY
-        tolerances)."""
+        tolerances).
+
+        ``central``: a solve that stopped on its tolerances at a point that is not stationary
+        on the solver's forward differences is judged on central ones, and solved on with
+        them when they agree it is not (the base fits, whose stationarity decides whether
+        any candidate is tested; 2 k + 1 evaluations per iteration)."""
         t0 = time.perf_counter()
         est = least_squares(self.residuals, x0, self.problem.bounds(), DISCOVERY,
                             jac=self._exact_jacobian(), max_nfev=max_nfev)
         r, J = est.fun, est.jac
-        grad = np.abs(J.T @ r)
-        scale = np.linalg.norm(J, axis=0) * max(np.linalg.norm(r), 1e-300)
-        free_dir = est.active_mask == 0
-        stationary = bool(np.all(grad[free_dir] <= 1e-4 * scale[free_dir] + 1e-300)) \
-            or _gauss_newton_gain(J[:, free_dir], r) < STATIONARY_GAIN
+        stationary = self._stationary(est.x, r, J)
+        if central and not stationary and est.success and self.problem.jacobian is None:
+            # stopped on its tolerances where the forward differences it stepped on still
+            # promise a gain: one-sided across the kinks of the E <= 1 limit, they can point
+            # nowhere. Judged on central differences, and solved on with them.
+            J = self.jacobian(est.x)
+            stationary = self._stationary(est.x, r, J)
+            if not stationary:
+                more = least_squares(self.residuals, est.x, self.problem.bounds(), DISCOVERY,
+                                     jac=self.jacobian, max_nfev=CENTRAL_ITERATIONS)
+                if float(more.fun @ more.fun) <= float(r @ r):
+                    nfev = est.nfev + more.nfev * (1 + 2 * est.x.size)
+                    r, J = more.fun, more.jac
+                    stationary = self._stationary(more.x, r, J)
+                    est = dataclasses.replace(more, nfev=nfev,
+                                              success=more.success or stationary)
         return Solution(est.x, r, J, float(r @ r), est.success, stationary, est.message,
                         est.nfev, time.perf_counter() - t0)
+
+
+    def _stationary(self, x: np.ndarray, r: np.ndarray, jac: np.ndarray) -> bool:
+        """Whether ``x`` is a minimum for every test made on it: the gradient is negligible,
+        or no Gauss-Newton step within the bounds lowers r^T r by STATIONARY_GAIN residual
+        variances, neither on the solver's linearisation nor on the residuals themselves.
+
+        The step is bounded (a parameter on its bound pulled outwards is at its minimum
+        there, not stalled) and tried on the residuals when the linearisation promises a
+        gain: the Magic Formula's E <= 1 limit makes the objective piecewise smooth, and a
+        solve ends on a kink where the solver's one-sided differences promise a gain that
+        no step gives."""
+        lo, hi = (np.asarray(b, dtype=float) for b in self.problem.bounds())
+        grad = np.abs(jac.T @ r)
+        scale = np.linalg.norm(jac, axis=0) * max(np.linalg.norm(r), 1e-300)
+        if np.all(grad <= 1e-4 * scale + 1e-300):
+            return True
+        n, k = jac.shape
+        if n <= k:
+            return False
+        s2 = float(r @ r) / (n - k)
+        if not s2 > 0:
+            return True
+        step, gain = bounded_gauss_newton(jac, r, lo - x, hi - x)
+        if gain < STATIONARY_GAIN * s2:
+            return True
+        rss = float(r @ r)
+        for t in (1.0, 0.25, 1.0 / 16, 1.0 / 64):
+            rt = self.residuals(np.clip(x + t * step, lo, hi))
+            if np.all(np.isfinite(rt)) and rss - float(rt @ rt) >= STATIONARY_GAIN * s2:
+                return False
+        return True
 
 
 #: A solve whose Gauss-Newton step from the end point would lower the objective by less than
@@ -161,16 +211,23 @@ class Objective:
 #: the strict gradient test's 1e-4, yet no step could change a conclusion.
 STATIONARY_GAIN = 0.1
 
+#: Most iterations of the central-difference solve that follows a solve whose end point is
+#: not stationary (each costs 2 k + 1 evaluations of the residuals).
+CENTRAL_ITERATIONS = 20
 
-def _gauss_newton_gain(jac: np.ndarray, r: np.ndarray) -> float:
-    """What a Gauss-Newton step over the columns of ``jac`` would take off r^T r, in
-    residual variances s^2 = r^T r / (n - k) (inf when there are no degrees of freedom)."""
-    n, k = jac.shape
-    if n <= k:
-        return float("inf")
+
+def bounded_gauss_newton(jac: np.ndarray, r: np.ndarray, lo: np.ndarray,
+                         hi: np.ndarray) -> tuple[np.ndarray, float]:
+    """The Gauss-Newton step d minimising ||r + jac d|| within lo <= d <= hi, and what it
+    takes off r^T r on the linearisation (the n x k problem reduced to k x k by QR first)."""
+    k = jac.shape[1]
     if k == 0:
-        return 0.0
-    step, *_ = np.linalg.lstsq(jac, r, rcond=None)
-    gain = float(np.sum((jac @ step) ** 2))
-    s2 = float(r @ r) / (n - k)
-    return gain / s2 if s2 > 0 else 0.0
+        return np.zeros(0), 0.0
+    Q, R = np.linalg.qr(jac)
+    b = Q.T @ r
+    if np.all(np.isinf(lo)) and np.all(np.isinf(hi)):
+        step, *_ = np.linalg.lstsq(R, -b, rcond=None)
+    else:
+        step = lsq_linear(R, -b, bounds=(np.minimum(lo, 0.0), np.maximum(hi, 0.0)),
+                          method="bvls").x
+    return step, float(b @ b - np.sum((b + R @ step) ** 2))

@@ -320,9 +320,9 @@ def prepare(problem: FitProblem, library: Library, *, n_starts: int = 1,
     x0 = p.x0()
     if n_starts > 1 and x0.size:
         x0 = np.array([fit(p, n_starts=n_starts, seed=seed).parameters[k] for k in p.free])
-    sol = Objective(p, index).solve(x0)
+    sol = Objective(p, index).solve(x0, central=True)
     if not (sol.ok and sol.stationary):  # one more solve from where the budget ran out
-        again = Objective(p, index).solve(sol.x)
+        again = Objective(p, index).solve(sol.x, central=True)
         if again.rss <= sol.rss:
             sol = again
     fit_seconds = time.process_time() - t0
