@@ -10,6 +10,7 @@ The default suite runs a few dozen cases per reader; ``-m trials`` runs 10,000 p
 from __future__ import annotations
 
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -64,9 +65,13 @@ def _one_line(text: str) -> None:
 
 
 def _run(fn) -> None:
-    """Call ``fn``; only InputError may escape, and its text is one line."""
+    """Call ``fn``; only InputError may escape, and its text is one line. A RuntimeWarning
+    (numpy's overflow or invalid-value text, which would reach the user's terminal as is)
+    fails too."""
     try:
-        problems = fn()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            problems = fn()
     except InputError as exc:
         _one_line(str(exc))
         return
