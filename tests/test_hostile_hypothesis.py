@@ -9,6 +9,8 @@ The default suite runs a few dozen cases per reader; ``-m trials`` runs 10,000 p
 """
 from __future__ import annotations
 
+import atexit
+import shutil
 import tempfile
 import warnings
 from pathlib import Path
@@ -136,6 +138,7 @@ def _dat() -> str:
 
 
 TMP = Path(tempfile.mkdtemp(prefix="mfid-hypothesis-"))
+atexit.register(shutil.rmtree, TMP, True)  # the mutated files go with the session
 BASE = {"csv": _csv(), "tdx": _tdx(TMP / "base.tdx"), "toml": TOML, "table": CHARACTERISTICS,
         "tir": TIR.read_text(), "points": POINTS, "dat": _dat()}
 BINARY = {"h5": _h5(TMP / "base.h5"), "mat": _mat(TMP / "base.mat"),
