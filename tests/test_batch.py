@@ -75,7 +75,7 @@ def without_run_details(doc):
 def leftovers(root: Path) -> list[Path]:
     """Temporary files of the atomic writers and marker folders of the batch."""
     return [p for p in root.rglob(".*") if p.name.endswith(".tmp") or
-            p.name.startswith(".mfid-batch-")]
+            p.name.startswith(".mfid-batch.")]
 
 
 # ----------------------------------------------------------------- same outputs as mfid fit
@@ -166,7 +166,7 @@ def test_killed_worker_costs_a_retry_and_bad_input_is_reported(folders, tmp_path
     killed = None
     deadline = time.monotonic() + 600
     while killed is None and time.monotonic() < deadline and proc.poll() is None:
-        for marker in out.glob(".mfid-batch-*/*.pid"):
+        for marker in out.glob(".mfid-batch.*/*.pid"):
             text = marker.read_text().split()
             if len(text) == 2:
                 time.sleep(0.3)  # into the fit
@@ -349,7 +349,7 @@ def test_interrupt_stops_the_workers_and_leaves_no_partial_file(folders, tmp_pat
                             cwd=tmp_path, env=ENV, stdout=subprocess.PIPE,
                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 600
-    while not list(out.glob(".mfid-batch-*/*.pid")) and time.monotonic() < deadline:
+    while not list(out.glob(".mfid-batch.*/*.pid")) and time.monotonic() < deadline:
         time.sleep(0.05)
     time.sleep(0.5)
     proc.send_signal(signal.SIGINT)

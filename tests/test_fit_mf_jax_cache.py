@@ -194,6 +194,24 @@ def test_a_cache_that_fails_mid_write_and_on_cleanup_is_no_error(cache, truth, d
     assert traced == [STAGE, STAGE] and len(_entries(where)) == 1  # and now stored
 
 
+def test_sigterm_mid_write_leaves_no_partial_entry(cache, truth, data, monkeypatch):
+    """The interrupt identify.cli.entry raises for SIGTERM, arriving as an entry is renamed
+    into place: it ends the run, and the partial entry is removed, not left for prune."""
+    from identify.cli.entry import Interrupted
+
+    where, _ = cache
+    real = os.replace
+
+    def interrupted(src, dst, *args, **kwargs):
+        if str(dst).startswith(str(where)):
+            raise Interrupted(15)
+        return real(src, dst, *args, **kwargs)
+    monkeypatch.setattr(os, "replace", interrupted)
+    with pytest.raises(Interrupted):
+        _jacobian(truth, data)
+    assert list(where.rglob("*.tmp")) == [] and not _entries(where)
+
+
 def test_prune_deletes_old_entries_and_old_partial_writes_only(tmp_path):
     """A write cut short (the process killed between mkstemp and os.replace) leaves a .tmp
     file that no run would ever load or replace: prune deletes it once as old as an unused

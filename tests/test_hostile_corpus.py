@@ -40,7 +40,7 @@ from tests.measurement_cases import (
     trailer_channels,
     write_good_folder,
 )
-from tests.ttc_cases import small_mat
+from tests.ttc_cases import small_mat, small_mat73
 
 runner = CliRunner()
 TIR = "extra/tyre.tir"
@@ -179,6 +179,25 @@ def ttc_mat_bad_type(root: Path) -> None:
     assert at > 128
     data[at] = 200
     path.write_bytes(bytes(data))
+
+
+def ttc_mat_logical(name: str, version: str = "5"):
+    """A TTC .mat file whose channel ``name`` is a MATLAB logical (true in every sample)."""
+    def apply(root: Path) -> None:
+        path = root / "extra" / "session.mat"
+        if version == "7.3":
+            small_mat73(path)
+            with h5py.File(path, "r+") as fh:
+                n = fh[name].shape[1]
+                del fh[name]
+                ds = fh.create_dataset(name, data=np.ones((1, n), np.uint8))
+                ds.attrs["MATLAB_class"] = np.bytes_("logical")
+            return
+        raw = scipy.io.loadmat(small_mat(path))
+        raw[name] = np.ones_like(raw[name], dtype=bool)
+        scipy.io.savemat(path, {k: v for k, v in raw.items() if not k.startswith("__")},
+                         format="5")
+    return apply
 
 
 def truncate(rel: str, keep: int):
@@ -360,6 +379,12 @@ CASES = [
     ("ttc-mat-unknown-type-code", ttc_mat_bad_type,
      ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
      ["truncated or corrupt .mat file", "array data of type 200"]),
+    ("ttc-mat-logical-camber", ttc_mat_logical("IA"),
+     ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
+     ["IA: ", "a MATLAB logical (true/false) array, not a measurement"]),
+    ("ttc-mat73-logical-load", ttc_mat_logical("FZ", "7.3"),
+     ["convert", "{root}/extra/session.mat", "{out}/c.h5"], "extra/session.mat",
+     ["FZ: ", "a MATLAB logical (true/false) array, not a measurement"]),
     # characteristic tables
     ("table-cell-over-field-limit", edit(TAB, "251700.0", BIG), ROOT_CMD, TAB,
      [":2: ", "cannot parse CSV: field larger than field limit"]),

@@ -9,7 +9,10 @@ The default suite runs a few dozen cases per reader; ``-m trials`` runs 10,000 p
 """
 from __future__ import annotations
 
+import atexit
+import shutil
 import tempfile
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -64,9 +67,13 @@ def _one_line(text: str) -> None:
 
 
 def _run(fn) -> None:
-    """Call ``fn``; only InputError may escape, and its text is one line."""
+    """Call ``fn``; only InputError may escape, and its text is one line. A RuntimeWarning
+    (numpy's overflow or invalid-value text, which would reach the user's terminal as is)
+    fails too."""
     try:
-        problems = fn()
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", RuntimeWarning)
+            problems = fn()
     except InputError as exc:
         _one_line(str(exc))
         return
@@ -131,6 +138,7 @@ def _dat() -> str:
 
 
 TMP = Path(tempfile.mkdtemp(prefix="mfid-hypothesis-"))
+atexit.register(shutil.rmtree, TMP, True)  # the mutated files go with the session
 BASE = {"csv": _csv(), "tdx": _tdx(TMP / "base.tdx"), "toml": TOML, "table": CHARACTERISTICS,
         "tir": TIR.read_text(), "points": POINTS, "dat": _dat()}
 BINARY = {"h5": _h5(TMP / "base.h5"), "mat": _mat(TMP / "base.mat"),

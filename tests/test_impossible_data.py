@@ -188,3 +188,18 @@ def test_the_good_folder_has_no_new_warning(tmp_path):
     result = runner.invoke(app, ["check", str(root)])
     assert result.exit_code == 0 and "warning" not in result.stderr, result.stderr
     assert (root / TR).is_file()
+
+
+def test_a_wheel_speed_near_zero_drops_the_channel_without_pythons_text(tmp_path):
+    """omega = 1e-310 rad/s: V/omega overflows to inf; the channel is dropped with mfid's
+    warning, and no RuntimeWarning of numpy's reaches the user (found by the hypothesis
+    readers on a mutated MATLAB v7.3 file)."""
+    import warnings as python_warnings
+
+    ch = trailer_channels()
+    ch["WHROTSPD"] = np.full(ch["RUNTIME"].size, 1e-310)
+    with python_warnings.catch_warnings():
+        python_warnings.simplefilter("error")
+        frames, problems, warnings = _run(tmp_path, ch)
+    assert problems == [] and frames[0] is not None
+    assert [w.action for w in warnings if w.channels == ("WHROTSPD",)] == ["channel dropped"]

@@ -184,10 +184,12 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
         with os.fdopen(fd, "wb") as f:
             f.write(_head(key, payload) + payload)
         os.replace(tmp, path)
-    except OSError:
+    except BaseException as exc:  # Ctrl-C and SIGTERM too: the partial entry goes
         if tmp is not None:  # what was written; a cache that cannot take it is no error
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
+        if not isinstance(exc, OSError):
+            raise
         return False
     prune(path.parent)
     return True

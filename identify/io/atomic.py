@@ -3,15 +3,21 @@
 A reader (or ``make``) never sees a half-written output: the target either keeps its old
 content or gets the complete new one. A failed write leaves no temporary file behind.
 
-The temporary is named ``.<target name>.<pid>.<random>.tmp``. A process killed outright
-(SIGKILL, a power cut) cannot remove its own, so the next write of the same target removes
-the temporaries of that target whose writing process no longer runs: only files of this
-naming pattern, only next to the target, never one a running process is writing.
+A folder is written the same way (:func:`temp_dir`, then :func:`replace_dir`): built in a
+temporary folder next to it and renamed into place; the folder it replaces is moved aside
+first and put back if the rename fails, so the target is the old folder or the new one,
+never neither.
+
+A temporary (file or folder) is named ``.<target name>.<pid>.<random>.tmp``. A process killed
+outright (SIGKILL, a power cut) cannot remove its own, so the next write of the same target
+removes the temporaries of that target whose writing process no longer runs: only entries of
+this naming pattern, only next to the target, never one a running process is writing.
 """
 from __future__ import annotations
 
 import os
 import re
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,7 +28,8 @@ from identify.core.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv", "remove_stale"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv", "remove_stale",
+           "replace_dir", "temp_dir"]
 
 
 def _umask() -> int:
@@ -50,8 +57,9 @@ def _running(pid: int) -> bool:
 def remove_stale(target: str | Path) -> list[Path]:
     """Remove the temporaries of ``target`` left by a writer that no longer runs.
 
-    Only files next to ``target`` named ``.<target name>.<pid>.<8 characters>.tmp`` (this
-    module's pattern) whose ``pid`` is not a running process are removed. Returns them.
+    Only files and folders next to ``target`` named ``.<target name>.<pid>.<8
+    characters>.tmp`` (this module's pattern) whose ``pid`` is not a running process are
+    removed (a symbolic link is never followed). Returns them.
     """
     target = Path(target)
     pattern = re.compile(rf"\.{re.escape(target.name)}\.(\d{{1,10}})\.[A-Za-z0-9_]{{8}}\.tmp")
@@ -66,12 +74,63 @@ def remove_stale(target: str | Path) -> list[Path]:
             continue
         path = target.parent / name
         try:
-            if path.is_file() and not path.is_symlink():
+            if path.is_symlink():
+                continue
+            if path.is_file():
                 path.unlink()
+                removed.append(path)
+            elif path.is_dir():
+                shutil.rmtree(path)
                 removed.append(path)
         except OSError:
             pass
     return removed
+
+
+def temp_dir(target: str | Path) -> Path:
+    """A new empty folder next to ``target``, named as this module's temporaries, after the
+    stale temporaries of ``target`` are removed (:func:`remove_stale`).
+
+    The caller removes it on failure (``shutil.rmtree`` in an ``except BaseException``, so
+    that Ctrl-C and SIGTERM, raised as exceptions by identify.cli.entry, remove it too), or
+    hands it to :func:`replace_dir`.
+
+    Raises
+    ------
+    InputError
+        The folder cannot be made (a missing or read-only parent).
+    """
+    target = Path(target)
+    try:
+        remove_stale(target)
+        return Path(tempfile.mkdtemp(prefix=f".{target.name}.{os.getpid()}.", suffix=".tmp",
+                                     dir=target.parent))
+    except OSError as exc:
+        raise InputError(target, f"cannot write folder: {exc.strerror or exc}") from None
+
+
+def replace_dir(tmp: str | Path, target: str | Path) -> Path:
+    """Rename the complete folder ``tmp`` onto ``target``, replacing a folder there.
+
+    The old ``target`` is moved aside into a temporary folder first and removed once the new
+    one is in place; if the rename fails (or is interrupted) it is moved back. The caller
+    removes ``tmp`` on failure. Returns ``target``.
+    """
+    tmp, target = Path(tmp), Path(target)
+    if not target.exists():
+        os.rename(tmp, target)
+        return target
+    trash = temp_dir(target)
+    try:
+        os.rename(target, trash / "old")
+        try:
+            os.rename(tmp, target)
+        except BaseException:
+            os.rename(trash / "old", target)
+            raise
+    finally:
+        shutil.rmtree(trash, ignore_errors=True)
+    return target
 
 
 @contextmanager

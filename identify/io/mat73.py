@@ -86,7 +86,7 @@ def _value(fh: h5py.File, obj, name: str, depth: int = 0):
         array = np.asarray(data)
         if array.dtype.kind not in "fiub":  # complex numbers are a compound type
             raise Mat73Error(f"{name}: {cls} data of HDF5 type {array.dtype}")
-        array = array.T
+        array = array.T.astype(bool) if cls == "logical" else array.T  # stored as uint8
         return array.reshape(-1) if array.ndim == 2 and 1 in array.shape else array
     raise Mat73Unread(f"{name}: MATLAB class '{cls or 'none'}' is not read")
 

@@ -124,8 +124,8 @@ def implausible(frame: pd.DataFrame, report: WarningReport) -> list[str]:
         vx, omega = frame["Vx"].to_numpy(float), frame["omega"].to_numpy(float)
         moving = np.isfinite(vx) & np.isfinite(omega) & (vx > MOVING_SPEED)
         if moving.sum() >= 10:
-            with np.errstate(divide="ignore", invalid="ignore"):
-                r = np.abs(vx[moving] / omega[moving])
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                r = np.abs(vx[moving] / omega[moving])  # inf: not a radius, said below
             why = _radius_why(r, "wheel speed inconsistent with the road speed, V/omega")
             if why:
                 drop("omega", why, int(moving.sum()))

@@ -14,7 +14,9 @@ The layout follows the public description of the TTC data (Calspan flat-belt mac
   the user's ``--units`` replace the assumed ones.
 
 A channel of another length than the time (an index vector assembled by hand) is left out
-with a warning and the rest of the file is read.
+with a warning and the rest of the file is read. So is a MATLAB ``logical`` (true/false)
+vector: a flag read as 1/0 is not a measurement (``true`` as a camber would be 57 deg); one in
+the place of a channel the fit cannot do without (:data:`LOGICAL_REFUSED`) refuses the file.
 
 Both come in SI (kph, N, N-m, kPa, cm, deg C) and USCS (mph, lbf, ft-lb, psi, in, deg F)
 variants; the units are read from the file and converted by :mod:`identify.core.units`. The
@@ -199,11 +201,20 @@ def _read_mat(path: Path, problems: Problems):
         problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
                            f"{type(exc).__name__}: {exc})")
         return None
+    try:  # scipy.io gives a logical array as uint8: its class tells it from a measurement
+        logical = {name for name, _, cls in scipy.io.whosmat(io.BytesIO(data))
+                   if cls == "logical"}
+    except Exception as exc:  # noqa: BLE001 - as loadmat above
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
+                           f"{type(exc).__name__}: {exc})")
+        return None
+    mat = {k: np.asarray(v, dtype=bool) if k in logical else v for k, v in mat.items()}
     return _contents(path, mat, problems, "ttc-mat")
 
 
 def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     """The channels, their units and the strings of a loaded .mat file (either version)."""
+    start = problems.total
     struct = mat.get("channel")
     names, unit_list = ([], [])
     if isinstance(struct, (list, np.ndarray)) and len(struct) and all(
@@ -215,6 +226,7 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         unit_list = [_text(v).strip() for v in np.atleast_1d(struct.get("units", []))]
     units = dict(zip(names, unit_list))
     data: dict[str, np.ndarray] = {}
+    logical: dict[str, int] = {}  # MATLAB logical vectors: name -> samples
     for key, value in mat.items():
         if key.startswith("__") or key == "channel" or key in TTC_STRINGS:
             continue
@@ -222,12 +234,29 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
             continue  # not a channel (a string, a struct, a matrix)
         name = ttc_name(key) if ttc_name(key) not in mat else key  # "fz" next to "FZ": kept
+        if array.dtype.kind == "b":
+            logical[name] = array.size
+            continue
         data[name] = np.atleast_1d(array).reshape(-1).astype(np.float64)
     n = data["ET"].size if "ET" in data else None
-    # a number or vector of another length that the channel struct does not list (a rim
-    # width, a calibration constant) is not a channel
-    data = {k: v for k, v in data.items()
-            if k in units or k in TTC_CHANNELS or n is None or v.size == n}
+
+    def channel(name: str, size: int) -> bool:
+        # a number or vector of another length that the channel struct does not list (a rim
+        # width, a calibration constant) is not a channel
+        return name in units or name in TTC_CHANNELS or n is None or size == n
+
+    data = {k: v for k, v in data.items() if channel(k, v.size)}
+    # true/false read as 1/0 would be a camber of 57 deg: a flag is not a measurement
+    notes = []
+    for name in [k for k, size in logical.items() if channel(k, size)]:
+        if name in LOGICAL_REFUSED:
+            problems.add(path, "a MATLAB logical (true/false) array, not a measurement",
+                         key=name)
+        else:
+            notes.append(reader_note(name, "a MATLAB logical (true/false) array, not a "
+                                           "measurement", "channel left out"))
+    if problems.total > start:
+        return None
     # in the channel struct's order: a v7.3 file lists its variables by name
     order = {name: i for i, name in enumerate(names)}
     data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
@@ -238,10 +267,15 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     if not units:  # the older layout: no channel struct, the units follow a convention
         units, note = convention_units(data)
         attrs[UNITS_SOURCE] = "convention"
-        attrs[READER_NOTES] = reader_note("channel", note, "units assumed")
+        notes.append(reader_note("channel", note, "units assumed"))
+    if notes:
+        attrs[READER_NOTES] = "\n".join(notes)
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
 
 
+#: TTC channels a run cannot do without (identify.io.trailer's required channels, less the
+#: wheel speed older rounds lack): one held as a MATLAB logical array refuses the file.
+LOGICAL_REFUSED = frozenset({"ET", "V", "SA", "IA", "P", "SL", "FX", "FY", "FZ", "MX", "MZ"})
 #: ``attrs`` key of a run read here: what the reader decided about the file, one line each
 #: (channels left out, units taken by convention); the trailer loader gives them as warnings.
 READER_NOTES = "reader_notes"

@@ -9,9 +9,7 @@ from __future__ import annotations
 import dataclasses
 import gzip
 import json
-import os
 import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Mapping
@@ -21,6 +19,7 @@ import pandas as pd
 
 from identify.core.version import __version__
 from identify.core.errors import InputError
+from identify.io.atomic import replace_dir, temp_dir
 from identify.model.modes import FIT_MODE, TRAILER_MODE
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng
@@ -109,16 +108,7 @@ def _prepare_target(outdir: Path, overwrite: bool) -> None:
 
 def _move_into_place(tmp: Path, outdir: Path, overwrite: bool) -> None:
     _prepare_target(outdir, overwrite)
-    trash = None
-    if outdir.is_dir():
-        if any(outdir.iterdir()):
-            trash = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.old.", dir=outdir.parent))
-            os.rename(outdir, trash / "old")
-        else:
-            outdir.rmdir()
-    os.rename(tmp, outdir)
-    if trash is not None:
-        shutil.rmtree(trash, ignore_errors=True)
+    replace_dir(tmp, outdir)
 
 
 def _write_csv(path: Path, columns: Mapping[str, np.ndarray], digits: int | None) -> None:
@@ -240,7 +230,7 @@ def simulate_folder(tir_params: Mapping[str, float], outdir: str | Path, *,
     truth = json.loads(truth_text)  # the result holds exactly what the file holds
     tyre_id = tyre_id or outdir.name
     outdir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", suffix=".tmp", dir=outdir.parent))
+    tmp = temp_dir(outdir)
     try:
         (tmp / "flatplank").mkdir()
         (tmp / "trailer").mkdir()

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import shutil
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -26,6 +25,7 @@ import scipy.io
 
 from identify.core.errors import InputError
 from identify.core.version import __version__
+from identify.io.atomic import temp_dir
 from identify.io.mat73 import write_mat73
 from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import run_rng
@@ -177,7 +177,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
              "model_mode": TRAILER_MODE, "tir": params, "plan": plan.to_dict(),
              "strings": strings, "runs": []}
     outdir.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.", suffix=".tmp", dir=outdir.parent))
+    tmp = temp_dir(outdir)
     files = []
     try:
         for number, test in RUNS[:1] if cornering_only else RUNS:

@@ -25,7 +25,6 @@ from __future__ import annotations
 import dataclasses
 import os
 import shutil
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -35,6 +34,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.fit.run import FitSettings
+from identify.io.atomic import temp_dir
 from identify.io.fitdir import read_fit_dir
 from identify.io.outputs import Inputs, check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.batch_summary import SUMMARY_CSV, BatchEntry, write_batch_summary
@@ -375,7 +375,8 @@ def run_batch(folders: Sequence[str | Path], *, out_root: str | Path = "fits",
         engine_name = engine.name
         events.start(engine_name, len(tasks), [p for p in planned if isinstance(p, TaskOutcome)])
         out_root.mkdir(parents=True, exist_ok=True)
-        marker_dir = Path(tempfile.mkdtemp(prefix=".mfid-batch-", dir=out_root))
+        # .mfid-batch.<pid>.<random>.tmp: one left by a batch killed outright is removed here
+        marker_dir = temp_dir(out_root / "mfid-batch")
         try:
             done = _run_tasks(engine, tasks, retries, marker_dir, events)
         finally:

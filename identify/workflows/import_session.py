@@ -29,7 +29,6 @@ from __future__ import annotations
 
 import re
 import shutil
-import tempfile
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -42,6 +41,7 @@ from identify.core.names import safe_name
 from identify.core.tyre_size import find_tyre_size
 from identify.core.progress import Progress
 from identify.core.version import __version__
+from identify.io.atomic import replace_dir, temp_dir
 from identify.io.common import Problems, sha256_file
 from identify.io.manifest import MANIFEST_NAME
 from identify.io.quirks import DataWarning
@@ -367,19 +367,13 @@ def import_session(files: Sequence[str | Path], out: str | Path, *,
 def _write(out: Path, manifest: str, copies: Mapping[str, str], overwrite: bool) -> None:
     """Build the folder in a temporary directory and rename it into place."""
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.", suffix=".tmp", dir=out.parent))
+    tmp = temp_dir(out)
     try:
         (tmp / "trailer").mkdir()
         for source, target in copies.items():
             shutil.copyfile(source, tmp / target)
         (tmp / MANIFEST_NAME).write_text(manifest, encoding="utf-8")
-        if out.exists():
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            out.rename(old / "old")
-            tmp.rename(out)
-            shutil.rmtree(old, ignore_errors=True)
-        else:
-            tmp.rename(out)
+        replace_dir(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
         raise
