@@ -10,8 +10,8 @@ from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.io.common import Problems
 from identify.io.manifest import MANIFEST_NAME, read_manifest
-from identify.io.outputs import Inputs, check_file_output
-from identify.io.trailer import read_channels, write_channels
+from identify.io.output_guard import Inputs, check_file_output
+from identify.io.trailer.files import read_channels, write_channels
 
 _FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
 

@@ -12,9 +12,9 @@ import typer
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import StageProgress
 from identify.core.errors import InputError, MfidError
-from identify.workflows.discover import discover_folder
 from identify.discover.design import SCHEMES
 from identify.discover.search import Settings
+from identify.workflows.discover import discover_folder
 
 
 @app.command("discover")

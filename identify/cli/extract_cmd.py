@@ -9,11 +9,11 @@ from typing import Optional
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
+from identify.core.atomic import atomic_write_csv, atomic_write_text
 from identify.core.errors import InputError, MfidError
 from identify.extract import extract_folder
 from identify.io.folder import load_folder
-from identify.io.outputs import check_file_output, measurement_inputs
-from identify.io.atomic import atomic_write_csv, atomic_write_text
+from identify.io.output_guard import check_file_output, measurement_inputs
 
 
 @app.command("extract")

@@ -9,7 +9,7 @@ import typer
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import MfidError
 from identify.io.fitdir import read_fit_dir
-from identify.io.outputs import Inputs, check_file_output
+from identify.io.output_guard import Inputs, check_file_output
 from identify.report.pdf import default_report_path, write_report
 
 

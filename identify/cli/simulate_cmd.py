@@ -10,7 +10,7 @@ import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
-from identify.io.outputs import Inputs, check_folder_output
+from identify.io.output_guard import Inputs, check_folder_output
 from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 from identify.simulate.ttc import simulate_ttc

@@ -13,11 +13,11 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.linalg import qr
 
 from identify.discover.noise import Sweeps, whiten
-from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
-from identify.fit.problem import FitProblem
-from scipy.linalg import qr
+from identify.fit.solve.engine import DISCOVERY, fd_jacobian, least_squares
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["Objective", "Solution", "problem_name"]
 

@@ -33,7 +33,7 @@ import numpy as np
 from identify.discover.drift import DRIFT_KEY, drifting
 from identify.discover.library import Library
 from identify.discover.objective import problem_name
-from identify.fit.problem import FitProblem
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["ModelState", "claims"]
 

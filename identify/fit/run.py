@@ -25,11 +25,11 @@ from identify.core.jsonsafe import json_safe
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
 from identify.fit.coverage import StageCoverage
-from identify.fit.forms import FormChoice
-from identify.fit.mcmc import BUDGET_S, MAX_STEPS
+from identify.fit.mcmc.chains import BUDGET_S, MAX_STEPS
+from identify.fit.relations.forms import FormChoice
 from identify.fit.result import FitResult
-from identify.fit.status import FAILED
 from identify.fit.sources import KINDS, KeySource
+from identify.fit.status import FAILED
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
 __all__ = ["BIN_ALPHA_DEG", "BIN_KAPPA", "SCHEMA", "FitRun", "FitSettings", "InputFile",
@@ -66,7 +66,7 @@ class FitSettings:
                            left divided by the chains left); a chain stopped by it says
                            converged = false (None: no budget)
     mcmc_reparam : bool    sample the Fy0 cornering stiffness at three loads in place of
-                           PKY1, PKY2, PKY4 (identify.fit.mcmc_reparam; same posterior)
+                           PKY1, PKY2, PKY4 (identify.fit.mcmc.reparam; same posterior)
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
     hold : tuple of str    coefficients held at their default in every relation fit
                            (``--hold``)
@@ -82,13 +82,13 @@ class FitSettings:
                            which average the ripple over the passes through each bin without
                            bending a curve that changes within a revolution (docs/intervals.md,
                            "What the averaging does to the tightest intervals")
-    mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
+    mf_passes : int        passes over the MF stages (identify.fit.mf.stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
                            PASS_GAIN (docs/commands.md, "mfid fit")
     pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
-                           again without it (identify.fit.pressure_holdout; the report's
+                           again without it (identify.fit.mf.pressure_holdout; the report's
                            pressure page); off by default: a refit per level can cost as
                            much as the MF fit itself
     """

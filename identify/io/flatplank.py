@@ -13,9 +13,9 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
 from identify.core.plausible import judge, judge_channel
 from identify.core.units import same_unit, to_si, unit_problem
+from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
 
 __all__ = ["RAW_COLUMNS", "FLATPLANK_COLUMNS", "CONSTANT_LOAD_TESTS", "hub_to_contact",
            "read_flatplank"]

@@ -15,13 +15,13 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Any, Mapping
 
-from identify.io.axes import AXES, axes_name
-from identify.io.common import Problems, cr_only, read_utf8
-from identify.io.data_warning import DataWarning
 from identify.core.names import name_problem
 from identify.core.plausible import judge
 from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
+from identify.io.axes import AXES, axes_name
+from identify.io.common import Problems, cr_only, read_utf8
+from identify.io.data_warning import DataWarning
 
 __all__ = ["Manifest", "TyreInfo", "RigInfo", "RunSpec", "read_manifest", "KINDS", "TESTS",
            "MANIFEST_NAME"]

@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.io.common import BOOLEAN_CELLS, CR_ONLY, cr_only, file_problem, Problems
-from identify.io.atomic import atomic_write_text
+from identify.core.atomic import atomic_write_text
+from identify.io.common import BOOLEAN_CELLS, CR_ONLY, Problems, cr_only, file_problem
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
 

@@ -18,8 +18,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 
-from identify.model.relations import (LoadPressureStiffness, SidewallRing, VerticalQFz, YawT1,
-                                      YawT2, qfz_from_mf)
+from identify.model.relations import (
+    LoadPressureStiffness,
+    SidewallRing,
+    VerticalQFz,
+    YawT1,
+    YawT2,
+    qfz_from_mf,
+)
 
 __all__ = ["Relations", "DEFAULT_RELATIONS", "RELATION_NAMES", "relations_from_tir"]
 

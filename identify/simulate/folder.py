@@ -19,8 +19,8 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
-from identify.core.version import __version__
 from identify.core.errors import InputError
+from identify.core.version import __version__
 from identify.model.modes import FIT_MODE, TRAILER_MODE
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng
