@@ -147,8 +147,8 @@ and, in a load spike on main's run, 309 -> 137). Against ddb9f71's 351-379 and 6
 rounds), over the four ``cpu`` lines: 3.8-4.3x and 4.1-4.4x, still short of the issue's 5x
 (72 and 122). What went (CPU times of warm fit_mf runs and step timings, one-off): trf's SVDs
 through a QR first with U
-never formed (identify.fit.solve.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
-exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
+never formed (identify.fit.solve.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s
+wall); exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
 sample's Fx0 0.20 -> 0.09 s); Mz0's mirror images (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) taken as
 one optimum by the search, as candidates and as a start's stop (the TTC session's second Mz0
 candidate, solved on all points for 37 evaluations, was the first's mirror image; Mz0 nfev

@@ -1,7 +1,7 @@
 """One problem under discovery: base fit, convergence check, error model, diagnosis, folds.
 
-:func:`prepare` turns a :class:`~identify.fit.solve.problem.FitProblem` (library coefficients present
-and held at their neutral values) into a :class:`Working` problem:
+:func:`prepare` turns a :class:`~identify.fit.solve.problem.FitProblem` (library coefficients
+present and held at their neutral values) into a :class:`Working` problem:
 
 1. fit the base model (weighted least squares with the thesis-metric group weights; optional
    multi-start through :func:`identify.fit.optimize.fit`) and check it is a stationary point;

@@ -1,6 +1,7 @@
 """Magic Formula stage problems on trailer sweeps, for discovery.
 
-Small, self-contained :class:`~identify.fit.solve.problem.FitProblem` builders on the forward model's
+Small, self-contained :class:`~identify.fit.solve.problem.FitProblem` builders on the forward
+model's
 pieces (``fx0``, ``fy0``, ``mx``, ``mz``): one output, the sweeps that excite it, a set of free
 MF coefficients, and every other key taken from a base .tir. The model reads the whole .tir
 (``{**tir, **values}``), so any .tir key can be added as a parameter (a library candidate held at

@@ -109,8 +109,8 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
 
 RIVAL_CHI2 = 3.84
 """A rival minimum (FitResult.rivals) within this chi^2 of the optimum, on the reported
-intervals' scale, lies inside the 95 % region of one coefficient; identify.fit.mf.minima.rivals keeps
-the minima within it."""
+intervals' scale, lies inside the 95 % region of one coefficient; identify.fit.mf.minima.rivals
+keeps the minima within it."""
 
 
 def _rivaled(r: FitResult) -> list[tuple[str, str, str]]:

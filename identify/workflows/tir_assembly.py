@@ -9,8 +9,8 @@ came from (:class:`identify.fit.sources.KeySource`):
   default and, when the data cannot identify a coefficient, a re-fit with it held
   (:func:`fit_entry`; the status says so);
 - for a relation with a nested pair of forms the form chosen by the data
-  (:func:`identify.fit.relations.forms.choose_form`) or by ``--form``, whose keys (and implied constants,
-  CMZ_FORM ...) go into the .tir (:func:`write_relation`);
+  (:func:`identify.fit.relations.forms.choose_form`) or by ``--form``, whose keys (and implied
+  constants, CMZ_FORM ...) go into the .tir (:func:`write_relation`);
 - the validity limits from the measured ranges of the points that fitted the force model: the
   MF stages' when there are any, else every relation's (:func:`apply_limits`);
 - every other key: its default, marked as not identified by these data (:func:`complete`).

@@ -3,7 +3,8 @@ shows: the option tables between ``<!-- options: CMD -->`` and ``<!-- /options -
 :func:`options_table` from the command line itself, so a renamed, added or dropped option makes
 this test fail instead of leaving the reference wrong.
 
-Regenerate the tables after changing an option: ``python tests/integration/test_docs_commands.py --write``.
+Regenerate the tables after changing an option: ``python tests/integration/test_docs_commands.py
+--write``.
 """
 from __future__ import annotations
 

@@ -4,8 +4,8 @@ bundled folders produce, the fit-directory reader and writer, and the notebook c
 Real documents: the sample folder's CFx fits (from raw Flatplank runs: flags, extraction.json
 and 750 input checksums), an MF fit of the sample's three braking/driving trailer runs (the
 Fx0, Mx and My stages), a discovery run's fit.json, the thesis folder's CFx table, and
-(tests/integration/test_cli_fit.py) the thesis folder with ``--mcmc --mcmc-max-steps 500`` and a failed
-fit. The whole sample folder was round-tripped by hand (see the commit message). Each slow
+(tests/integration/test_cli_fit.py) the thesis folder with ``--mcmc --mcmc-max-steps 500`` and a
+failed fit. The whole sample folder was round-tripped by hand (see the commit message). Each slow
 fixture is used by one test only, so that pytest-xdist workers do not build it twice.
 """
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 The refusals themselves (a boolean channel, a required channel without a value, forces,
 moments, slip ratios, time stamps and time steps no rig logs, CR-only line ends, a NUL byte in
-a run file name) are cases of the hostile corpus (tests/integration/test_hostile_corpus.py). Here: the
-plausibility ranges admit every real rig (a Formula Student tyre at 0.2 kN, a truck tyre at
+a run file name) are cases of the hostile corpus (tests/integration/test_hostile_corpus.py). Here:
+the plausibility ranges admit every real rig (a Formula Student tyre at 0.2 kN, a truck tyre at
 50 kN, a TTC file in US units, a slow Flatplank-like log); units in parentheses and axis
 names in any case are read; small data fits what it can, or says what is too little, where.
 """

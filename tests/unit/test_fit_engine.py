@@ -100,7 +100,7 @@ def test_result_to_dict_is_json_safe():
     assert "CFy [linear_load]" in result.report()
 
 
-# --- the estimation engine (identify.fit.solve.engine) ------------------------------------------------
+# --- the estimation engine (identify.fit.solve.engine) --------------------------------------------
 
 def _stiffness_jacobian(v, names):
     """Exact d stiffness / d names (the model above), columns in ``names`` order."""

@@ -1,10 +1,11 @@
-"""Form selection by the data (identify.fit.relations.forms): the nested pair, F test and held-out check.
+"""Form selection by the data (identify.fit.relations.forms): the nested pair, F test and held-out
+check.
 
 Characteristic tables are generated from the CFx relation of the simulator's default tyre
 (quadratic in load, p2 = -0.28 at Fz0 = 4 kN) and from the same relation with p2 = 0, on the
 Flatplank design (5 pressures x 3 loads), with 0.5 % relative noise per cell (the extraction's
-per-cell standard error is 0.2-0.5 %, tests/unit/test_extract_accuracy.py). The full-pipeline version
-(simulated raw runs, extraction, fit) runs in the trials.
+per-cell standard error is 0.2-0.5 %, tests/unit/test_extract_accuracy.py). The full-pipeline
+version (simulated raw runs, extraction, fit) runs in the trials.
 """
 from __future__ import annotations
 

@@ -1,4 +1,5 @@
-"""identify.fit.mf.minima.sign_images: an MF stage reports the mirror image of its optimum nearest its start."""
+"""identify.fit.mf.minima.sign_images: an MF stage reports the mirror image of its optimum nearest
+its start."""
 from __future__ import annotations
 
 import math

@@ -8,8 +8,8 @@ and the Magic Formula amplifies round-off by at most its condition number (obser
 |dFz| <= 1e-12 FNOMIN along different round-off paths; near the edge of the solvable region
 (tiny deflections, flat Fz(Rl)) that leaves up to ~6e-7, so they are held to the 1e-6 used
 for iterative outputs (tests/data/reference/PROVENANCE.md). Points whose secant finds no
-root in the kernel are decided by the numpy path (identify.model.kernel.fused), so both paths flag the
-same points.
+root in the kernel are decided by the numpy path (identify.model.kernel.fused), so both paths flag
+the same points.
 """
 from __future__ import annotations
 

@@ -33,8 +33,8 @@ default; with AR(1) noise ``"de+laplace"`` is ``"de"`` (phi has no Laplace appro
 here). emcee's DESnookerMove is not used: in emcee 3.1.6 it scales its step by the distance
 to the anchor walker (u = delta/sqrt(|delta|) instead of delta/|delta|) and so does not
 sample the target (a unit Gaussian in 19 dimensions comes out with variance 0.56 alone,
-0.79 as 20 % of a mix with DE; tests/integration/test_fit_mcmc.py checks the posterior width against a
-linear problem's exact one).
+0.79 as 20 % of a mix with DE; tests/integration/test_fit_mcmc.py checks the posterior width against
+a linear problem's exact one).
 """
 from __future__ import annotations
 

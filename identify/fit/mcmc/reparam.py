@@ -31,7 +31,8 @@ bounds: the density in the anchors carries the Jacobian of the inverse map,
 log |det dx/dz| = -log |det dz/dx| (:meth:`KyaRidge.inverse`). The inverse map is solved by
 Newton's method for all walkers at once from the least-squares optimum; the posterior is
 thereby the flat-prior one restricted to the branch of solutions connected to the optimum
-(points whose Newton iteration does not converge get zero density; tests/integration/test_fit_mcmc.py
+(points whose Newton iteration does not converge get zero density;
+tests/integration/test_fit_mcmc.py
 checks the marginals against the exact posterior integrated on a grid).
 """
 from __future__ import annotations

@@ -113,8 +113,8 @@ would hold it there ("no effect") and a solver could not move it, and the stiffn
 Q_FZ2 would absorb its effect (the golden test tyre's Q_FCY = 0.2 lowers the load at a
 deflection by 4 % at Fy = Fz0, an effect the load law's other terms can only distort
 themselves to mimic). At 0.1 it reduces the load by 1 % at Fy = Fz0; the fit takes
-it from there, down to ~0 for a tyre without the term, where identify.fit.mf.minima.even_effect holds it at
-0 (its square not significant). The sign is immaterial (the fitted value is reported as
+it from there, down to ~0 for a tyre without the term, where identify.fit.mf.minima.even_effect
+holds it at 0 (its square not significant). The sign is immaterial (the fitted value is reported as
 |Q_FCY|). Q_FCX, the same for the
 longitudinal force, is not fitted: the vertical stage's free-rolling points have no Fx."""
 

@@ -3,9 +3,10 @@
 One table, as data: (relation, form, builder, keys written to the .tir when this form is the
 one the .tir takes, constants the form implies). The pipeline runs every entry whose data are
 present; ``--only NAME`` selects relations by name. A relation with a nested pair of forms
-(:data:`identify.fit.relations.forms.NESTED_FORMS`: CFx, CFy linear or quadratic in load, CMz T1 or T2,
-RR old or new) writes the form the data choose (:func:`identify.fit.relations.forms.choose_form`); every
-other relation writes the one form that has ``writes``.
+(:data:`identify.fit.relations.forms.NESTED_FORMS`: CFx, CFy linear or quadratic in load, CMz T1 or
+T2,
+RR old or new) writes the form the data choose (:func:`identify.fit.relations.forms.choose_form`);
+every other relation writes the one form that has ``writes``.
 """
 from __future__ import annotations
 

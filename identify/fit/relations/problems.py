@@ -1,8 +1,8 @@
 """The pressure relations as fit problems (docs/relations.md).
 
 Each builder turns a characteristic table (SI, identify.io.tables.characteristics schema) into a
-:class:`~identify.fit.solve.problem.FitProblem` whose parameters carry the .tir key names where MF has
-one (PCFY1, QSY7, PPY5, ...), so results go straight into the .tir and the discovery library
+:class:`~identify.fit.solve.problem.FitProblem` whose parameters carry the .tir key names where MF
+has one (PCFY1, QSY7, PPY5, ...), so results go straight into the .tir and the discovery library
 can free and test them by name. Forms that leave a coefficient out hold it fixed at its neutral
 value (PCFY2 = 0 for linear load, QSY7 = 1 and QSY8 = 0 for the old rolling-resistance form).
 """

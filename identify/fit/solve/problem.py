@@ -103,7 +103,8 @@ class FitProblem:
     unit : str
         Unit of the data, for reports.
     covariance : str
-        How the standard errors are computed (identify.fit.solve.engine.covariance, docs/intervals.md):
+        How the standard errors are computed (identify.fit.solve.engine.covariance,
+        docs/intervals.md):
         ``"iid"``: s^2 (J^T J)^-1, residuals independent with one variance (sigma known: s = 1);
         ``"sweeps"``: the delete-one-sweep jackknife over ``sweeps``, residuals correlated and
         of any variance within a sweep (AR(1) noise, drift, binned sweeps), independent

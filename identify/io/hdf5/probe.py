@@ -4,8 +4,8 @@ The HDF5 library trusts a file's metadata. One changed byte in an HDF5 trailer f
 loop for good inside the C library reading a channel's ``units`` attribute (found by
 tests/unit/test_hostile_hypothesis.py); a Python timer cannot stop a loop that never returns to
 Python. :func:`metadata_problem` therefore makes, in a child process, the reads that
-identify.io.hdf5.channel_files makes: the groups, their attributes, each member's link and dataset, its
-attributes by name and all of them, and the values of datasets up to :data:`SMALL_DATASET`
+identify.io.hdf5.channel_files makes: the groups, their attributes, each member's link and dataset,
+its attributes by name and all of them, and the values of datasets up to :data:`SMALL_DATASET`
 values; each read on its own, so that one that raises does not hide a later one that loops.
 It waits at most :data:`PROBE_SECONDS`; a child that does not finish, or dies of a signal, is
 a corrupt file. Exceptions in the child are left to the parent's own reading, which turns them
@@ -32,7 +32,8 @@ PROBE_SECONDS = 20.0
 
 
 #: What h5py raises on a corrupt file once the probe passed it (corrupt metadata, a dangling
-#: link or reference, a value of the wrong type): identify.io.hdf5.channel_files and identify.io.ttc.mat73 turn
+#: link or reference, a value of the wrong type): identify.io.hdf5.channel_files and
+#: identify.io.ttc.mat73 turn
 #: these into their one-line errors.
 HDF5_ERRORS = (RuntimeError, KeyError, OSError, ValueError, TypeError, IndexError,
                AttributeError, OverflowError)
@@ -67,7 +68,8 @@ def _read_dataset(ds) -> None:
 
 
 def _read_metadata(path: Path) -> None:
-    """What :func:`identify.io.hdf5.channel_files.read_hdf5` reads, in its order, each read on its own."""
+    """What :func:`identify.io.hdf5.channel_files.read_hdf5` reads, in its order, each read on its
+    own."""
     with h5py.File(path, "r") as fh:
         members = _attempt(lambda: list(fh.values())) or []
         groups = [fh] + [v for v in members if isinstance(v, h5py.Group)]

@@ -27,8 +27,8 @@ kind               found as                                               action
 =================  =====================================================  ==================
 
 The record (:class:`DataWarning`) lives in identify.io.data_warning, the checks in
-identify.io.trailer.quirk_checks; :func:`clean_run` runs them in order. A dropped channel becomes NaN
-in the whole run, so that a stage needing it finds no points and is skipped;
+identify.io.trailer.quirk_checks; :func:`clean_run` runs them in order. A dropped channel becomes
+NaN in the whole run, so that a stage needing it finds no points and is skipped;
 :attr:`DataWarning.channels` names it and ``kind == "implausible"`` says why. Rows are dropped
 only for a missing value in a required channel (the condition, force and moment channels);
 optional channels (radii, temperatures, My) keep their NaN.

@@ -1,8 +1,8 @@
 """Compiled kernel, part 1: parameters and the per-point pre-processing (twin of model.state).
 
 Everything here is branch-free (selects, min/max) so that the loops in
-:mod:`identify.model.kernel.fused` vectorise; the useMode flags are passed as values and applied with
-selects, which costs a few wasted operations and keeps one compiled loop for every mode.
+:mod:`identify.model.kernel.fused` vectorise; the useMode flags are passed as values and applied
+with selects, which costs a few wasted operations and keeps one compiled loop for every mode.
 """
 from __future__ import annotations
 

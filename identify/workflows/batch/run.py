@@ -4,7 +4,8 @@ Each task is the ordinary fit of one folder (:func:`identify.workflows.batch.tas
 the outputs of ``mfid fit``, written atomically). A folder whose outputs are up to date
 (:mod:`identify.workflows.batch.plan`) is skipped unless ``force``. Tasks run on
 :class:`~identify.workflows.batch.engines.PoolEngine` (the standard library's process pool, the
-default) or, with a ``scheduler``, on Dask (:mod:`identify.workflows.batch.dask_cluster`, the optional
+default) or, with a ``scheduler``, on Dask (:mod:`identify.workflows.batch.dask_cluster`, the
+optional
 extra ``mfid[dask]``). A worker that dies costs its task one of ``retries``; a task that fails
 (bad input, a fit that did not converge) is reported and the others go on. At the end the
 summary across tyres is written: ``<out>/batch_summary.csv`` and, with reports,

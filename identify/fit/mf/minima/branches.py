@@ -46,7 +46,8 @@ def _mirror_outside(result: FitResult, c1: str) -> bool:
 
     A gate at 2 standard errors would leave the branch untried where c1 lies between one and
     two standard errors from 0 and the other branch fits as well (the golden tyre's TTC
-    session at seed 1 in tests/integration/test_fit_mf_other_tyre.py). The gate does not keep a solve at
+    session at seed 1 in tests/integration/test_fit_mf_other_tyre.py). The gate does not keep a
+    solve at
     small c1 from ending as low as the optimum: on tests/unit/test_fit_mf_basins.py's Fx0 stage,
     PKX2 a few standard errors from 0, the other branch is tried and ends at PKX2 ~ 0 as low
     as the optimum; TAKE_CHI2 keeps the optimum, and the end is a rival in

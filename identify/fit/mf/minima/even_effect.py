@@ -37,7 +37,8 @@ __all__ = ["canonical_even", "even_gate", "not_significant"]
 def canonical_even(result: FitResult) -> FitResult:
     """``result`` with each even coefficient as |q| (EVEN_START: the load law's
     (Q_FCY Fy/Fz0)^2 predicts the same at -q as at q, bit for bit: the square only clears the
-    sign bit), its correlations' signs flipped with it (identify.fit.mf.minima.sign_images.flipped)."""
+    sign bit), its correlations' signs flipped with it
+    (identify.fit.mf.minima.sign_images.flipped)."""
     return flipped(result, [n for n in EVEN_START
                             if n in result.free and result.parameters[n] < 0])
 
