@@ -33,8 +33,8 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
-from tests.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
+from tests.unit.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
+from tests.unit.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
 
 RIDGE = ("PKY1", "PKY2", "PKY4")
 

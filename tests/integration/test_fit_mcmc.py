@@ -8,13 +8,13 @@ import h5py
 import lmfit
 import numpy as np
 import pytest
-from tests.test_fit_engine import PRESSURES, _params, stiffness
 
 from identify.fit.mcmc.chains import _Posterior, run_mcmc
 from identify.fit.mf.stages import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.solve.engine import problem_covariance
 from identify.fit.solve.problem import PRIOR_POINTS, FitProblem
+from tests.unit.test_fit_engine import PRESSURES, _params, stiffness
 
 TRUTH = {"nom": 1.43e5, "p1": 0.17, "p2": 0.0, "p3": 0.47}
 
@@ -150,10 +150,14 @@ def test_mf_stage_posterior_is_the_exact_one_of_a_linear_stage():
     n = 1440 points). stage_mcmc -- stage problem, sweep-relative noise weights, walkers in
     one call -- must reproduce it: medians within 0.15 posterior sd (Monte Carlo error ~0.03 sd
     for ~2000 effective samples), 68 % half widths within 8 % (~3 % Monte Carlo error)."""
-    from tests.test_fit_calibration_mf import add_noise, design, exact_linear_posterior, simulate
-    from tests.test_fit_mf_stages import _truth
-
     from identify.fit.mf.stages import fit_mf, stage_mcmc
+    from tests.unit.test_fit_calibration_mf import (
+        add_noise,
+        design,
+        exact_linear_posterior,
+        simulate,
+    )
+    from tests.unit.test_fit_mf_stages import _truth
 
     truth = _truth()
     noisy = add_noise(simulate(truth, design()), 2000)
@@ -174,9 +178,9 @@ def test_mf_stage_posterior_is_the_exact_one_of_a_linear_stage():
 
 def _walker_problems():
     """Every relation and MF stage the calibration trials sample (tests/test_fit_calibration*)."""
-    from tests.test_fit_calibration import CASES
-    from tests.test_fit_calibration_mf import SLIP_STAGES
-    from tests.test_fit_mf_stages import _simulate, _sweeps, _truth
+    from tests.unit.test_fit_calibration import CASES
+    from tests.unit.test_fit_calibration_mf import SLIP_STAGES
+    from tests.unit.test_fit_mf_stages import _simulate, _sweeps, _truth
 
     for case in CASES:
         yield case.name, case.trial(np.random.default_rng(0))[0]
@@ -287,11 +291,10 @@ def test_kya_reparametrisation_samples_the_exact_fy0_posterior():
     _exact_posterior) within 0.1 posterior sd (Monte Carlo error of 64 walkers ~0.03 sd;
     measured 0.005-0.05 sd). The exact draws also show the test's power: a prior flat in Kya
     instead (the Jacobian left out) moves the quantiles by more than 1 sd."""
-    from tests.test_fit_calibration_mf import add_noise, design, simulate
-    from tests.test_fit_mf_stages import _truth
-
     from identify.fit.mcmc.reparam import kya_ridge
     from identify.fit.mf.stages import fit_mf, stage_mcmc
+    from tests.unit.test_fit_calibration_mf import add_noise, design, simulate
+    from tests.unit.test_fit_mf_stages import _truth
 
     truth = _truth()
     pts = design(pressures=(2.5,), loads=(3000.0, 6000.0, 9000.0))

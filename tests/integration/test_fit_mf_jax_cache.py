@@ -27,7 +27,7 @@ import pytest
 from identify.fit.mf import jacobian as mf_jacobian
 from identify.fit.mf import jax_cache as mf_jax_cache
 from identify.fit.mf.stages import stage_problem
-from tests import test_fit_mf_stages as _stages
+from tests.unit import test_fit_mf_stages as _stages
 
 HAVE_JAX = mf_jacobian._jax() is not None
 pytestmark = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
@@ -215,7 +215,7 @@ _JACOBIAN_SCRIPT = """
 import sys
 import numpy as np
 from identify.fit.mf.stages import stage_problem
-from tests.test_fit_mf_stages import _simulate, _sweeps, _truth
+from tests.unit.test_fit_mf_stages import _simulate, _sweeps, _truth
 truth = _truth()
 p = stage_problem("My", _simulate(truth, _sweeps()), truth, screen=False).problem
 np.save(sys.argv[1], p.model_jacobian(p.x0()))

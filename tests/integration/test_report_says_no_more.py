@@ -16,7 +16,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 from matplotlib.backends.backend_agg import FigureCanvasAgg
-from tests.test_report_slip_pages import LOADS, PRESSURES, _rows
 
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance
@@ -30,6 +29,7 @@ from identify.report.slip_pages import mf_slip_pages
 from identify.report.tables import fmt
 from identify.simulate.default_tyre import default_tir_path
 from identify.workflows.fit import fit_folder
+from tests.integration.test_report_slip_pages import LOADS, PRESSURES, _rows
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -32,7 +32,6 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
-from tests.test_extract_accuracy import CAMBER, TOLERANCE, compare
 
 from identify.extract import extract_folder
 from identify.extract.vertical import cfz_se
@@ -40,6 +39,7 @@ from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.simulate import FULL, default_tir_path, simulate_folder
 from tests.reference_data import MFEVAL_DIR
+from tests.unit.test_extract_accuracy import CAMBER, TOLERANCE, compare
 
 TYRES = {"225_50R17": default_tir_path(),
          "MF61_example": MFEVAL_DIR / "MagicFormula61_Paramerters.tir",

@@ -17,7 +17,6 @@ from typing import Callable
 import numpy as np
 import pandas as pd
 import pytest
-from tests.test_fit_relations import CTX, FZ0, LOADS, P0_BAR, PRESSURES, TIR, _cases, _grid
 
 from identify.fit.mcmc.chains import run_mcmc
 from identify.fit.optimize import fit
@@ -25,6 +24,7 @@ from identify.fit.relations import problems as R
 from identify.fit.solve.problem import FitProblem
 from identify.io.tir import read_tir
 from identify.model import relations as rel
+from tests.unit.test_fit_relations import CTX, FZ0, LOADS, P0_BAR, PRESSURES, TIR, _cases, _grid
 
 N_TRIALS = 40
 NOISE = 0.01

@@ -25,11 +25,11 @@ import zlib
 import numpy as np
 import pandas as pd
 import pytest
-from tests.test_fit_calibration import MIN_RATE, N_TRIALS, Tally
-from tests.test_fit_mf_stages import _truth
 
 from identify.fit.mf.stages import fit_mf, stage_mcmc
 from identify.model.evaluate import evaluate
+from tests.unit.test_fit_calibration import MIN_RATE, N_TRIALS, Tally
+from tests.unit.test_fit_mf_stages import _truth
 
 SLIP_STAGES = ("Fx0", "Fy0", "Mz0", "Fx", "Fy", "Mz", "Mx", "My")
 """The slip-coefficient stages (the geometry stage fits Re, not a slip coefficient)."""

@@ -6,12 +6,12 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from tests.test_fit_mf_stages import _truth
 
 from identify.fit.mcmc.kya_newton import _jacobian, _values
 from identify.fit.mcmc.reparam import ALL_NAMES, KyaRidge, kya_ridge
 from identify.model.lateral import fy0
 from identify.model.state import prepare
+from tests.unit.test_fit_mf_stages import _truth
 
 
 def _params():

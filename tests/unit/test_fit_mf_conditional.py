@@ -9,14 +9,14 @@ import dataclasses
 import numpy as np
 import pandas as pd
 import pytest
-from tests.test_fit_calibration_mf import add_noise, design, simulate
-from tests.test_fit_mf_stages import _truth
 
 from identify.fit.identifiability import unidentified
 from identify.fit.mf.conditional import AFTER_FIT, conditional_on_held, inflation, with_conditional
 from identify.fit.mf.problem import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
+from tests.unit.test_fit_calibration_mf import add_noise, design, simulate
+from tests.unit.test_fit_mf_stages import _truth
 
 
 def test_inflation_is_the_variance_ratio_of_the_two_least_squares_problems():

@@ -16,8 +16,6 @@ import json
 
 import numpy as np
 import pytest
-from tests.test_fit_calibration_mf import add_noise
-from tests.test_fit_mf_stages import _perturb
 
 from identify.fit.mf import jacobian as mf_jacobian
 from identify.fit.mf import jax_cache as mf_jax_cache
@@ -37,7 +35,9 @@ from identify.fit.mf.uncertainty import _upstream_jacobian
 from identify.fit.optimize import _sharing_residuals, fit
 from identify.fit.solve import engine
 from identify.model.symmetries import sign_patterns
-from tests import test_fit_mf_stages as _stages
+from tests.unit import test_fit_mf_stages as _stages
+from tests.unit.test_fit_calibration_mf import add_noise
+from tests.unit.test_fit_mf_stages import _perturb
 
 HAVE_JAX = mf_jacobian._jax() is not None
 needs_jax = pytest.mark.skipif(not HAVE_JAX, reason="JAX not installed (pip install .[fast])")
