@@ -1,4 +1,6 @@
-"""Atomic file output: write a temporary file in the target's directory, fsync, rename.
+"""Atomic output, the one writer every module uses: a file is written as a temporary file in
+the target's directory, fsynced and renamed onto the target; a folder is built beside its target
+and renamed into place.
 
 A reader (or ``make``) never sees a half-written output: the target either keeps its old
 content or gets the complete new one. A failed write leaves no temporary file behind.
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import os
 import re
+import shutil
 import tempfile
 from contextlib import contextmanager
 from pathlib import Path
@@ -22,7 +25,8 @@ from identify.core.errors import InputError
 if TYPE_CHECKING:  # pragma: no cover
     import pandas as pd
 
-__all__ = ["atomic_path", "atomic_write_text", "atomic_write_csv", "remove_stale"]
+__all__ = ["atomic_path", "atomic_write_text", "atomic_write_bytes", "atomic_write_csv",
+           "atomic_replace_dir", "remove_stale"]
 
 
 def _umask() -> int:
@@ -133,6 +137,40 @@ def atomic_write_text(path: str | Path, text: str, *, encoding: str = "utf-8") -
         with open(tmp, "w", encoding=encoding, newline="") as fh:
             fh.write(text)
     return Path(path)
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` atomically (temp file + fsync + ``os.replace``).
+
+    Raises
+    ------
+    InputError
+        If the file cannot be written (missing directory, permission ...).
+    """
+    with atomic_path(path) as tmp:
+        Path(tmp).write_bytes(data)
+    return Path(path)
+
+
+def atomic_replace_dir(built: str | Path, target: str | Path) -> Path:
+    """Put the complete folder ``built`` (beside ``target``) where ``target`` is.
+
+    An existing ``target`` is first renamed aside and removed only once ``built`` is in place,
+    so a reader sees the old folder or the new one, never a mix; an empty ``target`` is removed
+    first. Callers decide beforehand whether replacing a non-empty folder is allowed.
+    """
+    built, target = Path(built), Path(target)
+    trash = None
+    if target.is_dir():
+        if any(target.iterdir()):
+            trash = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
+            os.rename(target, trash / "old")
+        else:
+            target.rmdir()
+    os.rename(built, target)
+    if trash is not None:
+        shutil.rmtree(trash, ignore_errors=True)
+    return target
 
 
 def atomic_write_csv(df: "pd.DataFrame", path: str | Path, **to_csv: Any) -> Path:

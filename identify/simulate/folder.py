@@ -9,7 +9,6 @@ from __future__ import annotations
 import dataclasses
 import gzip
 import json
-import os
 import shutil
 import tempfile
 from dataclasses import dataclass
@@ -19,6 +18,7 @@ from typing import Mapping
 import numpy as np
 import pandas as pd
 
+from identify.core.atomic import atomic_replace_dir
 from identify.core.errors import InputError
 from identify.core.version import __version__
 from identify.model.modes import FIT_MODE, TRAILER_MODE
@@ -109,16 +109,7 @@ def _prepare_target(outdir: Path, overwrite: bool) -> None:
 
 def _move_into_place(tmp: Path, outdir: Path, overwrite: bool) -> None:
     _prepare_target(outdir, overwrite)
-    trash = None
-    if outdir.is_dir():
-        if any(outdir.iterdir()):
-            trash = Path(tempfile.mkdtemp(prefix=f".{outdir.name}.old.", dir=outdir.parent))
-            os.rename(outdir, trash / "old")
-        else:
-            outdir.rmdir()
-    os.rename(tmp, outdir)
-    if trash is not None:
-        shutil.rmtree(trash, ignore_errors=True)
+    atomic_replace_dir(tmp, outdir)
 
 
 def _write_csv(path: Path, columns: Mapping[str, np.ndarray], digits: int | None) -> None:

@@ -24,20 +24,20 @@ JAX's compilation cache, used there before, does): it must be the user's own.
 """
 from __future__ import annotations
 
-import contextlib
 import functools
 import hashlib
 import importlib.metadata
 import json
 import os
 import platform
-import tempfile
 import time
 from pathlib import Path
 from typing import Callable, Sequence
 
 import numpy as np
 
+from identify.core.atomic import atomic_write_bytes
+from identify.core.errors import InputError
 from identify.core.version import __version__
 
 __all__ = ["CACHE_ENV", "UNUSED_DAYS", "directory", "program_key", "load", "store", "prune"]
@@ -62,7 +62,7 @@ def directory() -> str:
 @functools.cache
 def _source_hash() -> str:
     """SHA-256 of the traced code's source files (module docstring), in a fixed order."""
-    root = Path(__file__).resolve().parents[2]
+    root = Path(__file__).resolve().parents[3]
     digest = hashlib.sha256()
     for rel in _SOURCES:
         path = root / rel
@@ -177,17 +177,10 @@ def store(jax, key: str, compiled, args: tuple) -> bool:
             return False
     except Exception:  # noqa: BLE001
         return False
-    tmp = None
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=path.name, suffix=".tmp")
-        with os.fdopen(fd, "wb") as f:
-            f.write(_head(key, payload) + payload)
-        os.replace(tmp, path)
-    except OSError:
-        if tmp is not None:  # what was written; a cache that cannot take it is no error
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
+        atomic_write_bytes(path, _head(key, payload) + payload)
+    except (OSError, InputError):  # a cache that cannot take it is no error
         return False
     prune(path.parent)
     return True

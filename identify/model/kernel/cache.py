@@ -1,8 +1,8 @@
 """numba's on-disk cache for the kernel, invalidated by a change to ANY kernel module.
 
 numba keys a cached function on its own source file only; the kernel's loops inline functions
-from the other kernel_*.py modules, so an edit there would leave a stale compiled loop in the
-cache. These locators stamp every kernel function with all kernel modules' sizes and times.
+from the other modules of this package, so an edit there would leave a stale compiled loop in
+the cache. These locators stamp every kernel function with all kernel modules' sizes and times.
 Importing this module registers them (first in numba's list); other functions are unaffected.
 """
 from __future__ import annotations
@@ -12,7 +12,7 @@ from pathlib import Path
 
 from numba.core import caching
 
-KERNEL_SOURCES = tuple(sorted(str(p) for p in Path(__file__).parent.glob("kernel*.py")))
+KERNEL_SOURCES = tuple(sorted(str(p) for p in Path(__file__).parent.glob("*.py")))
 
 
 class _KernelStampMixin:
