@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List, Optional
 
 import typer
 
@@ -47,9 +46,9 @@ def convert_command(
                                          "from the content)."),
     dst: Path = typer.Argument(..., help="Output file; the format follows the extension: "
                                          ".csv, .h5/.hdf5 or .tdx."),
-    run: Optional[str] = typer.Option(None, "--run", help="Run id: the HDF5 group to read, "
+    run: str | None = typer.Option(None, "--run", help="Run id: the HDF5 group to read, "
                                                           "and the name of the run written."),
-    unit: List[str] = typer.Option([], "--unit", help="CHANNEL=UNIT for a channel the file "
+    unit: list[str] = typer.Option([], "--unit", help="CHANNEL=UNIT for a channel the file "
                                                       "gives in non-SI units (repeatable)."),
 ) -> None:
     """Convert trailer channels to SI values in another format (names and axes kept).

@@ -4,7 +4,6 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -22,7 +21,7 @@ def extract_command(
     output: Path = typer.Option(..., "--output", "-o",
                                 help="Characteristic table to write (CSV: quantity, pi_bar, "
                                      "Fz_N, value, unit, Vx_mps, gamma_deg, mode)."),
-    diagnostics: Optional[Path] = typer.Option(
+    diagnostics: Path | None = typer.Option(
         None, "--diagnostics", "-d",
         help="Also write the per-run diagnostics and flags (extraction.json)."),
 ) -> None:

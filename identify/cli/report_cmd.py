@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -17,7 +16,7 @@ from identify.report.pdf import default_report_path, write_report
 def report_command(
     fit_dir: Path = typer.Argument(..., metavar="FITDIR",
                                    help="A fit directory written by mfid fit (fits/<tyre id>/)."),
-    output: Optional[Path] = typer.Option(None, "--output", "-o",
+    output: Path | None = typer.Option(None, "--output", "-o",
                                           help="PDF to write (default reports/<tyre id>.pdf)."),
 ) -> None:
     """Rebuild the PDF fit report from FITDIR alone (fit.json, measured_vs_model.csv, the

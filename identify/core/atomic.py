@@ -16,9 +16,10 @@ import os
 import re
 import shutil
 import tempfile
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Iterator
+from typing import TYPE_CHECKING, Any
 
 from identify.core.errors import InputError
 
@@ -173,7 +174,7 @@ def atomic_replace_dir(built: str | Path, target: str | Path) -> Path:
     return target
 
 
-def atomic_write_csv(df: "pd.DataFrame", path: str | Path, **to_csv: Any) -> Path:
+def atomic_write_csv(df: pd.DataFrame, path: str | Path, **to_csv: Any) -> Path:
     """Write a DataFrame as CSV atomically, floats in shortest round-trip form.
 
     Parameters

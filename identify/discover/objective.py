@@ -79,7 +79,7 @@ class Objective:
         object.__setattr__(self, "_local", sweeps if self.mask is None
                            else sweeps.subset(self.mask))
 
-    def subset(self, mask: np.ndarray | None) -> "Objective":
+    def subset(self, mask: np.ndarray | None) -> Objective:
         return dataclasses.replace(self, mask=mask)
 
     def transform(self, a: np.ndarray) -> np.ndarray:

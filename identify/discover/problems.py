@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import lmfit
 import numpy as np

@@ -18,8 +18,8 @@ thrust of a pure camber sweep is not drowned by the cornering force.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import lmfit
 import numpy as np

@@ -71,7 +71,7 @@ class ModelState:
     values: dict[str, float] = field(default_factory=dict)
 
     @classmethod
-    def of(cls, problems: list[FitProblem], library: Library) -> "ModelState":
+    def of(cls, problems: list[FitProblem], library: Library) -> ModelState:
         """Ownership from the problems' order; values from their starting parameters."""
         state = cls([problem_name(p) for p in problems])
         for p in problems:

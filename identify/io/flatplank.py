@@ -7,8 +7,8 @@ It agrees with the general C -> W conversion :func:`identify.io.axes.c_to_w` (te
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd

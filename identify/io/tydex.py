@@ -86,7 +86,7 @@ def is_tydex(path: str | Path) -> bool:
     if file_problem(path) is not None:  # a FIFO would block
         return False
     try:
-        with open(path, "r", encoding="utf-8-sig", errors="replace") as fh:
+        with open(path, encoding="utf-8-sig", errors="replace") as fh:
             for _, line in zip(range(200), fh, strict=False):
                 text = line.strip()
                 if text and not text.startswith("!"):

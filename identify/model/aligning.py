@@ -6,8 +6,8 @@ Pure vectorised functions; no I/O. ``xp`` is the array module
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

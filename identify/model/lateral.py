@@ -5,8 +5,8 @@ for the exact derivatives of the MF stage fits, identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

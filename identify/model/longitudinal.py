@@ -6,8 +6,8 @@ identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

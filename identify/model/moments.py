@@ -6,7 +6,7 @@ default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf.jacobia
 """
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

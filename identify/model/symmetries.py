@@ -17,8 +17,8 @@ equations, and the fit only takes an image inside the bounds.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

@@ -62,7 +62,7 @@ class Relations:
                 "CFy": {"form": "load_pressure", **self.cfy.to_dict()},
                 "CMz": self.cmz.to_dict(), "ring": self.ring.to_dict()}
 
-    def with_value(self, dotted: str, value: float) -> "Relations":
+    def with_value(self, dotted: str, value: float) -> Relations:
         """A copy with one coefficient changed, named ``"CFy.p2"``, ``"CMz.p1"``, ``"CFz.qfz3"``.
 
         Raises

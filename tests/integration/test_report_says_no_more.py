@@ -104,7 +104,7 @@ def test_friction_ellipse_only_where_combined_slip_was_measured(fd):
     P = fd.tir
     for panel in ellipse.panels:
         assert len(panel.curves) == len(LOADS) * 2
-        for fx, fy in panel.curves:
+        for _fx, fy in panel.curves:
             assert np.max(fy) < 0  # the side of the measured slip angles only
         # the ends of a curve: the model at the measured kappa ends, not beyond
         from identify.model.evaluate import evaluate

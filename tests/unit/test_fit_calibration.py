@@ -11,8 +11,8 @@ Noise: each measured characteristic is multiplied by (1 + 0.01 N(0, 1)).
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Callable
 
 import numpy as np
 import pandas as pd

@@ -37,8 +37,8 @@ checks the marginals against the exact posterior integrated on a grid).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

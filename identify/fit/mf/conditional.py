@@ -30,7 +30,7 @@ counts it not identifiable on its own, with the held names in the reason).
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd

@@ -31,8 +31,8 @@ a sweep reaches. :func:`violations` checks a written file over its own limits.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Callable, Mapping, Sequence
 
 import numpy as np
 

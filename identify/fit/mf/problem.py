@@ -6,8 +6,8 @@ jackknife (identify.fit.mf.uncertainty) and MCMC rebuild it at the final values.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Collection, Mapping, Sequence
 
 import lmfit
 import numpy as np

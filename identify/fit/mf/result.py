@@ -1,8 +1,9 @@
 """The result of the staged MF fit (identify.fit.mf.stages.fit_mf)."""
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd

@@ -22,7 +22,7 @@ of its own, after the moved ones' (mf_stages._refit_with), whose likelihood-rati
 """
 from __future__ import annotations
 
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 import pandas as pd

@@ -37,7 +37,7 @@ After the stage's global fit (identify.fit.mf.stages):
 """
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 

@@ -22,8 +22,8 @@ where a constraint is violated); the best of those is the stage's optimum.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 from scipy.stats import qmc

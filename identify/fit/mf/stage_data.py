@@ -276,7 +276,7 @@ class Coverage:
     alpha_sign: bool
 
     @classmethod
-    def of(cls, frame: pd.DataFrame, fnomin: float) -> "Coverage":
+    def of(cls, frame: pd.DataFrame, fnomin: float) -> Coverage:
         g = frame["gamma"].to_numpy(float)
         k = frame["kappa"].to_numpy(float)
         a = frame["alpha"].to_numpy(float)

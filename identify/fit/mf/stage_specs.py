@@ -13,8 +13,8 @@ coefficient to be identifiable at all (load, pressure, camber, speed levels, sli
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import numpy as np
 

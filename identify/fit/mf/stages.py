@@ -54,7 +54,7 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from typing import Collection, Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 
 import numpy as np
 import pandas as pd

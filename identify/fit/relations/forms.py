@@ -29,8 +29,9 @@ A user can override the choice (``--form CFx=quadratic_load``); the choice recor
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import Any, Callable, Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -95,7 +96,7 @@ class FormChoice:
                 "overridden": self.overridden}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "FormChoice":
+    def from_dict(cls, d: Mapping[str, Any]) -> FormChoice:
         def num(x) -> float:
             return float("nan") if x is None else float(x)
         return cls(relation=str(d["relation"]), form=str(d["form"]),

@@ -10,9 +10,9 @@ every other relation writes the one form that has ``writes``.
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import partial
-from typing import Callable, Mapping
 
 from identify.fit.relations import problems as R
 

@@ -8,8 +8,8 @@ value (PCFY2 = 0 for linear load, QSY7 = 1 and QSY8 = 0 for the old rolling-resi
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import lmfit
 import numpy as np

@@ -25,8 +25,8 @@ is not finite or zero, or after ``max_nfev`` evaluations.
 """
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 

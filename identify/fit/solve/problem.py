@@ -5,8 +5,8 @@ Every relation and MF stage is expressed as a :class:`FitProblem` and solved by
 """
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field, replace
-from typing import Callable, Mapping
 
 import lmfit
 import numpy as np

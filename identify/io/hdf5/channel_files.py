@@ -6,10 +6,10 @@ reads files pandas wrote). Writing goes to a temporary file that is renamed into
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Mapping, Sequence
 
 import h5py
 import numpy as np

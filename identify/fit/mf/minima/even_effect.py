@@ -16,7 +16,7 @@ depends on Q_FCY only through u = Q_FCY^2. Two things follow.
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd

@@ -5,7 +5,7 @@ names the coefficients they leave undetermined; docs/intervals.md).
 from __future__ import annotations
 
 import dataclasses
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 import numpy as np
 
