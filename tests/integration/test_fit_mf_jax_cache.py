@@ -152,7 +152,7 @@ def test_no_cache_directory_stores_nothing(cache, truth, data, monkeypatch):
 def test_a_run_below_the_exact_jacobian_threshold_does_not_import_jax():
     """Whether a small stage uses the exact Jacobian is decided without importing JAX (~0.3 s);
     a large one imports it (a fresh interpreter: this one has JAX loaded)."""
-    code = ("import sys; from identify.fit import mf_jacobian as m; "
+    code = ("import sys; from identify.fit.mf import jacobian as m; "
             "small = m.use_exact(m.MIN_WORK // 10 - 1, 9); loaded = 'jax' in sys.modules; "
             "large = m.use_exact(m.MIN_WORK, 9); print(small, loaded, large, 'jax' in sys.modules)")
     env = {**os.environ, mf_jacobian.ENV: "auto"}
