@@ -5,7 +5,7 @@ Outputs (each written atomically): ``discovery.json`` (schema in
 enriched ``<tyre id>.tir`` (the base .tir with the discovery's one model state: every key some
 problem fits or tests, from the problem that owns it, :mod:`identify.discover.state`) and
 ``fit.json``
-(the final fits, ``mfid.fit/1`` layout). The measurement folder is only read.
+(the final fits, ``mfid.fit/2`` layout). The measurement folder is only read.
 """
 from __future__ import annotations
 

@@ -268,7 +268,7 @@ def test_sigint_leaves_no_partial_output(tmp_path, stage):
 
         assert len(tirs) == 1 and read_tir(tirs[0]).params()["LONGITUDINAL_STIFFNESS"] > 0
         doc = json.loads((tirs[0].parent / "fit.json").read_text())
-        assert doc["schema"] == "mfid.fit/1"
+        assert doc["schema"] == "mfid.fit/2"
 
 
 @pytest.mark.skipif(not MFID.exists(), reason=f"{MFID} not installed (pip install -e .)")

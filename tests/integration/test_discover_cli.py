@@ -72,7 +72,7 @@ def test_discover_names_the_missing_pressure_term(tmp_path):
     assert a["heldout_scheme"] == "leave one pressure level out"
     assert doc["model"]["sources"]["PCFX3"] == "CFx"
     fits = json.loads((out / "fit.json").read_text())
-    assert fits["schema"] == "mfid.fit/1" and fits["fits"][0]["relation"] == "CFx"
+    assert fits["schema"] == "mfid.fit/2" and fits["fits"][0]["relation"] == "CFx"
 
 
 def test_discover_on_null_data_adds_nothing(tmp_path):

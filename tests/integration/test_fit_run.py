@@ -338,7 +338,7 @@ def test_one_json_rule():
 
 
 def test_schema_is_checked():
-    with pytest.raises(InputError, match="schema is 'mfid.fit/0', expected 'mfid.fit/1'"):
+    with pytest.raises(InputError, match="schema is 'mfid.fit/0', expected 'mfid.fit/2'"):
         FitRun.from_dict({"schema": "mfid.fit/0", "fits": []})
     with pytest.raises(InputError, match="schema is 'list'"):
         FitRun.from_dict([])
