@@ -14,7 +14,7 @@ Runs, in a scratch folder (the page's ``cd /tmp``), through the ``mfid`` command
 
 and prints each transcript as it belongs in docs/commands.md (stdout and stderr as a terminal
 shows them; the timed progress lines, ``[  1.2 s] ...``, left out, since their times vary). The test
-``tests/test_discover_examples.py`` runs it and compares every transcript with the page.
+``tests/unit/test_discover_examples.py`` runs it and compares every transcript with the page.
 
     python bench/discovery_examples.py [--workdir DIR] [--only NAME ...]
 """

@@ -34,11 +34,11 @@ sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."
 
 from identify.discover.library import load_library  # noqa: E402
 from identify.discover.noise import PHI_MIN, fit_ar1, sweep_index  # noqa: E402
+from identify.discover.prepared_problem import noise_scale  # noqa: E402
 from identify.discover.problems import Base, apply_base, trailer_problems  # noqa: E402
 from identify.discover.scenarios import base_tir, make_session  # noqa: E402
 from identify.discover.search import Settings, discover  # noqa: E402
-from identify.discover.working import noise_scale  # noqa: E402
-from identify.fit.relations import Context  # noqa: E402
+from identify.fit.relations.problems import Context  # noqa: E402
 
 
 def _variogram_loop(r, index, max_lag=3):

@@ -39,8 +39,7 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 
-from identify.discover.scenarios import (EFFECTS, SCENARIOS, make_confounded,  # noqa: E402
-                                         make_problem)
+from identify.discover.scenarios import EFFECTS, SCENARIOS, make_confounded, make_problem  # noqa: E402
 
 NOISE = {"independent": 0.0, "ar1": 0.9}
 GROUPS = ("independent", "ar1", "confounded")

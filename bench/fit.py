@@ -19,12 +19,12 @@ import tempfile  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from identify.fit import relations as R  # noqa: E402
-from identify.fit.mcmc import run_mcmc  # noqa: E402
+from identify.fit.mcmc.chains import run_mcmc  # noqa: E402
 from identify.fit.optimize import fit  # noqa: E402
-from identify.workflows.fit import FitSettings, fit_folder  # noqa: E402
+from identify.fit.relations import problems as R  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
+from identify.workflows.fit import FitSettings, fit_folder  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -75,7 +75,7 @@ Measured 2026-11-24 07:13-07:15 UTC, load average 2.5-3.4, two rounds, each main
 bench/fit_cost.py --label main``) and then the stage-executable cache branch (a21fce8), back to
 back, after one unmeasured run of each (the caches warm, as in a user's later runs): the
 bundled sample 109 and 106 -> 92 and 94 (cpu 107, 105 -> 91, 92); ``--ttc 0`` 174 and 178 ->
-160 and 164 (cpu 176, 175 -> 161, 163). What went (identify.fit.mf_jax_cache): tracing and
+160 and 164 (cpu 176, 175 -> 161, 163). What went (identify.fit.mf.jax_cache): tracing and
 lowering each exact-Jacobian stage, 0.07-0.12 s a stage even with JAX's compilation cache,
 now a stored executable loaded in 0.01-0.03 s; copying every chunk to the device (a
 jnp.asarray per leaf, 0.1-0.2 s on the sample); the JAX import where no stage needs it (not
@@ -105,14 +105,14 @@ between runs at that load): the bundled sample (``--passes 2``) 123 and 123 -> 1
 branch of Fx0, the conditional holds; 10:35-10:37 UTC, load 3.4-4.8, the same way against
 48d4eb7 in /tmp/fc3-main2): the sample 122 and 125 -> 97 and 95, the TTC session 224 and 242 ->
 172 and 185; fit.json against 48d4eb7's as below on both. What went (each from one-off profiles
-of a warm ``fit_mf``, passes 2): the rivals' solves (identify.fit.mf_rivals), which solved
+of a warm ``fit_mf``, passes 2): the rivals' solves (identify.fit.mf.minima.rivals), which solved
 every far candidate on all points again from the start the global fit had just solved, and
 polished a polished one again, now replayed from the global fit's record where the budgets make
 it the same solve (identify.fit.optimize.replay; with_rivals 0.39 -> 0.003 s on the sample;
 nfev Fy 151 -> 103 and Fx 585 -> 482 on the sample, Fy 309 -> 175 and Fx 202 -> 156 on the TTC
 session); a np.where copy of every Jacobian for its non-finite entries
 (FitProblem.model_jacobian: ~1 ms of a 4096 x 27 Jacobian's ~2.5 ms) and indexing each chunk's
-free columns instead of slicing them (identify.fit.mf_jacobian._runs); the jackknife
+free columns instead of slicing them (identify.fit.mf.jacobian._runs); the jackknife
 covariance's per-sweep decompositions (an eigvalsh, then an SVD in each of two pinv calls, a
 Python loop over the sweeps each; now one stacked eigh: 42 -> 15 ms for 60 sweeps of a 6418 x
 26 Jacobian, 157 -> 23 ms for 200 of 4495 x 29, synthetic, best of 5); and the stage's rows,
@@ -147,8 +147,8 @@ and, in a load spike on main's run, 309 -> 137). Against ddb9f71's 351-379 and 6
 rounds), over the four ``cpu`` lines: 3.8-4.3x and 4.1-4.4x, still short of the issue's 5x
 (72 and 122). What went (CPU times of warm fit_mf runs and step timings, one-off): trf's SVDs
 through a QR first with U
-never formed (identify.fit.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s wall);
-exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
+never formed (identify.fit.solve.trf_svd: 35-50 % of gesdd's time; a warm TTC fit_mf 3.09 -> 2.72 s
+wall); exact Jacobians from 30_000 points x coefficients (mf_jacobian.MIN_WORK, was 50_000: the
 sample's Fx0 0.20 -> 0.09 s); Mz0's mirror images (QBZ9, QBZ10) -> (-QBZ9, -QBZ10) taken as
 one optimum by the search, as candidates and as a start's stop (the TTC session's second Mz0
 candidate, solved on all points for 37 evaluations, was the first's mirror image; Mz0 nfev
@@ -242,7 +242,7 @@ Measured 2026-11-24 (session 10) at 42f5bf0, load average 1.0-1.4, one sitting: 
 343; this code (``python bench/fit_cost.py --passes 2``, three times) 69, 71 and 75 with the
 JAX import in the timed fit (4.5-5.0x), 58 with ``--import-first`` (5.9x). What went: the MF
 solves stop at a Gauss-Newton decrement below the noise stop's bound
-(identify.fit.engine.Tolerances.decrement_stop: the sample's Fy0 193 -> 151 evaluations, Mz0
+(identify.fit.solve.engine.Tolerances.decrement_stop: the sample's Fy0 193 -> 151 evaluations, Mz0
 92 -> 75; every coefficient within 0.0045 of its standard error of main's, ``mfid fit
 --no-report`` fit.json compared) and the screen's Gram-Schmidt in matrix products; a warm
 fit_mf (passes 1, JAX imported) 1.44 -> 1.21 s of CPU. Of the 1.7 s left: the JAX import
@@ -260,7 +260,7 @@ Measured 2026-11-24 (session 11) at c905ae6, load average 1.2-1.3, one sitting: 
 JAX import in the timed fit (5.1x), 51 with ``--import-first`` (6.7x); in an earlier sitting
 that day (load 0.4-0.5) 336 -> 64 and 62 (5.3-5.4x), 49 without the import. What went: the
 MF solves on all points start with full Gauss-Newton steps inside the bounds
-(identify.fit.gauss_newton: the sample's Fy0 151 -> 132 evaluations, Mz0 84 -> 78; its two
+(identify.fit.solve.gauss_newton: the sample's Fy0 151 -> 132 evaluations, Mz0 84 -> 78; its two
 Fy0 solves on all points 16 and 15 -> 5 and 6), a warm fit_mf 1.26 -> 1.06 s of CPU (passes
 2, three runs each in one process, a one-off /tmp script), every
 coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-report).
@@ -269,8 +269,8 @@ coefficient within 0.0045 of its standard error of c8c26be's (mfid fit --no-repo
 Measured 2026-11-24 (session 12) at 8be0da9, load average 1.0-1.2, one sitting: ddb9f71 358
 and 354; this code 68 and 68 (5.2-5.3x), 52 with ``--import-first`` (6.8-6.9x). The re-fits with
 coefficients freed after the global fit now also start from Latin-hypercube points
-(identify.fit.mf_stages._refine; 74 with them alone), and the search's starts begin with
-Gauss-Newton steps (identify.fit.engine.SEARCH), which pays for them on the sample. Not on
+(identify.fit.mf.stages._refine; 74 with them alone), and the search's starts begin with
+Gauss-Newton steps (identify.fit.solve.engine.SEARCH), which pays for them on the sample. Not on
 the TTC session: ``--ttc 0 --passes 2`` ``cpu`` 144 (128 before; ddb9f71 612-628, 4.3x).
 
 Runs on the code of the checkout it is in (also an older one: it falls back to the old module
@@ -294,7 +294,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from identify.fit.mf_stages import fit_mf  # noqa: E402
+from identify.fit.mf.stages import fit_mf  # noqa: E402
 from identify.model.evaluate import evaluate  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
 
@@ -303,7 +303,7 @@ try:
 except ImportError:  # versions before the io layer
     from identify.load.folder import load_folder  # noqa: E402
 try:
-    from identify.fit.mf_uncertainty import propagate  # noqa: E402
+    from identify.fit.mf.uncertainty import propagate  # noqa: E402
 except ImportError:  # versions before the staged jackknife
     propagate = None
 
@@ -374,10 +374,10 @@ def main() -> None:
     ap.add_argument("--save-table", type=Path, metavar="PATH",
                     help="pickle the table the MF stages fit (for --trailer elsewhere)")
     ap.add_argument("--import-first", action="store_true",
-                    help="import JAX (identify.fit.mf_jacobian.available) before the timer: "
+                    help="import JAX (identify.fit.mf.jacobian.available) before the timer: "
                          "the fit's cost without the one-off import a process pays once")
     ap.add_argument("--jacobian", choices=("auto", "fd", "jax"),
-                    help="MFID_JACOBIAN for this run (identify.fit.mf_jacobian; default: as set)")
+                    help="MFID_JACOBIAN for this run (identify.fit.mf.jacobian; default: as set)")
     args = ap.parse_args()
     if args.jacobian:
         os.environ["MFID_JACOBIAN"] = args.jacobian
@@ -402,7 +402,7 @@ def main() -> None:
     imported = ""
     if args.import_first:
         try:
-            from identify.fit.mf_jacobian import available
+            from identify.fit.mf.jacobian import available
             t_imp = time.perf_counter()
             imported = (f"; JAX imported before the timer ({time.perf_counter() - t_imp:.2f} s)"
                         if available() else "; no JAX to import")
@@ -457,7 +457,7 @@ def main() -> None:
     if jk_fit is not None:
         print(f"{'jackknife':9} {sum(x['points'] for x in rows):7d} {jk_fit:8.2f} "
               f"{1e3 * all_eval:8.2f} {jk_fit / all_eval:9.0f}  (the staged jackknife after the "
-              f"stages, identify.fit.mf_uncertainty.propagate; not in total)")
+              f"stages, identify.fit.mf.uncertainty.propagate; not in total)")
     cpu_eval = sum(evaluation_seconds(mf.params, mf.points[r.form], time.process_time)
                    for r in mf.results)
     print(f"{'cpu':9} {sum(x['points'] for x in rows):7d} {total_cpu:8.2f} "

@@ -1,10 +1,10 @@
 """What a Jacobian of the MF Fy0 stage costs: finite differences vs exact forward-mode.
 
-For the Fy0 stage (27 free coefficients, identify.fit.mf_stage_defs) on pure lateral points
+For the Fy0 stage (27 free coefficients, identify.fit.mf.stage_specs) on pure lateral points
 (kappa = 0; useMode 211 as the stages use) at 1e4 and 1e5 points, on one core:
 
 (a) one evaluation of Fy: numpy (lateral.fy0 on a precomputed OperatingState, as the stage
-    model does) and the compiled kernel (identify.model.kernel.evaluate_outputs(("Fy",)));
+    model does) and the compiled kernel (identify.model.kernel.fused.evaluate_outputs(("Fy",)));
 (b) a two-point finite-difference Jacobian: k + 1 = 28 evaluations of each;
 (c) an exact Jacobian by forward-mode automatic differentiation: JAX ``jacfwd`` of the same
     Fy0 equations written in jax.numpy (compiled by XLA; compile time reported apart), if jax
@@ -31,10 +31,10 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from identify.fit.mf_stage_defs import STAGES  # noqa: E402
+from identify.fit.mf.stage_specs import STAGES  # noqa: E402
 from identify.io.tir import read_tir  # noqa: E402
 from identify.model import lateral  # noqa: E402
-from identify.model.kernel import evaluate_outputs  # noqa: E402
+from identify.model.kernel.fused import evaluate_outputs  # noqa: E402
 from identify.model.state import prepare  # noqa: E402
 
 try:

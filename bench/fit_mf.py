@@ -1,6 +1,6 @@
 """Wall time of the Magic Formula stages on the bundled sample folder's trailer data.
 
-Fits geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf_stages.fit_mf, no MCMC) to
+Fits geometry, Fx0, Fy0, Mz0, Fx, Fy, Mz, Mx, My (identify.fit.mf.stages.fit_mf, no MCMC) to
 the trailer runs of ``measurements/sample-225-50R17`` and prints, per stage: points, free and held
 coefficients, global-search statistics, seconds and the thesis error (total and per pressure).
 The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
@@ -9,7 +9,7 @@ The part of ``bench/fit.py``'s 60 s budget the MF stages may take is about 40 s.
                            [--mcmc STAGE] [--json out.json]
 
 ``--stages`` fits only those stages (the others stay at the start values). ``--mcmc STAGE``
-then samples that stage's posterior as ``mfid fit --mcmc`` does (identify.fit.mf_stages.
+then samples that stage's posterior as ``mfid fit --mcmc`` does (identify.fit.mf.stages.
 stage_mcmc, seed 0, the default chain cap) and prints its steps, largest autocorrelation time,
 acceptance, seconds and, if the cap stopped it, the cap that would let it reach 50 tau.
 
@@ -29,7 +29,7 @@ import json  # noqa: E402
 import time  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-from identify.fit.mf_stages import DEFAULT_STAGES, fit_mf, stage_mcmc  # noqa: E402
+from identify.fit.mf.stages import DEFAULT_STAGES, fit_mf, stage_mcmc  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
 from identify.model.parameters import defaults  # noqa: E402
 

@@ -1,7 +1,7 @@
 """Forward-model throughput: full combined evaluation (all outputs), MF 6.1, useMode 111.
 
 One run measures, at 1e4, 1e5 and 1e6 points: the pure-numpy reference path and the compiled
-kernel (identify.model.kernel, vectorised) on ONE core (thread pools pinned to 1), and the
+kernel (identify.model.kernel.fused, vectorised) on ONE core (thread pools pinned to 1), and the
 kernel on all cores (threads=True); best of several repeats. Rates are points per wall-clock
 second and, for the one-core runs, points per CPU second of this process (robust when other
 jobs share the machine: the wall-clock rate then drops, the CPU rate does not). The scale is
@@ -10,7 +10,7 @@ this machine type; the target is 2.5e6 points/s on one core.
 
 It then checks that the kernel equals the numpy reference within 1e-10 relative
 (|d| / max(1, |ref|)) for every output, 4 useModes x 2 FITTYPs x omega given/estimated (MF
-6.2 rho, Rl, Cz: 1e-6, the solve's tolerance, as tests/test_model_fused.py).
+6.2 rho, Rl, Cz: 1e-6, the solve's tolerance, as tests/unit/test_model_fused.py).
 
     python bench/forward.py [--repeats 5] [--json out.json] [--libm]
 
@@ -47,7 +47,7 @@ def _use_libm() -> None:
     """Swap the kernel's elementary functions for scalar libm calls (before anything compiles)."""
     import numba
 
-    from identify.model import kernel_math as km
+    from identify.model.kernel import vector_math as km
 
     km.atan = numba.njit(lambda x: math.atan(x))
     km.sin = numba.njit(lambda x: math.sin(x))
@@ -76,7 +76,7 @@ def _best(fn, P, pts, repeats: int, **kw) -> tuple[float, float]:
 
 def _throughput(P, repeats: int, with_numpy: bool = True) -> list[dict]:
     from identify.model.evaluate import evaluate
-    from identify.model.kernel import evaluate_fused
+    from identify.model.kernel.fused import evaluate_fused
 
     rows = []
     for n in SIZES:
@@ -99,7 +99,7 @@ def _equivalence(n: int = 20_000) -> list[tuple[int, int, bool, str, float]]:
     """Worst relative difference kernel vs numpy per (FITTYP, mode, omega given)."""
     from identify.io.tir import read_tir
     from identify.model.evaluate import OUTPUT_COLUMNS, evaluate
-    from identify.model.kernel import evaluate_fused
+    from identify.model.kernel.fused import evaluate_fused
 
     rng = np.random.default_rng(7)
     pts = (rng.uniform(0, 13000, n), rng.uniform(-1.2, 0.6, n), rng.uniform(-0.5, 0.5, n),
@@ -154,7 +154,7 @@ def main() -> None:
     if args.libm_child:
         _use_libm()
     from identify.io.tir import read_tir
-    from identify.model import kernel
+    from identify.model.kernel import fused as kernel
 
     P = read_tir(TIR / "testA_61.tir").params()
     warm = _points(100)

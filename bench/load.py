@@ -1,6 +1,6 @@
 """Benchmark: load a 1e6-sample trailer file (CSV and HDF5) into the tidy ISO-W table.
 
-Writes the files to a temporary directory, then times :func:`identify.io.trailer.read_trailer`
+Writes the files to a temporary directory, then times :func:`identify.io.trailer.files.read_trailer`
 (format detection, parsing, unit conversion, checks, tidy table) on each. Target: < 2 s each.
 
     .venv/bin/python bench/load.py [--samples N] [--repeat R]
@@ -17,8 +17,8 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from identify.io.hdf5 import RawRun, write_hdf5  # noqa: E402
-from identify.io.trailer import read_trailer  # noqa: E402
+from identify.io.hdf5.channel_files import RawRun, write_hdf5  # noqa: E402
+from identify.io.trailer.files import read_trailer  # noqa: E402
 
 NAMES = ("RUNTIME", "LONGVEL", "WHROTSPD", "SLIPANGL", "LONGSLIP", "INCLANGL", "INFLPRES",
          "FX", "FYW", "FZW", "MXW", "MYW", "MZW")

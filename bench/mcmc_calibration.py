@@ -4,10 +4,10 @@ Fy0 on trailer sessions like the bundled sample's (3 pressures x 3, 5, 7 kN, bel
 cornering-stiffness peak, where PKY1, PKY2, PKY4 lie on a curved ridge): each of ``--trials``
 seeded data sets (1 % noise, the simulator's definition) is fitted as ``mfid fit`` does
 (fit_mf, the other stages at the truth) and sampled by stage_mcmc with the Kya
-reparametrisation (identify.fit.mcmc_reparam); prints every trial's steps, largest tau and
+reparametrisation (identify.fit.mcmc.reparam); prints every trial's steps, largest tau and
 seconds, then the share of 90 % credible intervals that hold the true coefficient (the bar:
 >= 85 % of 40 trials) and how many chains passed 50 tau. The same count is the trials test
-``tests/test_fit_calibration_mf.py::test_reparametrised_fy0_covers_the_truth_on_the_sample_loads``.
+``tests/unit/test_fit_calibration_mf.py::test_reparametrised_fy0_covers_the_truth_on_the_sample_loads``.
 
     python bench/mcmc_calibration.py [--trials 40] [--loads 3000 5000 7000] [--no-reparam]
                                      [--ridge-only] [--json out.json]
@@ -33,8 +33,8 @@ from pathlib import Path  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from tests.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
-from tests.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
+from tests.unit.test_fit_calibration import MIN_RATE, N_TRIALS  # noqa: E402
+from tests.unit.test_fit_calibration_mf import LOADS_N, calibrate_stage, design  # noqa: E402
 
 RIDGE = ("PKY1", "PKY2", "PKY4")
 

@@ -25,9 +25,9 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-
 from fit_cost import FOLDER, start_values  # noqa: E402
-from identify.fit.mf_stages import fit_mf  # noqa: E402
+
+from identify.fit.mf.stages import fit_mf  # noqa: E402
 from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
 from identify.segment import SegmentSettings  # noqa: E402

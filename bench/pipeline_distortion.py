@@ -32,6 +32,7 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.io.folder import load_folder  # noqa: E402
 from identify.io.tir import read_tir  # noqa: E402
 from identify.model.evaluate import evaluate  # noqa: E402
@@ -39,7 +40,6 @@ from identify.model.modes import FIT_MODE  # noqa: E402
 from identify.segment import SegmentSettings  # noqa: E402
 from identify.simulate import default_tir_path  # noqa: E402
 from identify.simulate.ttc import simulate_ttc  # noqa: E402
-from identify.fit.run import BIN_ALPHA_DEG, BIN_KAPPA  # noqa: E402
 from identify.workflows.import_session import import_session  # noqa: E402
 from identify.workflows.trailer_prep import prepare_trailer  # noqa: E402
 

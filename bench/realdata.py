@@ -14,7 +14,7 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
    then the plain mean over the levels; the levels found from every loaded sample's pressure by
    :func:`pressure_levels`, independently of the segmentation judged). A freely rolling run's
    slip-ratio channel is taken as 0
-   there, as the fit takes it (identify.fit.mf_data.rolling_kappa);
+   there, as the fit takes it (identify.fit.mf.stage_data.rolling_kappa);
 4. held-out error: where the set holds several pressure levels, leave-one-pressure-out (each
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
    removed samples predicted); else the sweeps of the default segmentation split into
@@ -294,7 +294,7 @@ def evaluable(table: pd.DataFrame) -> np.ndarray:
 
 def model_inputs(table: pd.DataFrame) -> pd.DataFrame:
     """The table as the fit sees its slips: a freely rolling run's kappa is 0."""
-    from identify.fit.mf_data import rolling_kappa
+    from identify.fit.mf.stage_data import rolling_kappa
     return rolling_kappa(table)
 
 
@@ -501,7 +501,7 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         if segs:
             sweeps = sweep_rows(table, segs)
         else:
-            from identify.fit.mf_data import sweep_ids
+            from identify.fit.mf.stage_data import sweep_ids
             sweeps = sweep_ids(table, float(mset.manifest.tyre.nominal_load_N))
         folds = sweep_folds(sweeps, n_folds, seed)
         rec["heldout_kind"] = f"held-out sweeps ({n_folds} seeded folds, seed {seed})"

@@ -11,7 +11,7 @@ named coefficients, the data hold two minima the noise cannot tell apart, and th
 (linearised) intervals describe only the one the search found (docs/intervals.md).
 
 ``--lhs N`` also solves the stage from N Latin-hypercube starts in the fit's start box around
-the reported values (identify.fit.mf_search.start_points, seed ``--seed``) and lists every
+the reported values (identify.fit.mf.search.start_points, seed ``--seed``) and lists every
 distinct minimum they reach, lowest first, with its objective difference to the reported fit
 in the same units: a minimum below the reported one is one the fit's search missed; one
 within the 95 % region's 3.84 is a second answer the data cannot rule out. ``--profile``
@@ -32,14 +32,14 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.fit import engine
-from identify.fit.engine import MF_SOLVE
 from identify.fit.limits import table_limits
-from identify.fit.mf_search import start_points
-from identify.fit.mf_stages import stage_problem
+from identify.fit.mf.search import start_points
+from identify.fit.mf.stages import stage_problem
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
 from identify.fit.run import FitSettings
+from identify.fit.solve import engine
+from identify.fit.solve.engine import MF_SOLVE
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.segment import SegmentSettings
@@ -72,7 +72,7 @@ def main() -> None:
     fit_dir = next((base / "fits").iterdir())
     fitted = _numbers(read_tir(next(fit_dir.glob("*.tir"))).values)
     # the validity limits the stages' constraints had: the table's ranges
-    # (identify.fit.limits.table_limits, as identify.fit.mf_stages.fit_mf sets them); the
+    # (identify.fit.limits.table_limits, as identify.fit.mf.stages.fit_mf sets them); the
     # written .tir has those of the points the fits kept, which can differ slightly, and a
     # point the fit's validity constraints excluded would look like a missed lower minimum
     fitted.update(table_limits(trailer))

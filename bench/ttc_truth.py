@@ -147,7 +147,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
 
 
 PROFILE_LINE = re.compile(r"MF \[(\w+)\]: 95 % intervals of .* \((\d+) refits\)")
-"""The profile step's progress line of a stage (identify.fit.mf_profile.profile_intervals)."""
+"""The profile step's progress line of a stage (identify.fit.mf.profile.profile_intervals)."""
 
 
 def _profile_refits(lines: list[str]) -> dict[str, int]:
@@ -444,7 +444,7 @@ def main() -> None:
     most = max(((v.get("profile_refits", 0), k, r["seed"]) for r in records
                 for k, v in r["stages"].items()), default=(0, "-", "-"))
     print(f"   profile refits: at most {most[0]} in a stage ({most[1]}, seed {most[2]}; the "
-          "budget is identify.fit.mf_profile.STAGE_REFITS)")
+          "budget is identify.fit.mf.profile.STAGE_REFITS)")
     print("   covariance: " + ", ".join(f"{k} {v['covariance']} ({v['clusters']})"
                                          for k, v in records[0]["stages"].items()))
     print_tables(coverage_tables(records))

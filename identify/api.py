@@ -27,18 +27,15 @@ example is docs/api.md (a test runs it).
 """
 from __future__ import annotations
 
-from collections.abc import Iterable
-from pathlib import Path
-from typing import Any
-
-from matplotlib.figure import Figure
-
 import dataclasses
 import sys
 import time
-from collections.abc import Mapping
+from collections.abc import Iterable, Mapping
+from pathlib import Path
+from typing import Any
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from identify.core.errors import FitError, InputError, MfidError
 from identify.core.progress import Progress
@@ -53,12 +50,12 @@ from identify.model.evaluate import evaluate as _evaluate
 from identify.report.fit_pages import fit_pages
 from identify.report.pdf import Report, write_report
 from identify.simulate import simulate_folder
+from identify.vehicle.analysis import VehicleOptions, VehicleResult
+from identify.vehicle.spec import VehicleSpec, read_vehicle
 from identify.workflows.discover import DiscoveryRun, discover_folder
 from identify.workflows.fit import fit_folder as _fit_folder
 from identify.workflows.fit import fit_measurements
 from identify.workflows.vehicle import analyse_vehicle
-from identify.vehicle.analysis import VehicleOptions, VehicleResult
-from identify.vehicle.spec import VehicleSpec, read_vehicle
 
 __all__ = ["load_folder", "fit", "fit_folder", "read_fit", "plot_fit", "write_report",
            "discover_folder", "read_tir", "write_tir", "evaluate", "simulate_folder",

@@ -1,4 +1,11 @@
-"""Shared test fixtures: the test-data folder."""
+"""Shared test fixtures and the suite's layout.
+
+tests/unit holds fast tests of one module's promise, tests/integration tests of whole commands
+and pipelines, tests/trials the long statistical trials and the real-data checks: every test
+under tests/trials carries the ``trials`` marker (deselected by default, ``make trials`` runs
+them). Helper modules (``tests/*_cases.py``, ``tests/realdata.py`` ...) stay here, importable
+from all three as ``tests.<name>``.
+"""
 from __future__ import annotations
 
 from pathlib import Path
@@ -13,3 +20,14 @@ DATA = Path(__file__).resolve().parent / "data"
 def data_dir() -> Path:
     """tests/data."""
     return DATA
+
+
+TRIALS = Path(__file__).resolve().parent / "trials"
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """Mark every test under tests/trials ``trials`` before ``-m`` selects."""
+    for item in items:
+        if TRIALS in Path(str(item.path)).resolve().parents:
+            item.add_marker(pytest.mark.trials)

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
+from identify.discover.prepared_problem import total_error_pct
 from identify.discover.problems import relation_problems, trailer_problems
-from identify.discover.working import total_error_pct
-from identify.fit.relations import Context
+from identify.fit.relations.problems import Context
 from identify.io.folder import load_folder
 from identify.io.tir import read_tir
 from identify.workflows.discover import _characteristics

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from identify.io.hdf5 import RawRun, write_hdf5
+from identify.io.hdf5.channel_files import RawRun, write_hdf5
 from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 from identify.simulate.manifest import toml_value
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from identify.io.trailer import read_trailer
+from identify.io.trailer.files import read_trailer
 from identify.segment import SegmentedTable, segment_trailer
 
 #: Largest distance of a found level from its set point [SI]: 2 % of the load; 4 % of the

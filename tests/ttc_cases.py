@@ -8,10 +8,9 @@ import scipy.io
 from typer.testing import CliRunner
 
 from identify.cli.app import app
-
-from identify.io.mat73 import write_mat73
 from identify.io.tir import read_tir
-from identify.io.ttc import TTC_CHANNELS
+from identify.io.ttc.files import TTC_CHANNELS
+from identify.io.ttc.mat73 import write_mat73
 from identify.simulate.default_tyre import default_tir_path
 from identify.simulate.ttc import TtcSession, _write_dat, _write_mat, simulate_ttc
 

@@ -13,8 +13,8 @@ import typer
 from rich.console import Console
 from typer.core import TyperGroup
 
-from identify.core.version import __version__
 from identify.core.errors import MfidError, one_line
+from identify.core.version import __version__
 
 COMMANDS = {"check": "check_cmd", "import": "import_cmd", "convert": "convert_cmd",
             "extract": "extract_cmd", "fit": "fit_cmd", "report": "report_cmd",

@@ -20,13 +20,13 @@ from rich.progress import (
     TimeElapsedColumn,
 )
 
-from identify.cli.app import app, err_console, fail, out_console
-from identify.cli.fit_cmd import fit_command_line
-from identify.cli.entry import Interrupted
 from identify.cli import fit_options as shared
+from identify.cli.app import app, err_console, fail, out_console
+from identify.cli.entry import Interrupted
+from identify.cli.fit_cmd import fit_command_line
 from identify.core.errors import MfidError
-from identify.workflows.batch import run_batch
-from identify.workflows.batch_task import BAD_INPUT, FAILED, LOST, OK, UP_TO_DATE
+from identify.workflows.batch.run import run_batch
+from identify.workflows.batch.task import BAD_INPUT, FAILED, LOST, OK, UP_TO_DATE
 
 _GOOD = (OK, UP_TO_DATE)
 

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
@@ -14,9 +13,9 @@ from identify.io.folder import inspect_folder
 def check_command(
     folder: Path = typer.Argument(..., help="Measurement folder (with tyre.toml), its tyre.toml, "
                                             "or a single characteristics CSV."),
-    nominal_pressure: Optional[float] = typer.Option(
+    nominal_pressure: float | None = typer.Option(
         None, "--nominal-pressure", help="Nominal pressure [Pa] of a single characteristics CSV."),
-    nominal_load: Optional[float] = typer.Option(
+    nominal_load: float | None = typer.Option(
         None, "--nominal-load", help="Nominal load [N] of a single characteristics CSV."),
 ) -> None:
     """Check a measurement folder: errors and warnings, each on its own line (stderr).

@@ -2,7 +2,6 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import List, Optional
 
 import typer
 
@@ -10,8 +9,8 @@ from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
 from identify.io.common import Problems
 from identify.io.manifest import MANIFEST_NAME, read_manifest
-from identify.io.outputs import Inputs, check_file_output
-from identify.io.trailer import read_channels, write_channels
+from identify.io.output_guard import Inputs, check_file_output
+from identify.io.trailer.files import read_channels, write_channels
 
 _FORMATS = (".csv", ".h5", ".hdf5", ".tdx")
 
@@ -47,9 +46,9 @@ def convert_command(
                                          "from the content)."),
     dst: Path = typer.Argument(..., help="Output file; the format follows the extension: "
                                          ".csv, .h5/.hdf5 or .tdx."),
-    run: Optional[str] = typer.Option(None, "--run", help="Run id: the HDF5 group to read, "
+    run: str | None = typer.Option(None, "--run", help="Run id: the HDF5 group to read, "
                                                           "and the name of the run written."),
-    unit: List[str] = typer.Option([], "--unit", help="CHANNEL=UNIT for a channel the file "
+    unit: list[str] = typer.Option([], "--unit", help="CHANNEL=UNIT for a channel the file "
                                                       "gives in non-SI units (repeatable)."),
 ) -> None:
     """Convert trailer channels to SI values in another format (names and axes kept).

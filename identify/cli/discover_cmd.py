@@ -5,36 +5,35 @@ import shlex
 import sys
 from contextlib import nullcontext
 from pathlib import Path
-from typing import Optional
 
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
 from identify.cli.fit_cmd import StageProgress
 from identify.core.errors import InputError, MfidError
-from identify.workflows.discover import discover_folder
 from identify.discover.design import SCHEMES
 from identify.discover.search import Settings
+from identify.workflows.discover import discover_folder
 
 
 @app.command("discover")
 def discover_command(
     folder: Path = typer.Argument(..., help="Measurement folder (tyre.toml) or a single "
                                             "characteristics CSV."),
-    base: Optional[Path] = typer.Option(None, "--base", help="Base model .tir: its "
+    base: Path | None = typer.Option(None, "--base", help="Base model .tir: its "
                                         "coefficients define the base; every library "
                                         "coefficient at its neutral value is a candidate."),
-    base_form: Optional[str] = typer.Option(None, "--base-form", help="Named base form "
+    base_form: str | None = typer.Option(None, "--base-form", help="Named base form "
                                             "(RR/old, CMz/T1, CFy/linear_load, "
                                             "CFx/linear_load, camber/no_pressure, or a form "
                                             "from --candidates)."),
-    candidates: Optional[Path] = typer.Option(None, "--candidates", help="TOML file with "
+    candidates: Path | None = typer.Option(None, "--candidates", help="TOML file with "
                                               "more candidate effects, in the format of "
                                               "identify/discover/library.toml (an entry with "
                                               "a shipped name replaces it)."),
     alpha: float = typer.Option(0.05, "--alpha", help="Family-wise significance level "
                                                       "(Holm) of each step."),
-    out: Optional[Path] = typer.Option(None, "--out", help="Output folder (default "
+    out: Path | None = typer.Option(None, "--out", help="Output folder (default "
                                        "fits/<tyre id>/discovery/)."),
     seed: int = typer.Option(0, "--seed", help="Seed of the multi-start base fits."),
     starts: int = typer.Option(1, "--starts", help="Base-fit starts per problem (1: local "

@@ -5,7 +5,7 @@ ends the command with one line on stderr and exit 128 + the signal number (130 f
 143 for SIGTERM), never a traceback. The handler raises :class:`Interrupted`, a
 ``BaseException`` that is not a ``KeyboardInterrupt`` (click and typer would turn that into a
 silent exit), so that every ``with``/``finally`` on the way out still runs: the atomic writers
-remove their temporary files (identify.io.atomic) and no partial output is left.
+remove their temporary files (identify.core.atomic) and no partial output is left.
 """
 from __future__ import annotations
 

@@ -7,15 +7,15 @@ from pathlib import Path
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
+from identify.core.atomic import atomic_write_csv
 from identify.core.errors import InputError, MfidError
-from identify.io.outputs import Inputs, check_file_output
-from identify.io.points import read_points
+from identify.io.output_guard import Inputs, check_file_output
+from identify.io.tables.points import read_points
 from identify.io.tir import read_tir
 from identify.io.tir.limits import inverted_limits, missing_sections, points_outside
 from identify.model.evaluate import OUTPUT_COLUMNS, SolverOptions, evaluate_frame
+from identify.model.kernel.fused import evaluate_fused_frame
 from identify.model.modes import UseMode
-from identify.io.atomic import atomic_write_csv
-from identify.model.kernel import evaluate_fused_frame
 
 
 class Engine(str, Enum):

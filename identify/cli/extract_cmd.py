@@ -4,16 +4,15 @@ from __future__ import annotations
 import json
 from collections import Counter
 from pathlib import Path
-from typing import Optional
 
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
+from identify.core.atomic import atomic_write_csv, atomic_write_text
 from identify.core.errors import InputError, MfidError
 from identify.extract import extract_folder
 from identify.io.folder import load_folder
-from identify.io.outputs import check_file_output, measurement_inputs
-from identify.io.atomic import atomic_write_csv, atomic_write_text
+from identify.io.output_guard import check_file_output, measurement_inputs
 
 
 @app.command("extract")
@@ -22,7 +21,7 @@ def extract_command(
     output: Path = typer.Option(..., "--output", "-o",
                                 help="Characteristic table to write (CSV: quantity, pi_bar, "
                                      "Fz_N, value, unit, Vx_mps, gamma_deg, mode)."),
-    diagnostics: Optional[Path] = typer.Option(
+    diagnostics: Path | None = typer.Option(
         None, "--diagnostics", "-d",
         help="Also write the per-run diagnostics and flags (extraction.json)."),
 ) -> None:

@@ -10,7 +10,6 @@ is left.
 """
 from __future__ import annotations
 
-
 import math
 import shlex
 import signal
@@ -24,24 +23,30 @@ from typing import TYPE_CHECKING
 import typer
 from rich import box
 from rich.console import Console
-from rich.progress import (BarColumn, Progress, ProgressColumn, SpinnerColumn, TextColumn,
-                           TimeElapsedColumn)
-from rich.text import Text
+from rich.progress import (
+    BarColumn,
+    Progress,
+    ProgressColumn,
+    SpinnerColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from rich.table import Table
+from rich.text import Text
 
-from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.cli import fit_options as shared
+from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, MfidError
+from identify.fit.mcmc.steps import ChainProgress
 from identify.fit.status import POOR_FIT, POORLY_IDENTIFIED
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
-from identify.fit.mcmc_steps import ChainProgress
+from identify.io.fitdir import EXTRACTION_NAME
+from identify.io.output_guard import check_fit_outputs, check_folder_output, measurement_inputs
 from identify.report.pdf import write_report
+from identify.report.tables import mcmc_warnings
+from identify.vehicle.spec import read_vehicle
 from identify.workflows.fit import fit_folder
 from identify.workflows.vehicle import add_vehicle_to_fit
-from identify.vehicle.spec import read_vehicle
-from identify.io.fitdir import EXTRACTION_NAME
-from identify.io.outputs import check_fit_outputs, check_folder_output, measurement_inputs
-from identify.report.tables import mcmc_warnings
 
 if TYPE_CHECKING:  # pragma: no cover
     from identify.fit.run import FitRun

@@ -18,8 +18,8 @@ from typing import Annotated, Any
 import typer
 
 from identify.core.errors import InputError
-from identify.fit.mcmc import BUDGET_S, MAX_STEPS
-from identify.fit.mcmc_steps import MIN_CHECK
+from identify.fit.mcmc.chains import BUDGET_S, MAX_STEPS
+from identify.fit.mcmc.steps import MIN_CHECK
 from identify.fit.run import FitSettings
 from identify.workflows.fit import only_names
 

@@ -7,10 +7,10 @@ from pathlib import Path
 import typer
 
 from identify.cli.app import app, err_console, fail, out_console
-from identify.core.errors import InputError, MfidError
 from identify.cli.fit_cmd import StageProgress
+from identify.core.errors import InputError, MfidError
 from identify.io.axes import AXES, axes_name
-from identify.io.outputs import Inputs, check_folder_output
+from identify.io.output_guard import Inputs, check_folder_output
 from identify.workflows.import_session import import_session
 
 

@@ -2,14 +2,13 @@
 from __future__ import annotations
 
 from pathlib import Path
-from typing import Optional
 
 import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import MfidError
 from identify.io.fitdir import read_fit_dir
-from identify.io.outputs import Inputs, check_file_output
+from identify.io.output_guard import Inputs, check_file_output
 from identify.report.pdf import default_report_path, write_report
 
 
@@ -17,7 +16,7 @@ from identify.report.pdf import default_report_path, write_report
 def report_command(
     fit_dir: Path = typer.Argument(..., metavar="FITDIR",
                                    help="A fit directory written by mfid fit (fits/<tyre id>/)."),
-    output: Optional[Path] = typer.Option(None, "--output", "-o",
+    output: Path | None = typer.Option(None, "--output", "-o",
                                           help="PDF to write (default reports/<tyre id>.pdf)."),
 ) -> None:
     """Rebuild the PDF fit report from FITDIR alone (fit.json, measured_vs_model.csv, the

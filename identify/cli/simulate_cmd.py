@@ -4,13 +4,12 @@ from __future__ import annotations
 
 from enum import Enum
 from pathlib import Path
-from typing import Optional
 
 import typer
 
 from identify.cli.app import app, fail, out_console
 from identify.core.errors import InputError, MfidError
-from identify.io.outputs import Inputs, check_folder_output
+from identify.io.output_guard import Inputs, check_folder_output
 from identify.io.tir import read_tir
 from identify.simulate import default_tir_path, simulate_folder
 from identify.simulate.ttc import simulate_ttc
@@ -73,7 +72,7 @@ def simulate_command(
     seed: int = typer.Option(0, "--seed", help="Noise seed; equal seeds give equal folders."),
     noise: float = typer.Option(0.01, "--noise", help="Noise std as a fraction of each "
                                                       "channel's RMS."),
-    ar1: Optional[float] = typer.Option(None, "--ar1", help="Lag-one correlation of the noise "
+    ar1: float | None = typer.Option(None, "--ar1", help="Lag-one correlation of the noise "
                                                             "(AR(1)); default 0 (folder), "
                                                             "0.7 (ttc)."),
     fmt: FormatChoice = typer.Option(FormatChoice.folder, "--format",
@@ -96,7 +95,7 @@ def simulate_command(
                                      help="--format ttc: lateral relaxation length: the forces "
                                           "lag the slip angle set over this rolling distance "
                                           "(a real machine's up/down-sweep loop); 0: none."),
-    input_noise: Optional[float] = typer.Option(None, "--input-noise",
+    input_noise: float | None = typer.Option(None, "--input-noise",
                                                 help="--format ttc: noise of the slip, camber, "
                                                      "load and speed channels (SA, SL, SR, IA, "
                                                      "FZ, V, N) as a fraction of each one's "

@@ -1,5 +1,6 @@
 """The installed mfid version (``0.0.0+unknown`` in a source tree that was not installed)."""
-from importlib.metadata import PackageNotFoundError, version as _version
+from importlib.metadata import PackageNotFoundError
+from importlib.metadata import version as _version
 
 try:
     __version__ = _version("mfid")

@@ -4,11 +4,11 @@ from __future__ import annotations
 import numpy as np
 
 from identify.discover.drift import DRIFT_KEY
+from identify.discover.prepared_problem import Working, cells, final_floor, total_error_pct
 from identify.discover.result import Accepted, ProblemSummary
-from identify.fit.engine import covariance
-from identify.fit.metric import thesis_error_by_group
 from identify.fit.result import FitResult
-from identify.discover.working import Working, cells, final_floor, total_error_pct
+from identify.fit.solve.engine import covariance
+from identify.fit.solve.metric import thesis_error_by_group
 
 __all__ = ["summaries", "conclusion", "UNEXPLAINED_RATIO"]
 

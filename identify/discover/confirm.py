@@ -9,10 +9,10 @@ from scipy import stats
 
 from identify.discover.library import Candidate
 from identify.discover.objective import Objective
+from identify.discover.prepared_problem import Working, total_error_pct
 from identify.discover.result import Trial
-from identify.discover.working import Working, total_error_pct
-from identify.fit.engine import covariance, pseudo_solve
-from identify.fit.problem import FitProblem, with_fixed, with_free
+from identify.fit.solve.engine import covariance, pseudo_solve
+from identify.fit.solve.problem import FitProblem, with_fixed, with_free
 
 __all__ = ["confirm", "fold_errors"]
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 
 from identify.discover.noise import Sweeps
-from identify.fit.problem import FitProblem
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["levels", "condition_cells", "pressure_is_crossed", "folds", "LEVEL_REL_GAP",
            "SCHEMES", "overlap"]

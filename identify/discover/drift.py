@@ -20,7 +20,7 @@ import dataclasses
 
 import numpy as np
 
-from identify.fit.problem import FitProblem
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["DRIFT_KEY", "with_drift", "drifting", "session_positions"]
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from identify.discover.library import Candidate
 from identify.discover.objective import Objective
-from identify.fit.problem import FitProblem, with_fixed, with_free
+from identify.fit.solve.problem import FitProblem, with_fixed, with_free
 
 __all__ = ["replicate_sigma", "richest_sigma", "table_floor_sigma", "CONDITION_KEYS"]
 

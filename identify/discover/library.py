@@ -10,10 +10,10 @@ from __future__ import annotations
 import fnmatch
 import math
 import tomllib
+from collections.abc import Iterable, Mapping
 from dataclasses import dataclass, field, replace
 from importlib.resources import files
 from pathlib import Path
-from typing import Iterable, Mapping
 
 from identify.core.errors import InputError
 
@@ -133,13 +133,13 @@ class Library:
         """The candidates whose relations match ``problem_name``."""
         return tuple(c for c in self.candidates if c.applies_to(problem_name))
 
-    def merged(self, other: "Library") -> "Library":
+    def merged(self, other: Library) -> Library:
         """This library with ``other``'s entries added (same name: ``other`` wins)."""
         theirs = {c.name for c in other.candidates}
         cands = tuple(c for c in self.candidates if c.name not in theirs) + other.candidates
         return Library(cands, {**self.forms, **other.forms})
 
-    def only(self, names: Iterable[str]) -> "Library":
+    def only(self, names: Iterable[str]) -> Library:
         """A library restricted to the named candidates."""
         keep = set(names)
         return replace(self, candidates=tuple(c for c in self.candidates if c.name in keep))

@@ -92,7 +92,7 @@ class Sweeps(Sequence):
         self.first[self.starts] = True
 
     @classmethod
-    def of(cls, sweeps: "Sweeps | Sequence[np.ndarray] | None", n: int) -> "Sweeps":
+    def of(cls, sweeps: Sweeps | Sequence[np.ndarray] | None, n: int) -> Sweeps:
         """A Sweeps from itself, from a list of contiguous index arrays, or (None) every point
         alone."""
         if isinstance(sweeps, Sweeps):
@@ -116,11 +116,11 @@ class Sweeps(Sequence):
             return [self[j] for j in range(*i.indices(len(self)))]
         return np.arange(self.starts[i], self.starts[i] + self.sizes[i])
 
-    def subset(self, mask: np.ndarray) -> "Sweeps":
+    def subset(self, mask: np.ndarray) -> Sweeps:
         """The sweeps of the points in ``mask``, in the local numbering of those points."""
         return Sweeps(self.label[np.asarray(mask, dtype=bool)])
 
-    def at_least(self, size: int) -> "Sweeps":
+    def at_least(self, size: int) -> Sweeps:
         """Only the sweeps of at least ``size`` points (the others' points in no sweep)."""
         keep = (self._run_sweep & (self._run_size >= size))[self._run] if self.n else \
             np.zeros(0, dtype=bool)

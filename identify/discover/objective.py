@@ -13,12 +13,12 @@ import time
 from dataclasses import dataclass
 
 import numpy as np
-
-from identify.discover.noise import Sweeps, whiten
-from identify.fit.engine import DISCOVERY, fd_jacobian, least_squares
-from identify.fit.problem import FitProblem
 from scipy.linalg import qr
 from scipy.optimize import lsq_linear
+
+from identify.discover.noise import Sweeps, whiten
+from identify.fit.solve.engine import DISCOVERY, fd_jacobian, least_squares
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["Objective", "Solution", "problem_name"]
 
@@ -80,7 +80,7 @@ class Objective:
         object.__setattr__(self, "_local", sweeps if self.mask is None
                            else sweeps.subset(self.mask))
 
-    def subset(self, mask: np.ndarray | None) -> "Objective":
+    def subset(self, mask: np.ndarray | None) -> Objective:
         return dataclasses.replace(self, mask=mask)
 
     def transform(self, a: np.ndarray) -> np.ndarray:

@@ -2,8 +2,8 @@
 
 Relation problems come from the characteristic tables (the folder's own, and the extraction of
 raw Flatplank runs when ``identify.extract`` is available) through the builders of
-:mod:`identify.fit.relations`; MF stage problems come from the trailer sweeps
-(:mod:`identify.discover.stages`). Every problem is named (``CFy``, ``RR``, ``MF/Fy``,
+:mod:`identify.fit.relations.problems`; MF stage problems come from the trailer sweeps
+(:mod:`identify.discover.stage_problems`). Every problem is named (``CFy``, ``RR``, ``MF/Fy``,
 ``camber/Fy_gamma``, ``sidewall/x`` ...) for the library's ``relations`` patterns.
 
 The base model (:class:`Base`) decides which library coefficients are candidates:
@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import dataclasses
 import fnmatch
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Callable, Mapping
 
 import lmfit
 import numpy as np
@@ -25,9 +25,9 @@ import pandas as pd
 
 from identify.discover.library import BaseForm, Library
 from identify.discover.objective import problem_name
-from identify.discover.stages import label_sweeps, stage_problem
-from identify.fit import relations as R
-from identify.fit.problem import FitProblem
+from identify.discover.stage_problems import label_sweeps, stage_problem
+from identify.fit.relations import problems as R
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["Base", "base_values", "apply_base", "relation_problems", "trailer_problems",
            "cmz_problem", "select", "COMPANIONS"]

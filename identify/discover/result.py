@@ -10,8 +10,9 @@
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 
@@ -182,7 +183,7 @@ class ProblemSummary:
     candidates : tuple of str       library candidates tested on it
     base_error_pct, final_error_pct : float    total error [%]: the thesis metric; for moments
                                     relative to each group's range
-                                    (:func:`identify.discover.working.by_range`)
+                                    (:func:`identify.discover.prepared_problem.by_range`)
     base_error_by_pressure_pct : Mapping[float, float]
     converged, stationary : bool    base fit status
     message : str

@@ -34,13 +34,13 @@ import lmfit
 import numpy as np
 import pandas as pd
 
-from identify.discover.stages import STAGES, sweep_shapes, stage_problem
-from identify.fit.problem import FitProblem
-from identify.fit.relations import Context, rolling_resistance
-from identify.model.relations import load_pressure_stiffness
+from identify.discover.stage_problems import STAGES, stage_problem, sweep_shapes
+from identify.fit.relations.problems import Context, rolling_resistance
+from identify.fit.solve.problem import FitProblem
 from identify.io.tir import read_tir
-from identify.simulate import default_tir_path
 from identify.model.evaluate import evaluate
+from identify.model.relations import load_pressure_stiffness
+from identify.simulate import default_tir_path
 
 __all__ = ["EFFECTS", "SCENARIOS", "Matrix", "make_problem", "base_tir", "make_confounded",
            "make_session", "CONFOUNDED_PAIRS", "CONFOUNDED_SPEEDS"]

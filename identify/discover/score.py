@@ -29,7 +29,7 @@ import numpy as np
 from scipy import special, stats
 
 from identify.discover.noise import Sweeps
-from identify.fit.engine import pseudo_solve
+from identify.fit.solve.engine import pseudo_solve
 
 __all__ = ["Score", "project_basis", "score_candidates", "canonical_cosines",
            "ambiguity_groups", "holm", "TESTABLE_REL_NORM", "AMBIGUITY_COS"]

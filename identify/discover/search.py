@@ -17,25 +17,24 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Sequence
 
 import numpy as np
+from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
 from identify.discover.conclude import conclusion, summaries
 from identify.discover.confirm import confirm
-from identify.discover.finish import final_accepted, headline, sign_note
+from identify.discover.final_accepted import final_accepted, headline, sign_note
 from identify.discover.joint import try_blocks
 from identify.discover.library import Candidate, Library
 from identify.discover.objective import problem_name
-from identify.discover.result import Accepted, CandidateRow, Discovery, Step
-from identify.discover.result import excess_explained
+from identify.discover.prepared_problem import Working, prepare, refresh, renoise
+from identify.discover.result import Accepted, CandidateRow, Discovery, Step, excess_explained
 from identify.discover.score import ambiguity_groups, canonical_cosines, holm, score_candidates
 from identify.discover.state import ModelState
-from identify.discover.working import Working, prepare, refresh, renoise
-from identify.fit.problem import FitProblem
-from threadpoolctl import threadpool_limits
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["Settings", "discover"]
 

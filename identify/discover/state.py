@@ -33,7 +33,7 @@ import numpy as np
 from identify.discover.drift import DRIFT_KEY, drifting
 from identify.discover.library import Library
 from identify.discover.objective import problem_name
-from identify.fit.problem import FitProblem
+from identify.fit.solve.problem import FitProblem
 
 __all__ = ["ModelState", "claims"]
 
@@ -71,7 +71,7 @@ class ModelState:
     values: dict[str, float] = field(default_factory=dict)
 
     @classmethod
-    def of(cls, problems: list[FitProblem], library: Library) -> "ModelState":
+    def of(cls, problems: list[FitProblem], library: Library) -> ModelState:
         """Ownership from the problems' order; values from their starting parameters."""
         state = cls([problem_name(p) for p in problems])
         for p in problems:

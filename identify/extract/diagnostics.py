@@ -6,9 +6,10 @@ Kept apart from the test modules so every test type reports in the same fixed fi
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 from identify.core.jsonsafe import json_safe
 from identify.core.quantities import QUANTITIES

@@ -13,7 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import uniform_filter1d
-from scipy.stats import chi2, f as f_dist, norm
+from scipy.stats import chi2, norm
+from scipy.stats import f as f_dist
 
 __all__ = ["LineFit", "line_fit", "noise_sigma", "smooth", "linear_window"]
 

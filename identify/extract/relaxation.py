@@ -10,7 +10,7 @@ reached steady state: Fss is then extrapolated by the fit and the run is flagged
 from __future__ import annotations
 
 import math
-from typing import Callable
+from collections.abc import Callable
 
 import numpy as np
 from scipy.optimize import minimize_scalar

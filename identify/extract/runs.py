@@ -9,9 +9,9 @@ channels show (median load, camber, slip angle) or the project's run-name conven
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Mapping
 
 import numpy as np
 import pandas as pd

@@ -13,7 +13,7 @@ positive, lift the low end of the curve and bias CFz (-0.2 % at 3 kN, +0.13 % at
 """
 from __future__ import annotations
 
-from typing import Iterable, Mapping
+from collections.abc import Iterable, Mapping
 
 import numpy as np
 

@@ -11,7 +11,7 @@ Every other end is **arbitrary**: a search range sized for a passenger-car tyre 
 an optimum can lie beyond it; the bound then is no result, so the MF stages widen it
 (:func:`widen`) and solve again, at most :data:`MAX_WIDENINGS` times, and a coefficient still
 at an arbitrary bound after that is held at its start (the data do not bound it) rather than
-reported at a value the range put it at (identify.fit.mf_stages).
+reported at a value the range put it at (identify.fit.mf.stages).
 
 For a coefficient whose bounds apply to the magnitude (identify.model.parameters.bounds), the
 kinds refer to the magnitude's lower and upper end and are mirrored with the sign.

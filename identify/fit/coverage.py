@@ -1,6 +1,6 @@
 """What the trailer data can identify, per MF stage, before any fitting.
 
-:func:`mf_coverage` answers, for each MF stage (identify.fit.mf_stage_defs.STAGES): which of
+:func:`mf_coverage` answers, for each MF stage (identify.fit.mf.stage_specs.STAGES): which of
 its points the data hold (loads, pressures, cambers, speeds and slip ranges present), which of
 its coefficients the coverage rules (``NEEDS``) leave identifiable, and whether the stage can be
 fitted at all. A stage without its data is skipped with one line that says why, e.g.
@@ -24,7 +24,7 @@ A stage is skipped when
 - a stage it builds on is skipped (Fx on Fx0, Fy on Fy0, Mz on Mz0 and Fx0).
 
 The identifiable coefficients are those whose coverage needs are met; the sensitivity screen
-of the fit itself may hold more (identify.fit.mf_screen), and fit.json lists those as held.
+of the fit itself may hold more (identify.fit.mf.screen), and fit.json lists those as held.
 """
 from __future__ import annotations
 
@@ -36,8 +36,8 @@ import numpy as np
 import pandas as pd
 
 from identify.core.jsonsafe import json_safe
-from identify.fit import mf_data
-from identify.fit.mf_stage_defs import DEFAULT_STAGES, NEEDS, PURE_ALPHA, STAGES
+from identify.fit.mf import stage_data as mf_data
+from identify.fit.mf.stage_specs import DEFAULT_STAGES, NEEDS, PURE_ALPHA, STAGES
 from identify.model.parameters import spec
 
 __all__ = ["MIN_POINTS", "StageCoverage", "coverage_text", "mf_coverage"]
@@ -200,7 +200,7 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
     Parameters
     ----------
     trailer : DataFrame
-        The trailer table the stages are fitted on (identify.fit.mf_data).
+        The trailer table the stages are fitted on (identify.fit.mf.stage_data).
     fnomin : float
         Nominal load [N] (load levels closer than mf_data.LOAD_RESOLUTION x FNOMIN merge).
     stages : sequence of str
@@ -214,7 +214,7 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
         One per stage, in order.
     """
     unavailable = dict(unavailable or {})
-    # the table and its sweeps as the stages fit them (identify.fit.mf_problem.stage_problem):
+    # the table and its sweeps as the stages fit them (identify.fit.mf.problem.stage_problem):
     # 1st to 99th percentile spans, so a stray sample does not make a run a sweep, and a
     # freely rolling run's kappa, the channel's noise, taken as 0 (the same sweeps after it)
     sweeps = mf_data.run_sweeps(trailer)

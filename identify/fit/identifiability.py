@@ -18,7 +18,7 @@ converged fit is **poorly identified** when any of these holds (thresholds below
   hold two values of it; the linearised interval describes one);
 - its value rests on coefficients held at values the data did not choose (FitResult.conditional:
   held ones that took effect only after the fit, with which its standard error would grow
-  beyond identify.fit.mf_conditional.VIF_LIMIT; its interval assumes them exact);
+  beyond identify.fit.mf.conditional.VIF_LIMIT; its interval assumes them exact);
 - fewer than :data:`MIN_POINTS_PER_COEFFICIENT` data points per free coefficient;
 - the validity conditions cost the fit beyond doubt and beyond a few per cent: the optimum is
   a polished point whose objective exceeds the least-squares optimum it left
@@ -40,8 +40,8 @@ import math
 from collections.abc import Mapping
 
 from identify.fit.bounds import ARBITRARY, bound_kinds
-from identify.fit.covariance import residual_variance
 from identify.fit.result import FitResult
+from identify.fit.solve.covariance import residual_variance
 from identify.fit.status import fit_status, quality_problems
 
 __all__ = ["CONDITIONS_CHI2", "CONDITIONS_RATIO", "MAX_CORRELATION",
@@ -56,7 +56,7 @@ CONDITIONS_CHI2 = 25.0
 """Rise of chi^2 = r^T r / s^2 (s^2 the least-squares optimum's residual variance) from the
 least-squares optimum to the polished one beyond which the validity conditions' cost is
 beyond doubt (5 standard deviations of a one-parameter chi^2 difference, as
-identify.fit.mf_search.CHI2_GAP)."""
+identify.fit.mf.search.CHI2_GAP)."""
 CONDITIONS_RATIO = 1.1
 """Ratio of the polished objective to the least-squares one beyond which the conditions' cost
 matters: the RMS weighted residual 5 % larger. On thousands of points with correlated
@@ -109,8 +109,8 @@ def _wide(r: FitResult) -> list[tuple[str, str, str]]:
 
 RIVAL_CHI2 = 3.84
 """A rival minimum (FitResult.rivals) within this chi^2 of the optimum, on the reported
-intervals' scale, lies inside the 95 % region of one coefficient; identify.fit.mf_rivals keeps
-the minima within it."""
+intervals' scale, lies inside the 95 % region of one coefficient; identify.fit.mf.minima.rivals
+keeps the minima within it."""
 
 
 def _rivaled(r: FitResult) -> list[tuple[str, str, str]]:

@@ -33,7 +33,7 @@ TABLE_LIMIT_COLUMNS: dict[tuple[str, str], str] = {
     ("CAMMIN", "CAMMAX"): "gamma",
 }
 """(.tir min key, max key) -> column of a trailer table in SI (Fz [N], kappa [-], alpha [rad],
-gamma [rad]): the axes of the MF validity grid (identify.fit.mf_constraints.validity_grid, which
+gamma [rad]): the axes of the MF validity grid (identify.fit.mf.constraints.validity_grid, which
 takes the data's pressures themselves)."""
 
 
@@ -82,7 +82,7 @@ def table_limits(table: pd.DataFrame) -> dict[str, float]:
     out.
 
     The MF stages take them as the limits of their validity grid
-    (identify.fit.mf_stages.fit_mf). The written .tir states the ranges of every fitted point
+    (identify.fit.mf.stages.fit_mf). The written .tir states the ranges of every fitted point
     (:func:`measured_limits`): where other relations' points reach further (the bundled
     sample's Flatplank characteristics: FZMIN 1000 N for the trailer's 3000 N, CAMMIN/CAMMAX
     +-15 deg for +-8 deg), ``mfid fit`` widens the grid to the :func:`union_limits` of both, so

@@ -1,7 +1,7 @@
 """Global-then-local constrained fitting (the fmincon equivalent).
 
 A Latin-hypercube multi-start over the bounds, each start solved by the engine
-(:mod:`identify.fit.engine`): least squares (trust-region reflective, bounds) for weighted
+(:mod:`identify.fit.solve.engine`): least squares (trust-region reflective, bounds) for weighted
 least squares, followed, where general constraints are violated or the objective is the thesis
 metric, by SLSQP on the true objective (bounds + inequality constraints). The best start wins;
 the result records how many starts reached it, which bounds and constraints are active,
@@ -18,11 +18,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.stats import qmc
 
-from identify.fit import engine
-from identify.fit.engine import STRICT, Estimate, Tolerances
-from identify.fit.metric import thesis_error_by_group
-from identify.fit.problem import PENALTY, FitProblem
 from identify.fit.result import FitResult
+from identify.fit.solve import engine
+from identify.fit.solve.engine import STRICT, Estimate, Tolerances
+from identify.fit.solve.metric import thesis_error_by_group
+from identify.fit.solve.problem import PENALTY, FitProblem
 
 BEST_RTOL = 1e-6
 BEST_ATOL = 1e-8
@@ -407,7 +407,7 @@ def fit(problem: FitProblem, *, n_starts: int | None = None, seed: int = 0,
         finite-difference Jacobian evaluations are not in it); default
         ``tol.budget(free parameters)``. A start that exhausts it counts as not converged.
     tol : Tolerances
-        Solver tolerances (default :data:`identify.fit.engine.STRICT`).
+        Solver tolerances (default :data:`identify.fit.solve.engine.STRICT`).
     record : list, optional
         The starts whose outcome is their own are appended to it (:class:`Solved`), so that a
         later single-start fit of the same problem from one of them can be replayed

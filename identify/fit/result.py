@@ -23,9 +23,8 @@ from matplotlib.figure import Figure
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
-from identify.fit.covariance import t_quantile
+from identify.fit.solve.covariance import t_quantile
 from identify.fit.status import FAILED
-
 
 #: Axis labels of the measured_vs_model.csv columns a result's points vary along.
 _X_LABELS = {"alpha_rad": "slip angle [deg]", "kappa": "slip ratio [-]", "Fz_N": "load [N]",
@@ -76,7 +75,7 @@ class MCMCSummary:
                                     cap) or "budget" (the time budget); "" when converged
     reparametrised : tuple of str   coordinates sampled in place of some coefficients (e.g.
                                     Kya@3000N for PKY1, PKY2, PKY4, Kya@3000N,1.90bar for
-                                    PPY1, PPY2; identify.fit.mcmc_reparam)
+                                    PPY1, PPY2; identify.fit.mcmc.reparam)
     """
 
     median: Mapping[str, float]
@@ -206,7 +205,7 @@ class FitResult:
                                             "sweep-jackknife" (delete-one-sweep jackknife) or
                                             "staged-sweep-jackknife" (the same with the
                                             earlier MF stages' uncertainty:
-                                            identify.fit.mf_uncertainty)
+                                            identify.fit.mf.uncertainty)
     clusters : int                          sweeps of the jackknife (0 for iid)
     unidentified : Mapping[str, str]        free coefficients not identifiable on their own
                                             -> why (at a bound, near-null direction, a
@@ -214,18 +213,18 @@ class FitResult:
                                             identify.fit.identifiability.unidentified)
     rivals : tuple of Rival                 other minima within reach of the optimum (the MF
                                             stages' search candidates solved again:
-                                            identify.fit.mf_stages; docs/intervals.md)
+                                            identify.fit.mf.stages; docs/intervals.md)
     conditional : Mapping[str, str]         free coefficients whose value rests on held ones
                                             -> which and how much (the MF stages' holds that
                                             took effect only after the fit:
-                                            identify.fit.mf_conditional)
+                                            identify.fit.mf.conditional)
     dof : Mapping[str, float]               degrees of freedom of each standard error
-                                            (identify.fit.covariance.interval_dof): the 95 %
+                                            (identify.fit.solve.covariance.interval_dof): the 95 %
                                             interval is value +/- t(0.975, dof) standard
                                             errors (:meth:`interval`); a name without one has
                                             infinite degrees of freedom (1.96)
     profile : Mapping[str, tuple]           (lower, upper) 95 % interval of an identifiable
-                                            MF coefficient (identify.fit.mf_profile): value
+                                            MF coefficient (identify.fit.mf.profile): value
                                             +/- t standard errors with each end moved out to
                                             the objective's profile where that is flatter
                                             than the quadratic approximation, and stopped at

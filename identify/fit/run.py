@@ -5,9 +5,12 @@ provenance (version, time, command, seed, settings, input checksums), every
 :class:`~identify.fit.result.FitResult`, where each .tir key came from, the data-quality flags
 and the fits that failed. ``FitRun.to_dict()`` is the fit.json document and
 ``FitRun.from_dict()`` reads it back (``FitRun.from_dict(doc).to_dict() == doc``); the schema
-string :data:`SCHEMA` is defined here only. The .tir values and the per-point arrays are not in
-fit.json (they are in the .tir and measured_vs_model.csv): :func:`identify.io.fitdir.read_fit_dir`
-fills them in.
+string :data:`SCHEMA` is defined here only. The provenance's records (:class:`FitSettings`,
+:class:`InputFile`, :class:`Provenance`) are written and read field by field
+(identify.core.serial); an older fit.json is brought to the current layout by the explicit
+migrations of :data:`FIT_SCHEMA` before it is read. The .tir values and the per-point arrays
+are not in fit.json (they are in the .tir and measured_vs_model.csv):
+:func:`identify.io.fitdir.read_fit_dir` fills them in.
 """
 from __future__ import annotations
 
@@ -22,21 +25,22 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
+from identify.core.serial import Schema, from_data, to_data
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
 from identify.fit.coverage import StageCoverage
-from identify.fit.forms import FormChoice
-from identify.fit.mcmc import BUDGET_S, MAX_STEPS
+from identify.fit.mcmc.chains import BUDGET_S, MAX_STEPS
+from identify.fit.relations.forms import FormChoice
 from identify.fit.result import FitResult
-from identify.fit.status import FAILED
 from identify.fit.sources import KINDS, KeySource
+from identify.fit.status import FAILED
 from identify.fit.summary import SummaryRow, summary_rows, summary_text, tir_keys
 
-__all__ = ["BIN_ALPHA_DEG", "BIN_KAPPA", "SCHEMA", "FitRun", "FitSettings", "InputFile",
-           "Provenance", "failures"]
+__all__ = ["BIN_ALPHA_DEG", "BIN_KAPPA", "FIT_SCHEMA", "SCHEMA", "FitRun", "FitSettings",
+           "InputFile", "Provenance", "failures"]
 
-SCHEMA = "mfid.fit/1"
-"""The schema string of fit.json (its ``"schema"`` key)."""
+SCHEMA = "mfid.fit/2"
+"""The schema string of fit.json (its ``"schema"`` key): :data:`FIT_SCHEMA`'s tag."""
 
 BIN_ALPHA_DEG = 0.25
 """[deg] default bin width of dense slip-angle sweeps (docs/procedures.md, "Sweep binning")."""
@@ -66,7 +70,7 @@ class FitSettings:
                            left divided by the chains left); a chain stopped by it says
                            converged = false (None: no budget)
     mcmc_reparam : bool    sample the Fy0 cornering stiffness at three loads in place of
-                           PKY1, PKY2, PKY4 (identify.fit.mcmc_reparam; same posterior)
+                           PKY1, PKY2, PKY4 (identify.fit.mcmc.reparam; same posterior)
     forms : tuple of str   ``RELATION=FORM`` choices of form made by the user (``--form``)
     hold : tuple of str    coefficients held at their default in every relation fit
                            (``--hold``)
@@ -82,13 +86,13 @@ class FitSettings:
                            which average the ripple over the passes through each bin without
                            bending a curve that changes within a revolution (docs/intervals.md,
                            "What the averaging does to the tightest intervals")
-    mf_passes : int        passes over the MF stages (identify.fit.mf_stages.fit_mf): the
+    mf_passes : int        passes over the MF stages (identify.fit.mf.stages.fit_mf): the
                            second solves again, locally, the stages something they read has
                            moved in since they were fitted (SSZ1..4 act on the Mz0 points
                            through s Fx), where a Gauss-Newton step would gain more than
                            PASS_GAIN (docs/commands.md, "mfid fit")
     pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
-                           again without it (identify.fit.pressure_holdout; the report's
+                           again without it (identify.fit.mf.pressure_holdout; the report's
                            pressure page); off by default: a refit per level can cost as
                            much as the MF fit itself
     """
@@ -113,7 +117,7 @@ class FitSettings:
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
-        return json_safe(dataclasses.asdict(self))
+        return to_data(self)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitSettings:
@@ -123,11 +127,7 @@ class FitSettings:
         takes the value that such a fit ran with (:data:`RECORD_DEFAULTS`: one MF pass, no
         segmentation, no Fy0 reparametrisation, no MCMC budget, no binning), else its
         default; a fit.json then says what was done, not what mfid would do today."""
-        d = {**RECORD_DEFAULTS, **d}
-        for key in ("only", "forms", "hold"):
-            if key in d:
-                d[key] = tuple(d[key] or ())
-        return cls(**d)
+        return from_data(cls, {**RECORD_DEFAULTS, **d})
 
 
 RECORD_DEFAULTS: Mapping[str, Any] = {"mf_passes": 1, "segment": False,
@@ -148,11 +148,11 @@ class InputFile:
     sha256: str
 
     def to_dict(self) -> dict[str, str]:
-        return {"path": self.path, "sha256": self.sha256}
+        return to_data(self)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> InputFile:
-        return cls(str(d["path"]), str(d["sha256"]))
+        return from_data(cls, d)
 
 
 @dataclass(frozen=True)
@@ -200,20 +200,46 @@ class Provenance:
         return stamp if stamp.tzinfo is not None else stamp.replace(tzinfo=_dt.UTC)
 
     def to_dict(self) -> dict[str, Any]:
-        return json_safe({"mfid_version": self.mfid_version, "created_utc": self.created_utc,
-                          "command": self.command, "seed": self.seed,
-                          "settings": None if self.settings is None
-                          else self.settings.to_dict(),
-                          "inputs": [i.to_dict() for i in self.inputs]})
+        return to_data(self)
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> Provenance:
-        settings = d.get("settings")
-        return cls(mfid_version=str(d.get("mfid_version") or ""),
-                   created_utc=str(d.get("created_utc") or ""),
-                   command=str(d.get("command") or ""), seed=int(d.get("seed") or 0),
-                   settings=None if settings is None else FitSettings.from_dict(settings),
-                   inputs=tuple(InputFile.from_dict(i) for i in d.get("inputs") or ()))
+        """Inverse of :meth:`to_dict` (the settings read by :meth:`FitSettings.from_dict`)."""
+        d = dict(d)
+        settings = d.pop("settings", None)
+        run = from_data(cls, {**d, "settings": None})
+        return dataclasses.replace(
+            run, settings=None if settings is None else FitSettings.from_dict(settings))
+
+
+def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
+    """mfid.fit/2 -> /2: every entry present. A version-1 document may lack the entries
+    recorded later (``failed``, ``flags``, ``coverage``, ``data_quality``,
+    ``pressure_holdout``, the .tir's ``key_sources`` and ``forms``) and the provenance's
+    fields, or hold them as null: they read as empty (an unknown version and command, seed 0);
+    a key source written as a plain string (the ``relation/form`` that supplied it) is a
+    fitted one."""
+    out = dict(doc)
+    for key, empty in (("failed", []), ("flags", []), ("coverage", []), ("data_quality", {}),
+                       ("pressure_holdout", {})):
+        out[key] = out.get(key) or empty
+    tir = dict(out.get("tir") or {})
+    tir["key_sources"] = {str(k): KeySource.from_dict(v).to_dict()
+                          for k, v in (tir.get("key_sources") or {}).items()}
+    tir["forms"] = list(tir.get("forms") or [])
+    out["tir"] = tir
+    prov = dict(out.get("provenance") or {})
+    out["provenance"] = {"mfid_version": str(prov.get("mfid_version") or ""),
+                         "created_utc": str(prov.get("created_utc") or ""),
+                         "command": str(prov.get("command") or ""),
+                         "seed": int(prov.get("seed") or 0),
+                         "settings": prov.get("settings"),
+                         "inputs": list(prov.get("inputs") or [])}
+    return out
+
+
+FIT_SCHEMA = Schema("mfid.fit", 2, {1: _fit_v1_to_v2})
+"""fit.json's layout: its version and the migrations from the older ones."""
 
 
 def failures(results: Sequence[FitResult]) -> tuple[str, ...]:
@@ -427,9 +453,7 @@ class FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        Documents from before ``failed``, ``key_sources``, ``forms``, ``coverage`` or
-        ``data_quality`` were recorded read as empty; a key source written as a plain string
-        (before typed sources) reads as fitted.
+        An older document is first migrated to the current layout (:data:`FIT_SCHEMA`).
 
         Raises
         ------
@@ -437,9 +461,10 @@ class FitRun:
             Not a fit.json of this schema, or an entry is malformed (the key names the entry,
             e.g. ``fits[2]``; no file is named: the caller adds it).
         """
-        if not isinstance(doc, Mapping) or doc.get("schema") != SCHEMA:
-            found = doc.get("schema") if isinstance(doc, Mapping) else type(doc).__name__
-            raise InputError(None, f"schema is {found!r}, expected {SCHEMA!r}", key="schema")
+        try:
+            doc = FIT_SCHEMA.upgrade(doc)
+        except ValueError as exc:
+            raise InputError(None, str(exc), key="schema") from None
         if not isinstance(doc.get("fits"), list):
             raise InputError(None, "missing the list of fits", key="fits")
         tir = doc.get("tir") or {}

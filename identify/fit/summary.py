@@ -13,7 +13,7 @@ from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from identify.fit.forms import FormChoice
+from identify.fit.relations.forms import FormChoice
 from identify.fit.result import FitResult
 from identify.fit.sources import KeySource
 from identify.fit.status import FAILED, OK

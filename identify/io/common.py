@@ -15,9 +15,10 @@ import hashlib
 import os
 import stat
 import warnings
+from collections.abc import Iterable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Iterable
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -212,7 +213,7 @@ def open_text(path: str | Path, **kwargs: Any):
     _refuse(path)
     if is_gzip(path):
         return gzip.open(path, "rt", **kwargs)
-    return open(path, "r", **kwargs)  # noqa: SIM115 - the caller's context manager closes it
+    return open(path, **kwargs)  # noqa: SIM115 - the caller's context manager closes it
 
 
 def _refuse(path: str | Path) -> None:

@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from identify.core.atomic import atomic_path, atomic_write_text
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_text
 from identify.core.names import inside
@@ -27,7 +28,6 @@ from identify.core.tyre import TyreInfo
 from identify.fit.result import FitResult
 from identify.fit.run import CSV_NAME, JSON_NAME, SCHEMA, FitRun, Provenance
 from identify.fit.sources import KeySource
-from identify.io.atomic import atomic_path, atomic_write_text
 from identify.io.tir import format_tir, read_tir
 from identify.io.tir.write import FIT_DIGITS
 

@@ -7,15 +7,15 @@ It agrees with the general C -> W conversion :func:`identify.io.axes.c_to_w` (te
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
-from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
 from identify.core.plausible import judge, judge_channel
 from identify.core.units import same_unit, to_si, unit_problem
+from identify.io.common import Problems, check_declared, check_increasing, read_numeric_csv
 
 __all__ = ["RAW_COLUMNS", "FLATPLANK_COLUMNS", "CONSTANT_LOAD_TESTS", "hub_to_contact",
            "read_flatplank"]

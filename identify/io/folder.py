@@ -8,15 +8,15 @@ manifest; the nominal pressure and load come from the options or from the table)
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from identify.io.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
 from identify.core.names import inside, safe_name
 from identify.core.plausible import judge
 from identify.io.common import (
@@ -28,11 +28,12 @@ from identify.io.common import (
     split_header_name,
 )
 from identify.io.flatplank import FLATPLANK_COLUMNS, read_flatplank
-from identify.io.hdf5 import is_hdf5
+from identify.io.hdf5.channel_files import is_hdf5
 from identify.io.manifest import MANIFEST_NAME, Manifest, RunSpec, TyreInfo, read_manifest
-from identify.io.quirks import DataWarning
-from identify.io.trailer import CHANNELS, TRAILER_COLUMNS, channels_to_tidy, read_channels
-from identify.io.ttc import is_ttc_dat, is_ttc_mat, is_ttc_naming
+from identify.io.tables.characteristics import CHARACTERISTICS_COLUMNS, read_characteristics
+from identify.io.trailer.files import CHANNELS, TRAILER_COLUMNS, channels_to_tidy, read_channels
+from identify.io.trailer.quirks import DataWarning
+from identify.io.ttc.files import is_ttc_dat, is_ttc_mat, is_ttc_naming
 from identify.io.tydex import is_tydex
 
 __all__ = ["MeasurementSet", "FolderScan", "load_folder", "check_folder", "scan_folder",

@@ -10,18 +10,19 @@ import difflib
 import math
 import re
 import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any, Mapping
+from typing import Any
 
-from identify.io.axes import AXES, axes_name
-from identify.io.common import Problems, cr_only, read_utf8
-from identify.io.data_warning import DataWarning
 from identify.core.names import name_problem
 from identify.core.plausible import judge
 from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
+from identify.io.axes import AXES, axes_name
+from identify.io.common import Problems, cr_only, read_utf8
+from identify.io.data_warning import DataWarning
 
 __all__ = ["Manifest", "TyreInfo", "RigInfo", "RunSpec", "read_manifest", "KINDS", "TESTS",
            "MANIFEST_NAME"]

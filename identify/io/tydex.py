@@ -23,8 +23,8 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.io.common import BOOLEAN_CELLS, CR_ONLY, cr_only, file_problem, Problems
-from identify.io.atomic import atomic_write_text
+from identify.core.atomic import atomic_write_text
+from identify.io.common import BOOLEAN_CELLS, CR_ONLY, Problems, cr_only, file_problem
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
 
@@ -86,7 +86,7 @@ def is_tydex(path: str | Path) -> bool:
     if file_problem(path) is not None:  # a FIFO would block
         return False
     try:
-        with open(path, "r", encoding="utf-8-sig", errors="replace") as fh:
+        with open(path, encoding="utf-8-sig", errors="replace") as fh:
             for _, line in zip(range(200), fh, strict=False):
                 text = line.strip()
                 if text and not text.startswith("!"):

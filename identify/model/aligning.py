@@ -2,12 +2,12 @@
 
 MFeval exports only the combined form: Mz = -t*F'y + Mzr + s*Fx, even at kappa = 0.
 Pure vectorised functions; no I/O. ``xp`` is the array module
-(numpy by default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf_jacobian).
+(numpy by default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

@@ -6,8 +6,8 @@ whole arrays).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
@@ -44,7 +44,7 @@ class SolverOptions:
     rl_exact: bool = True
 
     @classmethod
-    def mfeval_call(cls) -> "SolverOptions":
+    def mfeval_call(cls) -> SolverOptions:
         """The semantics of one MFeval 4.3 call over all points."""
         return cls(re_per_point=False, rl_exact=False)
 

@@ -1,12 +1,12 @@
 """Lateral force: pure slip Fy0 (MF 6.1, 4.E19-4.E30) and combined Fy (4.E58-4.E67).
 
 Pure vectorised functions; no I/O. ``xp`` is the array module (numpy by default; jax.numpy
-for the exact derivatives of the MF stage fits, identify.fit.mf_jacobian).
+for the exact derivatives of the MF stage fits, identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

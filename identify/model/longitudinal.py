@@ -2,12 +2,12 @@
 
 Pure vectorised functions of an :class:`OperatingState` and a parameter mapping; no I/O. ``xp``
 is the array module (numpy by default; jax.numpy for the MF stages' exact derivatives,
-identify.fit.mf_jacobian).
+identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

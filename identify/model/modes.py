@@ -33,7 +33,7 @@ class UseMode:
     turn_slip: bool
 
     @classmethod
-    def from_code(cls, code: int) -> "UseMode":
+    def from_code(cls, code: int) -> UseMode:
         """Decode ``code``; raise ValueError for anything but 1x1/2x1 with x in {1, 2}."""
         code = int(code)
         hundreds, tens, units = code // 100, (code // 10) % 10, code % 10

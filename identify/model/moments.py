@@ -2,11 +2,11 @@
 
 Pure vectorised functions; no I/O. Both apply MFeval's low-load reductions below FZMIN with or
 without limit checks (docs/model.md, sections 8 and 9). ``xp`` is the array module (numpy by
-default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf_jacobian).
+default; jax.numpy for the MF stages' exact derivatives, identify.fit.mf.jacobian).
 """
 from __future__ import annotations
 
-from typing import Mapping
+from collections.abc import Mapping
 
 import numpy as np
 

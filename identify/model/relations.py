@@ -200,7 +200,7 @@ class LoadPressureStiffness(_LoadPressureRelation):
     fz0: float
     function = staticmethod(load_pressure_stiffness)
 
-    def rebased(self, fz0: float) -> "LoadPressureStiffness":
+    def rebased(self, fz0: float) -> LoadPressureStiffness:
         """The identical relation written with another reference load ``fz0`` [N].
 
         The load polynomial is re-expanded exactly (e.g. a CFx measured with Fz0 = 4 kN written

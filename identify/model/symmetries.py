@@ -3,13 +3,13 @@
 Several Magic Formula terms see a coefficient only through an even function (cos(atan(B x)),
 a square) or a product of odd ones (D sin(C atan(B x))). Changing the sign of the coefficients
 of one :class:`Mirror` together gives a second parameter set that predicts bit for bit what
-the first predicts (``tests/test_model_symmetries.py`` checks each on the golden test set,
+the first predicts (``tests/unit/test_model_symmetries.py`` checks each on the golden test set,
 every output, combined slip, camber and pressure). Data cannot tell the two apart, so:
 
 - a fit that ends at one is not "another minimum" away from the other;
 - a fitted value is compared with the image of the truth that shares its signs;
 - the fit reports the image nearest its start, so the written .tir keeps the signs of the
-  .tir it started from (identify.fit.mf_signs).
+  .tir it started from (identify.fit.mf.minima.sign_images).
 
 The parameter table's bounds keep one sign of several of these (PKY1 and PKY4 by magnitude;
 RBX1, RBX2, RBY1, RBY2 and BREFF >= 0); they are listed because they are facts of the
@@ -17,8 +17,8 @@ equations, and the fit only takes an image inside the bounds.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Mapping, Sequence
 
 import numpy as np
 

@@ -5,8 +5,8 @@ contact patch, and the MF-Swift overall stiffnesses and relaxation lengths
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping
 
 import numpy as np
 

@@ -26,9 +26,9 @@ import numpy as np
 from matplotlib import colormaps
 from matplotlib.backends.backend_pdf import PdfPages
 
+from identify.core.atomic import atomic_path
 from identify.core.version import __version__
 from identify.fit.sources import FITTED
-from identify.io.atomic import atomic_path
 from identify.io.fitdir import FitDir
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import pandas as pd
 
+from identify.core.atomic import atomic_write_text
 from identify.fit.summary import tir_keys
-from identify.io.atomic import atomic_write_text
 from identify.io.fitdir import FitDir
 from identify.report.batch_compare import write_comparison
 

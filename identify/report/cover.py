@@ -5,8 +5,8 @@ from __future__ import annotations
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
 from identify.core.version import __version__
-from identify.fit.status import OK, POOR_FIT
 from identify.fit.sources import FITTED, KINDS
+from identify.fit.status import OK, POOR_FIT
 from identify.io.fitdir import FitDir
 from identify.io.tir import read_tir
 from identify.io.tir.write import ZERO_MARK, holds_zero

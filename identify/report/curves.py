@@ -1,6 +1,6 @@
 """Model curves of the relation fits for the report, computed from the fit directory alone.
 
-The relation is rebuilt from the fit plan (``identify.fit.plan``) with the
+The relation is rebuilt from the fit plan (``identify.fit.relations.plan``) with the
 fitted parameters of fit.json and evaluated on a dense grid. The rebuild is first checked
 against the model values recorded in measured_vs_model.csv; when it does not reproduce them
 (or cannot be built), the curves join the recorded model values at the measured points
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from identify.fit.plan import PLAN
-from identify.fit.relations import Context
+from identify.fit.relations.plan import PLAN
+from identify.fit.relations.problems import Context
 from identify.fit.result import FitResult
 from identify.io.fitdir import FitDir
 
@@ -108,7 +108,7 @@ def _plan_entry(relation: str, form: str):
 
 
 def _chars(rows: pd.DataFrame, quantity: str, form: str, value: np.ndarray) -> pd.DataFrame:
-    """A characteristics table (identify.io.characteristics schema) for a rebuild."""
+    """A characteristics table (identify.io.tables.characteristics schema) for a rebuild."""
     n = len(rows)
     mode = form.split("_", 1)[1] if quantity == "f_nat" and "_" in form else None
     frame = pd.DataFrame({

@@ -17,8 +17,8 @@ import numpy as np
 from matplotlib.backends.backend_pdf import PdfPages
 from matplotlib.figure import Figure
 
+from identify.core.atomic import atomic_path
 from identify.discover.result import Discovery, ProblemSummary
-from identify.io.atomic import atomic_path
 from identify.report.layout import GREY, PAGE, draw_table, new_page, rows_fitting, text_block
 
 __all__ = ["write_pdf", "MAX_PROBLEMS"]

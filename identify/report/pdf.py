@@ -27,20 +27,20 @@ from pathlib import Path
 from matplotlib.backends.backend_pdf import PdfPages
 from pypdf import PdfReader, PdfWriter
 
+from identify.core.atomic import atomic_path
 from identify.core.errors import InputError
 from identify.core.names import name_problem
 from identify.core.progress import Progress
 from identify.core.version import __version__
-from identify.io.atomic import atomic_path
-from identify.io.fitdir import FitDir, read_fit_dir
 from identify.fit.run import JSON_NAME
+from identify.io.fitdir import FitDir, read_fit_dir
 from identify.report.cover import cover, inputs_appendix
 from identify.report.fit_pages import fit_pages
 from identify.report.mcmc_pages import mcmc_pages
 from identify.report.pressure_pages import pressure_pages
 from identify.report.quality_pages import quality_pages
-from identify.report.trailer_pages import trailer_pages
 from identify.report.slip_pages import mf_slip_pages, slip_pages
+from identify.report.trailer_pages import trailer_pages
 from identify.report.vehicle_pages import fit_vehicle_pages
 
 

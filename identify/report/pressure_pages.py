@@ -1,6 +1,6 @@
 """The pressure prediction page: each measured pressure level predicted by the MF model fitted
 without it, beside the error of the full fit at that level (fit.json ``pressure_holdout``,
-identify.fit.pressure_holdout).
+identify.fit.mf.pressure_holdout).
 
 A table (per level and force or moment stage: points, in-sample error, held-out error, their
 ratio) and a bar plot (per stage, the in-sample and held-out error of every level side by side).
@@ -15,7 +15,7 @@ import textwrap
 
 import numpy as np
 
-from identify.fit.pressure_holdout import FORCE_STAGES, PressureHoldout
+from identify.fit.mf.pressure_holdout import FORCE_STAGES, PressureHoldout
 from identify.io.fitdir import FitDir
 from identify.report.layout import (
     GREY,

@@ -1,6 +1,6 @@
 """Segmentation of trailer data: condition levels, sweeps, and the filters that select samples.
 
-Pure computation on the tidy trailer table (identify.io.trailer). :func:`segment_trailer`
+Pure computation on the tidy trailer table (identify.io.trailer.files). :func:`segment_trailer`
 returns a :class:`SegmentedTable`: the :class:`Segmentation` (levels, segments, filter counts:
 small frozen records with a JSON round trip, for fit.json and the report) and the selected
 samples with their segment and level values (for the fit).

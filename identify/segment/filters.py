@@ -95,7 +95,7 @@ def revolution_average(frame: pd.DataFrame,
         ahead = np.concatenate(([True], theta[1:] > np.maximum.accumulate(theta)[:-1]))
         rows, theta = rows[ahead], theta[ahead]  # a repeated time stamp: the sample is dropped
         # a gap in the log (rows the loader dropped: a step over 1.5 of the median sample
-        # interval, as identify.io.quirk_checks.time_order counts one) of over half a
+        # interval, as identify.io.trailer.quirk_checks.time_order counts one) of over half a
         # revolution: each side is averaged on its own, as a segment (a straight line across
         # it is no measurement; a log of under two samples a revolution has no gap)
         dt = np.diff(t[rows])
@@ -159,7 +159,7 @@ def _revolution_mean(theta: np.ndarray, x: np.ndarray) -> tuple[np.ndarray, np.n
     averages to zero whatever the wheel speed does, so slip-ratio sweeps (the wheel speed
     moves with the slip ratio) and speed steps need no window of their own.
 
-    A NaN sample (a spike or dropout set NaN by identify.io.quirks) within half a revolution
+    A NaN sample (a spike or dropout set NaN by identify.io.trailer.quirks) within half a revolution
     of measured samples on both sides is first filled linearly in the angle (see
     :func:`_fill_short_gaps`). A longer dropout takes the pieces next to it out of that
     column's integral, and the mean is over the rest of the revolution; with less than half a

@@ -1,6 +1,6 @@
 """``segment_trailer``: the sweeps of a trailer table at their condition levels, filtered.
 
-Steps (pure computation on the tidy table of :mod:`identify.io.trailer`):
+Steps (pure computation on the tidy table of :mod:`identify.io.trailer.files`):
 
 1. per run, the quasi-steady plateaus and what each holds (:mod:`~identify.segment.plateaus`);
    between plateaus lie transitions;

@@ -18,8 +18,14 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, fields, replace
 
-from identify.model.relations import (LoadPressureStiffness, SidewallRing, VerticalQFz, YawT1,
-                                      YawT2, qfz_from_mf)
+from identify.model.relations import (
+    LoadPressureStiffness,
+    SidewallRing,
+    VerticalQFz,
+    YawT1,
+    YawT2,
+    qfz_from_mf,
+)
 
 __all__ = ["Relations", "DEFAULT_RELATIONS", "RELATION_NAMES", "relations_from_tir"]
 
@@ -56,7 +62,7 @@ class Relations:
                 "CFy": {"form": "load_pressure", **self.cfy.to_dict()},
                 "CMz": self.cmz.to_dict(), "ring": self.ring.to_dict()}
 
-    def with_value(self, dotted: str, value: float) -> "Relations":
+    def with_value(self, dotted: str, value: float) -> Relations:
         """A copy with one coefficient changed, named ``"CFy.p2"``, ``"CMz.p1"``, ``"CFz.qfz3"``.
 
         Raises

@@ -15,9 +15,9 @@ from __future__ import annotations
 from importlib.resources import files
 from pathlib import Path
 
+from identify.io.tir import write_tir
 from identify.model.relations import YawT1, mf_from_qfz
 from identify.simulate.coefficients import DEFAULT_RELATIONS, Relations
-from identify.io.tir import write_tir
 
 __all__ = ["default_tir_path", "default_tyre_values", "write_default_tir"]
 

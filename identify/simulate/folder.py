@@ -10,16 +10,16 @@ import dataclasses
 import gzip
 import json
 import shutil
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Mapping
 
 import numpy as np
 import pandas as pd
 
-from identify.core.version import __version__
+from identify.core.atomic import replace_dir, temp_dir
 from identify.core.errors import InputError
-from identify.io.atomic import replace_dir, temp_dir
+from identify.core.version import __version__
 from identify.model.modes import FIT_MODE, TRAILER_MODE
 from identify.model.parameters import defaults, spec
 from identify.simulate.artefacts import Artefacts, add_noise, run_rng

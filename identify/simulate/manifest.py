@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import json
 import math
-from typing import Mapping, Sequence
+from collections.abc import Mapping, Sequence
 
 from identify.core.tyre_size import size_designation
 from identify.simulate.model import Run

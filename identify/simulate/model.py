@@ -6,8 +6,8 @@ loads and pressures, so that the truth and the runs cannot disagree.
 """
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Mapping
 
 import numpy as np
 

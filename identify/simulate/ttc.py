@@ -1,7 +1,7 @@
 """``simulate_ttc``: a two-run Tire Test Consortium session from a .tir, with known truth.
 
 Real TTC files may not be redistributed, so the tests run on this generator instead: it
-reproduces the format (identify.io.ttc: the channel names, units and SAE signs, ``.mat`` v5
+reproduces the format (identify.io.ttc.files: the channel names, units and SAE signs, ``.mat`` v5
 with the ``channel`` struct and the strings, tab-separated ``.dat`` with a three-line header),
 the structure of a session (identify.simulate.ttc_plan: pressure blocks, warm-ups, load and
 camber steps, continuous sweeps, transitions), the drift and temperatures of a real machine
@@ -23,10 +23,10 @@ import numpy as np
 import pandas as pd
 import scipy.io
 
+from identify.core.atomic import temp_dir
 from identify.core.errors import InputError
 from identify.core.version import __version__
-from identify.io.atomic import temp_dir
-from identify.io.mat73 import write_mat73
+from identify.io.ttc.mat73 import write_mat73
 from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import run_rng
 from identify.simulate.coefficients import DEFAULT_RELATIONS
@@ -127,7 +127,7 @@ def simulate_ttc(tir_params: Mapping[str, float], outdir: str | Path, *, seed: i
         The ``tireid`` string of the files.
     mat_version : {"5", "7.3"}
         MATLAB format of the ``.mat`` files: v5 (what ``save -v7`` writes, uncompressed) or
-        v7.3 (HDF5 inside, identify.io.mat73).
+        v7.3 (HDF5 inside, identify.io.ttc.mat73).
     relaxation : float [m]
         Lateral relaxation length: the model sees the slip angle through a first-order lag
         of this rolling distance, the SA channel records the slip angle set

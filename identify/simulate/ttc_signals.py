@@ -36,7 +36,7 @@ import numpy as np
 from scipy.signal import lfilter
 
 from identify.core.units import to_si
-from identify.io.ttc import TTC_CHANNELS
+from identify.io.ttc.files import TTC_CHANNELS
 from identify.model.modes import TRAILER_MODE
 from identify.simulate.artefacts import ar1_unit
 from identify.simulate.model import TyreModel

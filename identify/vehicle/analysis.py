@@ -10,8 +10,9 @@ is listed in the setting's ``validity_notes`` and marked on the handling curve.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass, field
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import numpy as np
 
@@ -141,7 +142,7 @@ class SettingResult:
                 "frequency_response": {k: list(v) for k, v in self.response.items()}}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "SettingResult":
+    def from_dict(cls, d: Mapping[str, Any]) -> SettingResult:
         figures = {k: (math.nan if d.get(k) is None else float(d[k]))
                    for k in FIGURE_KEYS + EXTRA_KEYS if k in d}
         return cls(d["label"], figures, d["limiting_axle"], bool(d["stable"]),
@@ -180,7 +181,7 @@ class VehicleResult:
                     k: list(v) for k, v in self.stiffness_vs_pressure.items()}}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "VehicleResult":
+    def from_dict(cls, d: Mapping[str, Any]) -> VehicleResult:
         return cls(d["tyre"], VehicleSpec.from_dict(d["vehicle"]),
                    VehicleOptions(**d["options"]),
                    tuple(SettingResult.from_dict(s) for s in d["settings"]),

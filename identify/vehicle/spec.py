@@ -11,10 +11,11 @@ from __future__ import annotations
 import hashlib
 import math
 import tomllib
+from collections.abc import Mapping
 from dataclasses import MISSING, asdict, dataclass, fields
 from importlib.resources import files
 from pathlib import Path
-from typing import Any, Mapping
+from typing import Any
 
 from identify.core.errors import InputError
 
@@ -149,7 +150,7 @@ class VehicleSpec:
                 "vehicle": asdict(self.vehicle), "quarter_car": asdict(self.quarter_car)}
 
     @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> "VehicleSpec":
+    def from_dict(cls, d: Mapping[str, Any]) -> VehicleSpec:
         v = dict(d["vehicle"])
         if v.get("yaw_inertia_kgm2") is None:
             v["yaw_inertia_kgm2"] = math.nan

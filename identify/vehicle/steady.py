@@ -65,7 +65,7 @@ class AxleSetup:
     c_fy: float = 0.0
     c_mz: float = 0.0
 
-    def rigid(self) -> "AxleSetup":
+    def rigid(self) -> AxleSetup:
         """The same axle without compliance steer."""
         return AxleSetup(self.axle, self.camber_rad, self.toe_rad)
 

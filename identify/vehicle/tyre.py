@@ -15,8 +15,9 @@ a straight road needs no steering to cancel the tyres' ply steer and conicity.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Mapping, Protocol
+from typing import Protocol
 
 import numpy as np
 
@@ -41,7 +42,7 @@ class ValidityRange:
     camber_rad: tuple[float, float] = (-math.inf, math.inf)
 
     @classmethod
-    def from_params(cls, P: Mapping[str, float]) -> "ValidityRange":
+    def from_params(cls, P: Mapping[str, float]) -> ValidityRange:
         def pair(lo, hi):
             return (float(P.get(lo, -math.inf)), float(P.get(hi, math.inf)))
         return cls(pair("PRESMIN", "PRESMAX"), pair("FZMIN", "FZMAX"),

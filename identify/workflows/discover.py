@@ -5,7 +5,7 @@ Outputs (each written atomically): ``discovery.json`` (schema in
 enriched ``<tyre id>.tir`` (the base .tir with the discovery's one model state: every key some
 problem fits or tests, from the problem that owns it, :mod:`identify.discover.state`) and
 ``fit.json``
-(the final fits, ``mfid.fit/1`` layout). The measurement folder is only read.
+(the final fits, ``mfid.fit/2`` layout). The measurement folder is only read.
 """
 from __future__ import annotations
 
@@ -17,9 +17,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from identify.core.atomic import atomic_write_text
 from identify.core.errors import InputError
-from identify.core.names import name_problem
 from identify.core.jsonsafe import json_text
+from identify.core.names import name_problem
 from identify.core.progress import Progress
 from identify.core.version import __version__
 from identify.discover.library import load_library
@@ -34,13 +35,12 @@ from identify.discover.problems import (
 from identify.discover.result import Discovery
 from identify.discover.search import Settings, discover
 from identify.extract import extract_folder
-from identify.fit.relations import Context
+from identify.fit.relations.problems import Context
 from identify.fit.run import JSON_NAME, FitRun, Provenance, failures
 from identify.fit.sources import KeySource
-from identify.io.atomic import atomic_write_text
 from identify.io.fitdir import write_fit_json
 from identify.io.folder import load_folder
-from identify.io.outputs import Inputs, check_files_in, check_folder_output, measurement_inputs
+from identify.io.output_guard import Inputs, check_files_in, check_folder_output, measurement_inputs
 from identify.io.tir import read_tir, write_tir
 from identify.io.tir.write import source_text
 from identify.model.parameters import spec

@@ -20,31 +20,30 @@ import numpy as np
 import pandas as pd
 from threadpoolctl import threadpool_limits
 
+from identify.core.atomic import atomic_path
 from identify.core.errors import InputError
 from identify.core.names import name_problem
 from identify.core.progress import Progress
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
 from identify.fit.identifiability import assess
-from identify.fit.mcmc import ChainSession, run_mcmc
-from identify.fit.mcmc_steps import ChainProgress
-from identify.fit.mf_constraints import violations
-from identify.fit.mf_stage_defs import STAGES
-from identify.fit.mf_stages import fit_mf, stage_mcmc
-from identify.fit.mf_profile import profile_intervals
-from identify.fit.mf_uncertainty import propagate
-from identify.fit.plan import PLAN, RELATION_NAMES
-from identify.fit.pressure_holdout import pressure_holdout
-from identify.fit.relations import Context
+from identify.fit.mcmc.chains import ChainSession, run_mcmc
+from identify.fit.mcmc.steps import ChainProgress
+from identify.fit.mf.constraints import violations
+from identify.fit.mf.pressure_holdout import pressure_holdout
+from identify.fit.mf.profile import profile_intervals
+from identify.fit.mf.stage_specs import STAGES
+from identify.fit.mf.stages import fit_mf, stage_mcmc
+from identify.fit.mf.uncertainty import propagate
+from identify.fit.relations.plan import PLAN, RELATION_NAMES
+from identify.fit.relations.problems import Context
 from identify.fit.result import FitResult
 from identify.fit.run import FitRun, FitSettings, Provenance, failures
 from identify.fit.sources import DEFAULT, FITTED, KeySource
-from identify.io.atomic import atomic_path
 from identify.io.fitdir import rows_of, write_fit_dir
 from identify.io.folder import MeasurementSet, load_folder
-from identify.io.outputs import check_fit_outputs, measurement_inputs
-from identify.model.parameters import defaults
-from identify.model.parameters import spec
+from identify.io.output_guard import check_fit_outputs, measurement_inputs
+from identify.model.parameters import defaults, spec
 from identify.workflows import tir_assembly as TA
 from identify.workflows.sweep_bins import mf_table, segment_settings
 from identify.workflows.trailer_prep import prepare_trailer
@@ -262,12 +261,12 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
     ``check_outputs`` is called with the tyre id as soon as it is known, before any fit: the
-    caller's check of the paths it will write (identify.io.outputs.check_fit_outputs), so that
+    caller's check of the paths it will write (identify.io.output_guard.check_fit_outputs), so that
     a bad output path fails before the work, not after it; by default the fit directory is
     checked against ``source`` (never inside the measurement folder).
 
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
-    and a :class:`identify.fit.mcmc_steps.ChainProgress` about once a second while it runs and when
+    and a :class:`identify.fit.mcmc.steps.ChainProgress` about once a second while it runs and when
     it stops.
 
     Returns
@@ -370,7 +369,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                             if k in ef.result.parameters})
 
     coverage: tuple = ()
-    holdout: dict = {}  # the pressure page's record (identify.fit.pressure_holdout)
+    holdout: dict = {}  # the pressure page's record (identify.fit.mf.pressure_holdout)
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
@@ -485,7 +484,7 @@ def _nothing_to_fit(mset, coverage: tuple, only: bool) -> str:
 
 def _broken_validity(tir: dict, points: pd.DataFrame) -> tuple[str, ...]:
     """``tir[validity]: ...`` for every MF validity condition the written values break within
-    the written limits, at the pressures of the fitted points (identify.fit.mf_constraints.
+    the written limits, at the pressures of the fitted points (identify.fit.mf.constraints.
     violations): the stages hold them over the same ranges, so a line here means a stage
     whose constraints could not be met."""
     pressures = np.unique(pd.to_numeric(points["pi_bar"], errors="coerce").dropna()) * 1e5

@@ -36,17 +36,17 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from identify.core.atomic import replace_dir, temp_dir
 from identify.core.errors import InputError
 from identify.core.names import safe_name
-from identify.core.tyre_size import find_tyre_size
 from identify.core.progress import Progress
+from identify.core.tyre_size import find_tyre_size
 from identify.core.version import __version__
-from identify.io.atomic import replace_dir, temp_dir
 from identify.io.common import Problems, sha256_file
 from identify.io.manifest import MANIFEST_NAME
-from identify.io.quirks import DataWarning
-from identify.io.trailer import CHANNELS, Channels, channels_to_tidy, read_channels
-from identify.io.ttc import TTC_TO_TYDEX
+from identify.io.trailer.files import CHANNELS, Channels, channels_to_tidy, read_channels
+from identify.io.trailer.quirks import DataWarning
+from identify.io.ttc.files import TTC_TO_TYDEX
 from identify.segment import Segmentation, segment_trailer
 from identify.simulate.manifest import toml_value
 

@@ -19,7 +19,7 @@ A trailer logging at 100 Hz records a slip sweep as thousands of samples whose n
 the same information. The averaging itself is the segmentation's ``binning`` filter
 (:func:`identify.segment.filters.binning`: one point per bin of the swept variable and segment,
 every channel the mean of its samples); here the segments it needs are labelled on a trailer
-table that was not segmented: a segment is a sweep of :func:`identify.fit.mf_data.sweep_ids`
+table that was not segmented: a segment is a sweep of :func:`identify.fit.mf.stage_data.sweep_ids`
 (a new run, a time gap or a load step) at one inclination and pressure level, swept in slip
 ratio when its kappa spans more than ``mf_data.SWEEP_KAPPA``, else in slip angle when its alpha
 spans more than ``mf_data.SWEEP_ANGLE``.
@@ -42,8 +42,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from identify.fit import mf_data
-from identify.fit.mf_data import SEGMENT_COLUMN
+from identify.fit.mf import stage_data as mf_data
+from identify.fit.mf.stage_data import SEGMENT_COLUMN
 from identify.fit.run import FitSettings
 from identify.segment import FilterCount, SegmentSettings, segment_trailer
 from identify.segment.filters import binning
@@ -92,7 +92,7 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
     Parameters
     ----------
     trailer : DataFrame
-        The tidy trailer table (identify.io.trailer); not modified.
+        The tidy trailer table (identify.io.trailer.files); not modified.
     fnomin : float [N]
         Nominal load (the load steps that start a new sweep, mf_data.sweep_ids).
     alpha_deg : float or None [deg]
@@ -146,7 +146,7 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, settings: S
     Parameters
     ----------
     trailer : DataFrame
-        The tidy trailer table (identify.io.trailer); not modified.
+        The tidy trailer table (identify.io.trailer.files); not modified.
     fnomin : float [N]
         Nominal load.
     segment : bool

@@ -9,8 +9,8 @@ came from (:class:`identify.fit.sources.KeySource`):
   default and, when the data cannot identify a coefficient, a re-fit with it held
   (:func:`fit_entry`; the status says so);
 - for a relation with a nested pair of forms the form chosen by the data
-  (:func:`identify.fit.forms.choose_form`) or by ``--form``, whose keys (and implied constants,
-  CMZ_FORM ...) go into the .tir (:func:`write_relation`);
+  (:func:`identify.fit.relations.forms.choose_form`) or by ``--form``, whose keys (and implied
+  constants, CMZ_FORM ...) go into the .tir (:func:`write_relation`);
 - the validity limits from the measured ranges of the points that fitted the force model: the
   MF stages' when there are any, else every relation's (:func:`apply_limits`);
 - every other key: its default, marked as not identified by these data (:func:`complete`).
@@ -30,15 +30,24 @@ import pandas as pd
 from identify.core.errors import InputError
 from identify.core.tyre import TyreInfo
 from identify.core.tyre_size import parse_tyre_size
-from identify.fit.forms import NESTED_FORMS, FormChoice, choose_form
 from identify.fit.identifiability import POOR, assess, problems, suspects
 from identify.fit.limits import LIMIT_COLUMNS, measured_limits
 from identify.fit.optimize import fit
-from identify.fit.plan import PLAN, PlanEntry, entry as plan_entry, forms_of
-from identify.fit.problem import FitProblem
+from identify.fit.relations.forms import NESTED_FORMS, FormChoice, choose_form
+from identify.fit.relations.plan import PLAN, PlanEntry, forms_of
+from identify.fit.relations.plan import entry as plan_entry
 from identify.fit.result import FitResult
-from identify.fit.sources import (DEFAULT, FITTED, FORMAT, HELD, MEASURED, SETTING, TYRE_TOML,
-                                  KeySource)
+from identify.fit.solve.problem import FitProblem
+from identify.fit.sources import (
+    DEFAULT,
+    FITTED,
+    FORMAT,
+    HELD,
+    MEASURED,
+    SETTING,
+    TYRE_TOML,
+    KeySource,
+)
 from identify.model.parameters import PARAMETERS, spec
 
 __all__ = ["FORMAT_SECTIONS", "HOLD_TOLERANCE", "EntryFit", "apply_limits", "apply_tyre",
@@ -280,7 +289,7 @@ def relation_reach(chars: pd.DataFrame, ctx, wanted: Callable[[str], bool]) -> d
 
     ``measured_limits`` of the points of every plan entry of a ``wanted`` relation that builds
     a problem on ``chars`` (the rows measured_vs_model.csv will hold for them): what the MF
-    stages' validity grid must cover besides the trailer data (identify.fit.mf_stages.fit_mf
+    stages' validity grid must cover besides the trailer data (identify.fit.mf.stages.fit_mf
     ``reach``), so that :func:`apply_limits` states no range the conditions were not held
     over. ``ctx``: the relations' Context.
     """

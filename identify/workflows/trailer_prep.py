@@ -10,7 +10,7 @@ angle, cold tread, low speed). Runs in the other formats
 are test-by-test files whose every sample is a measurement, and are used as loaded.
 
 A channel is unavailable to the fit when it is absent from every run or was dropped as
-implausible while loading (identify.io.quirks); :func:`prepare_trailer` says why, per tidy
+implausible while loading (identify.io.trailer.quirks); :func:`prepare_trailer` says why, per tidy
 column, so that the stages needing it are skipped with that reason
 (identify.fit.coverage.mf_coverage) instead of being fitted to placeholder data.
 """
@@ -23,7 +23,7 @@ from typing import Any
 
 import pandas as pd
 
-from identify.fit.mf_data import SEGMENT_COLUMN
+from identify.fit.mf.stage_data import SEGMENT_COLUMN
 from identify.segment import LEVEL_COLUMNS, Segmentation, SegmentSettings, segment_trailer
 from identify.segment.turnaround import turnaround_mask
 
@@ -39,7 +39,7 @@ then fitted rather than left out."""
 SEGMENTED_SUFFIXES = (".mat", ".dat")
 """Run files whose runs are continuous logs and are segmented before fitting (TTC)."""
 
-#: implausible-warning detail (identify.io.quirk_checks) -> the tidy column it dropped
+#: implausible-warning detail (identify.io.trailer.quirk_checks) -> the tidy column it dropped
 _IMPLAUSIBLE = (("wheel speed", "omega"), ("slip ratio pinned", "kappa"),
                 ("effective rolling radius", "re"), ("loaded radius", "rl"))
 _USED = ("omega", "kappa", "rl", "Fx", "Fy", "Mz", "Mx", "My")

@@ -17,15 +17,23 @@ from typing import Any
 import pandas as pd
 from matplotlib.backends.backend_pdf import PdfPages
 
+from identify.core.atomic import atomic_path, atomic_write_csv, atomic_write_text
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_text
 from identify.core.version import __version__
-from identify.io.atomic import atomic_path, atomic_write_csv, atomic_write_text
 from identify.io.tir import read_tir
 from identify.report.pdf import add_outline
 from identify.report.vehicle_pages import VEHICLE_DIR, vehicle_pages
-from identify.vehicle.analysis import (BAR, DEFAULT_SETTINGS_BAR, EXTRA_KEYS, FIGURE_KEYS,
-                                       VehicleOptions, VehicleResult, analyse, parse_pressures)
+from identify.vehicle.analysis import (
+    BAR,
+    DEFAULT_SETTINGS_BAR,
+    EXTRA_KEYS,
+    FIGURE_KEYS,
+    VehicleOptions,
+    VehicleResult,
+    analyse,
+    parse_pressures,
+)
 from identify.vehicle.spec import VehicleSpec, default_vehicle, read_vehicle
 from identify.vehicle.tyre import MfTyre
 

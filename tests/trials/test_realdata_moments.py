@@ -9,7 +9,7 @@ import pytest
 from typer.testing import CliRunner
 
 from identify.cli.app import app
-from identify.fit.mf_data import run_sweeps
+from identify.fit.mf.stage_data import run_sweeps
 from identify.io.folder import load_folder
 from tests.realdata import SETS, trailer_files
 

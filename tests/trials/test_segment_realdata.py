@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from identify.io.trailer import read_trailer
+from identify.io.trailer.files import read_trailer
 from identify.segment import segment_trailer
 from tests.realdata import REALDATA, require_realdata
 

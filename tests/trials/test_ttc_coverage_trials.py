@@ -83,7 +83,7 @@ def test_no_coefficient_misses_beyond_chance(tables):
     misses exceed what calibrated 95 % intervals would give, one-sided binomial p-values with
     Holm's step-down at family-wise 5 %, and the pooled coverage within its binomial band of
     95 %. Calibrated intervals pass this at least 95 % of the time; PVX1 at 20 of 30 seeds
-    (before the score test, identify.fit.mf_score) failed it. Met on seeds 0-9 at 74df16e
+    (before the score test, identify.fit.mf.score_test) failed it. Met on seeds 0-9 at 74df16e
     (pooled 891 / 934); over 60 seeds it names Fx0's PCX1 and PEX1 (two basins) and Q_FCY
     (its gate's false positives)."""
     _, t, _ = tables

@@ -28,9 +28,9 @@ import unicodedata
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
+from identify.core.atomic import atomic_write_text
 from identify.core.version import __version__
 from identify.model.parameters import PARAMETERS, SECTIONS, defaults, spec
-from identify.io.atomic import atomic_write_text
 
 __all__ = ["write_tir", "format_tir", "format_value", "source_text", "comment_text",
            "DEFAULT_SOURCE", "FIT_DIGITS", "ZERO_MARK", "ZERO_T", "holds_zero"]

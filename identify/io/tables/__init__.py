@@ -1,0 +1,1 @@
+"""Tables read from CSV: characteristic tables and operating points."""

@@ -1,0 +1,326 @@
+"""Tire Test Consortium (TTC) trailer files: MATLAB ``.mat`` (v5/v7 and v7.3) and ``.dat``.
+
+The layout follows the public description of the TTC data (Calspan flat-belt machine, 100 Hz):
+
+- ``.mat`` (MATLAB v5 or v7, read with :func:`scipy.io.loadmat`; v7.3, which is HDF5, with
+  :mod:`identify.io.ttc.mat73`): one column vector per channel
+  (:data:`TTC_CHANNELS`), a struct ``channel`` whose cell arrays ``name`` and ``units`` give
+  each channel's unit, and the strings ``source``, ``testid`` and ``tireid``;
+- ``.dat``: line 1 a title, line 2 the channel names, line 3 their units, data from line 4,
+  tab-separated;
+- the older ``.mat`` layout (earlier rounds, and files converted by teams): the same vectors
+  without the ``channel`` struct. The units then follow the TTC convention
+  (:func:`convention_units`: SI, or USCS when the pressure is in psi), said in a warning;
+  the user's ``--units`` replace the assumed ones.
+
+A channel of another length than the time (an index vector assembled by hand) is left out
+with a warning and the rest of the file is read. So is a MATLAB ``logical`` (true/false)
+vector: a flag read as 1/0 is not a measurement (``true`` as a camber would be 57 deg); one in
+the place of a channel the fit cannot do without (:data:`LOGICAL_REFUSED`) refuses the file.
+
+Both come in SI (kph, N, N-m, kPa, cm, deg C) and USCS (mph, lbf, ft-lb, psi, in, deg F)
+variants; the units are read from the file and converted by :mod:`identify.core.units`. The
+axes are SAE (FZ is negative under load; SA, FY and MZ change sign to ISO-W), so a run read
+here declares ``axes = "SAE"``. Of the two slip ratios, SL (based on the effective radius:
+SL = 0 gives FX = 0) is kappa; SR (based on the loaded radius) is kept but not used.
+
+Channels keep their TTC names here; :data:`TTC_TO_TYDEX` says which TYDEX channel each one is
+for :mod:`identify.io.trailer.files` (temperatures and radii become optional columns of the tidy
+table). Every unusable file gives one problem naming the file (and the channel when there is
+one): not a MATLAB v5/v7/v7.3 file, a truncated or corrupt one, a ``.dat`` whose header is short, a
+channel without a unit in a file that lists units. The channel table is
+:mod:`identify.io.ttc.channel_names`, the ``.dat`` reader :mod:`identify.io.ttc.dat`.
+"""
+from __future__ import annotations
+
+import io
+from collections.abc import Mapping
+from pathlib import Path
+
+import numpy as np
+import scipy.io
+
+from identify.io.common import Problems, open_text, starts_with
+from identify.io.hdf5.channel_files import RawRun
+from identify.io.ttc.channel_names import (
+    TTC_CHANNELS,
+    TTC_TO_TYDEX,
+    TtcChannel,
+    is_ttc_naming,
+    ttc_name,
+)
+from identify.io.ttc.dat import read_dat
+from identify.io.ttc.mat73 import Mat73Error, Mat73Unread, is_mat73_header, read_mat73
+from identify.io.ttc.mat_guard import loadmat_crash, mat_problem
+
+__all__ = [
+    "READER_NOTES",
+    "TTC_CHANNELS",
+    "TTC_STRINGS",
+    "TTC_TO_TYDEX",
+    "TtcChannel",
+    "UNITS_SOURCE",
+    "convention_units",
+    "reader_note",
+    "reader_notes",
+    "is_ttc_dat",
+    "is_ttc_mat",
+    "is_ttc_naming",
+    "read_ttc",
+    "ttc_name",
+]
+
+MAT_MAGIC = b"MATLAB"
+#: The strings a TTC .mat file carries besides the channels.
+TTC_STRINGS = ("source", "testid", "tireid")
+
+
+def is_ttc_mat(path: str | Path) -> bool:
+    """True when the file starts like a MATLAB .mat file (``MATLAB`` text header)."""
+    return starts_with(path, MAT_MAGIC)
+
+
+def is_ttc_dat(path: str | Path) -> bool:
+    """True for a ``.dat`` file, or a text file whose line 2 holds tab-separated TTC names."""
+    path = Path(path)
+    if path.suffix.lower() == ".dat":
+        return True
+    try:
+        with open_text(path, encoding="utf-8", errors="replace") as fh:
+            fh.readline()
+            names = fh.readline().rstrip("\r\n").split("\t")
+    except (OSError, EOFError):
+        return False
+    return len(names) > 2 and is_ttc_naming(n.strip() for n in names)
+
+
+def read_ttc(path: str | Path, problems: Problems, *, run: str | None = None) -> RawRun | None:
+    """Read a TTC ``.mat`` or ``.dat`` file as stored (TTC names, file units, SAE axes).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (the format is recognised from the content: a MATLAB header, else .dat).
+    problems : Problems
+        Collector.
+    run : str, optional
+        The run id (default: the file stem).
+
+    Returns
+    -------
+    RawRun or None
+        Channels (float arrays), units, long names; ``attrs`` holds ``axes = "SAE"``, the
+        format and, from a .mat file, ``source``, ``testid`` and ``tireid``.
+    """
+    path = Path(path)
+    start = problems.total
+    read = _read_mat if is_ttc_mat(path) else read_dat
+    found = read(path, problems)
+    if found is None:
+        return None
+    data, units, attrs = found
+    units = {k: text for k, u in units.items() if (text := _unit(k, u))}
+    if "ET" not in data:
+        problems.add(path, "missing required channel (elapsed time)", key="ET")
+        return None
+    if problems.total > start:
+        return None
+    n = data["ET"].size
+    notes = [attrs.pop(READER_NOTES)] if attrs.get(READER_NOTES) else []
+    for name in [k for k, v in data.items() if v.size != n]:
+        # a channel of another length than the time (an index vector such as RUN that was
+        # assembled by hand, a channel cut short): its samples cannot be matched to the
+        # others' times, so it is left out and the rest is read
+        notes.append(reader_note(name, f"{data[name].size} samples, but ET has {n}",
+                                 "channel left out"))
+        del data[name]
+        units.pop(name, None)
+    if notes:
+        attrs[READER_NOTES] = "\n".join(notes)
+    long_names = {k: TTC_CHANNELS[k].long_name if k in TTC_CHANNELS else k for k in data}
+    return RawRun(run or path.stem, data, units, long_names, {"axes": "SAE", **attrs})
+
+
+def _unit(name: str, unit: str) -> str:
+    """A TTC channel's unit with the spellings of a temperature (``C``, ``F``) and of a
+    dimensionless channel (a blank cell) that only its dimension makes clear."""
+    dim = TTC_CHANNELS[name].dimension if name in TTC_CHANNELS else None
+    text = unit.strip()
+    if dim == "temperature" and text.upper() in ("C", "F"):
+        return f"deg {text.upper()}"
+    return "none" if dim == "ratio" and not text else text
+
+
+def _text(value) -> str:
+    if isinstance(value, np.ndarray):
+        return " ".join(_text(v) for v in value.reshape(-1))
+    return value.decode("utf-8", "replace") if isinstance(value, bytes) else str(value)
+
+
+class _TtcVariables:
+    """The variables of a TTC .mat file that must be read (any case of a channel's name): a
+    v7.3 variable of another MATLAB class is left out, as in a v5 file."""
+
+    def __contains__(self, name: object) -> bool:
+        return isinstance(name, str) and (ttc_name(name) in TTC_CHANNELS
+                                          or name in ("channel", *TTC_STRINGS))
+
+
+def _read_mat(path: Path, problems: Problems):
+    try:
+        with open(path, "rb") as fh:
+            head = fh.read(128)
+            v73 = is_mat73_header(head)  # HDF5 inside: h5py reads it from the file
+            data = b"" if v73 else head + fh.read()
+    except OSError as exc:
+        problems.add(path, f"cannot read file: {exc.strerror or exc}")
+        return None
+    if v73:
+        try:
+            mat = read_mat73(path, needed=_TtcVariables())
+        except Mat73Unread as exc:
+            problems.add(path, f"MATLAB v7.3 .mat file: {exc}")
+            return None
+        except Mat73Error as exc:
+            problems.add(path, f"truncated or corrupt MATLAB v7.3 .mat file ({exc})")
+            return None
+        return _contents(path, mat, problems, "ttc-mat73")
+    v5 = data[126:128] in (b"IM", b"MI")
+    why = (mat_problem(data) or loadmat_crash(data)) if v5 else None
+    if why is not None:  # scipy.io would crash on some (a segmentation fault)
+        problems.add(path, f"truncated or corrupt .mat file ({why})")
+        return None
+    try:
+        mat = scipy.io.loadmat(io.BytesIO(data), simplify_cells=True)
+    except NotImplementedError:  # a version scipy does not know, not v5 nor v7.3
+        problems.add(path, "not a MATLAB v5 or v7.3 .mat file: save it with -v7 or -v7.3")
+        return None
+    except Exception as exc:  # noqa: BLE001 - scipy.io's parser of untrusted bytes raises
+        # any type on a corrupt file (MatReadError, ValueError, zlib.error, and even
+        # UnboundLocalError from its Cython reader, found by tests/unit/test_hostile_hypothesis.py)
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
+                           f"{type(exc).__name__}: {exc})")
+        return None
+    try:  # scipy.io gives a logical array as uint8: its class tells it from a measurement
+        logical = {name for name, _, cls in scipy.io.whosmat(io.BytesIO(data))
+                   if cls == "logical"}
+    except Exception as exc:  # noqa: BLE001 - as loadmat above
+        problems.add(path, f"truncated or corrupt .mat file (scipy.io: "
+                           f"{type(exc).__name__}: {exc})")
+        return None
+    mat = {k: np.asarray(v, dtype=bool) if k in logical else v for k, v in mat.items()}
+    return _contents(path, mat, problems, "ttc-mat")
+
+
+def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
+    """The channels, their units and the strings of a loaded .mat file (either version)."""
+    start = problems.total
+    struct = mat.get("channel")
+    names, unit_list = ([], [])
+    if isinstance(struct, (list, np.ndarray)) and len(struct) and all(
+            isinstance(e, Mapping) for e in np.ravel(struct)):  # a struct array, one per channel
+        struct = {k: [e.get(k, "") for e in np.ravel(struct)] for k in ("name", "units")}
+    if isinstance(struct, Mapping):  # names padded to a char matrix's width, any case
+        names = [_text(v).strip() for v in np.atleast_1d(struct.get("name", []))]
+        names = [n if ttc_name(n) in names else ttc_name(n) for n in names]
+        unit_list = [_text(v).strip() for v in np.atleast_1d(struct.get("units", []))]
+    units = dict(zip(names, unit_list))
+    data: dict[str, np.ndarray] = {}
+    logical: dict[str, int] = {}  # MATLAB logical vectors: name -> samples
+    for key, value in mat.items():
+        if key.startswith("__") or key == "channel" or key in TTC_STRINGS:
+            continue
+        array = np.asarray(value)
+        if array.dtype.kind not in "fiub" or array.ndim > 1 and min(array.shape) > 1:
+            continue  # not a channel (a string, a struct, a matrix)
+        name = ttc_name(key) if ttc_name(key) not in mat else key  # "fz" next to "FZ": kept
+        if array.dtype.kind == "b":
+            logical[name] = array.size
+            continue
+        data[name] = np.atleast_1d(array).reshape(-1).astype(np.float64)
+    n = data["ET"].size if "ET" in data else None
+
+    def channel(name: str, size: int) -> bool:
+        # a number or vector of another length that the channel struct does not list (a rim
+        # width, a calibration constant) is not a channel
+        return name in units or name in TTC_CHANNELS or n is None or size == n
+
+    data = {k: v for k, v in data.items() if channel(k, v.size)}
+    # true/false read as 1/0 would be a camber of 57 deg: a flag is not a measurement
+    notes = []
+    for name in [k for k, size in logical.items() if channel(k, size)]:
+        if name in LOGICAL_REFUSED:
+            problems.add(path, "a MATLAB logical (true/false) array, not a measurement",
+                         key=name)
+        else:
+            notes.append(reader_note(name, "a MATLAB logical (true/false) array, not a "
+                                           "measurement", "channel left out"))
+    if problems.total > start:
+        return None
+    # in the channel struct's order: a v7.3 file lists its variables by name
+    order = {name: i for i, name in enumerate(names)}
+    data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
+    if not data:
+        problems.add(path, "no channel vectors in the .mat file")
+        return None
+    attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
+    if not units:  # the older layout: no channel struct, the units follow a convention
+        units, note = convention_units(data)
+        attrs[UNITS_SOURCE] = "convention"
+        notes.append(reader_note("channel", note, "units assumed"))
+    if notes:
+        attrs[READER_NOTES] = "\n".join(notes)
+    return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
+
+
+#: TTC channels a run cannot do without (identify.io.trailer.files's required channels, less the
+#: wheel speed older rounds lack): one held as a MATLAB logical array refuses the file.
+LOGICAL_REFUSED = frozenset({"ET", "V", "SA", "IA", "P", "SL", "FX", "FY", "FZ", "MX", "MZ"})
+#: ``attrs`` key of a run read here: what the reader decided about the file, one line each
+#: (channels left out, units taken by convention); the trailer loader gives them as warnings.
+READER_NOTES = "reader_notes"
+#: ``attrs`` key: ``"convention"`` when the units are not in the file but assumed (a unit
+#: given by the manifest or ``--units`` then replaces the assumed one without a conflict).
+UNITS_SOURCE = "units_source"
+#: Median inflation pressure below which a file without units is taken to be in psi [file
+#: units]: no tyre is tested below 45 kPa (6.5 psi), and none above 45 psi is in kPa's range.
+PSI_BELOW = 45.0
+
+
+def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], str]:
+    """The units of a TTC file that does not give them, and the note that says so.
+
+    Older TTC files (and files converted by teams) carry no ``channel`` struct. The TTC SI
+    convention is then assumed (ET s, V kph, N rpm, SA/IA deg, RL/RE cm, P kPa, forces N,
+    moments N-m, temperatures deg C); a file whose median pressure is below
+    :data:`PSI_BELOW` is in the USCS convention (psi, lbf, ft-lb, mph, in, deg F): no tyre is
+    tested below 45 kPa, so a kPa file is never read as psi. A USCS file of a tyre above
+    45 psi (a truck tyre) reads as kPa; its pressure is then implausibly low for the load,
+    and ``--units`` (named in the warning) sets the file's units.
+    """
+    pressure = data.get("P")
+    finite = pressure[np.isfinite(pressure)] if pressure is not None else np.empty(0)
+    median = float(np.median(finite)) if finite.size else float("nan")
+    uscs = bool(0.0 < median < PSI_BELOW)
+    units = {name: (ch.uscs_unit if uscs else ch.si_unit) for name, ch in TTC_CHANNELS.items()
+             if name in data}
+    system = "USCS (psi, lbf, ft-lb, mph, in, deg F)" if uscs else \
+        "TTC SI (kPa, N, N-m, kph, cm, deg C)"
+    why = (f"the median pressure {median:.4g} is below {PSI_BELOW:g}, so psi" if uscs else
+           f"the median pressure {median:.4g} is a pressure in kPa" if np.isfinite(median)
+           else "no pressure channel to tell psi from kPa")
+    return units, (f"no 'channel' struct with the units: the {system} convention is "
+                   f"assumed ({why}); --units CHANNEL=UNIT sets another")
+
+
+def reader_note(channel: str, detail: str, action: str) -> str:
+    """One line of :data:`READER_NOTES`: the channel, what was found, what was done."""
+    return "\t".join((channel, detail.replace("\t", " "), action))
+
+
+def reader_notes(attrs: Mapping[str, str]) -> list[tuple[str, str, str]]:
+    """The (channel, detail, action) triples of a run's :data:`READER_NOTES`."""
+    lines = str(attrs.get(READER_NOTES, "")).split("\n")
+    return [tuple(line.split("\t", 2)) for line in lines if line.count("\t") >= 2]
+
+

@@ -1,0 +1,103 @@
+"""identify.core.serial: fields in, fields out; fit.json of version 1 still loads (migration)."""
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import pytest
+
+from identify.core.errors import InputError
+from identify.core.serial import Schema, from_data, to_data
+from identify.fit.run import (
+    FIT_SCHEMA,
+    RECORD_DEFAULTS,
+    SCHEMA,
+    FitRun,
+    FitSettings,
+    InputFile,
+    Provenance,
+)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Inner:
+    x: float
+    tags: tuple[str, ...] = ()
+
+
+@dataclasses.dataclass(frozen=True)
+class _Outer:
+    name: str
+    inner: _Inner
+    others: tuple[_Inner, ...] = ()
+    limit: float | None = None
+    table: dict[str, float] = dataclasses.field(default_factory=dict)
+
+
+def test_a_dataclass_round_trips_field_by_field():
+    obj = _Outer("a", _Inner(math.nan, ("p", "q")), (_Inner(1.5),), 2.0, {"k": 3.0})
+    data = to_data(obj)
+    assert data == {"name": "a", "inner": {"x": None, "tags": ["p", "q"]},
+                    "others": [{"x": 1.5, "tags": []}], "limit": 2.0, "table": {"k": 3.0}}
+    back = from_data(_Outer, data)
+    assert math.isnan(back.inner.x)  # null reads back as NaN for a float field
+    assert dataclasses.replace(back, inner=_Inner(0.0, ("p", "q"))) == dataclasses.replace(
+        obj, inner=_Inner(0.0, ("p", "q")))
+
+
+def test_a_missing_field_takes_its_default_and_an_unknown_one_is_refused():
+    assert from_data(_Outer, {"name": "a", "inner": {"x": 1.0}}) == _Outer("a", _Inner(1.0))
+    with pytest.raises(TypeError, match="unknown field"):
+        from_data(_Outer, {"name": "a", "inner": {"x": 1.0}, "colour": "red"})
+
+
+def test_migrations_run_in_order_and_an_unknown_version_is_refused():
+    schema = Schema("demo", 3, {1: lambda d: {**d, "b": 1}, 2: lambda d: {**d, "c": d["b"] + 1}})
+    doc = {"schema": "demo/1", "a": 0}
+    assert schema.upgrade(doc) == {"schema": "demo/3", "a": 0, "b": 1, "c": 2}
+    assert doc == {"schema": "demo/1", "a": 0}  # the input is not modified
+    for bad in ({"schema": "demo/4"}, {"schema": "demo/0"}, {"schema": "other/3"}, {}):
+        with pytest.raises(ValueError, match="expected 'demo/3'"):
+            schema.upgrade(bad)
+
+
+def test_the_provenance_records_round_trip():
+    s = FitSettings(seed=3, only=("CFz",), hold=("PKY4",), mcmc_budget_s=None)
+    assert FitSettings.from_dict(s.to_dict()) == s
+    p = Provenance("0.1.0", "2020-01-01T00:00:00+00:00", "mfid fit x", 3, s,
+                   (InputFile("x/tyre.toml", "ab" * 32),))
+    assert Provenance.from_dict(p.to_dict()) == p
+    assert list(p.to_dict()) == ["mfid_version", "created_utc", "command", "seed", "settings",
+                                 "inputs"]
+
+
+def _v1_document() -> dict:
+    """A fit.json of the first layout: no entries recorded later, a plain-string key source,
+    settings without the later settings, null provenance fields."""
+    return {
+        "schema": "mfid.fit/1",
+        "tyre": {"id": "t1", "size": "225/50R17"},
+        "provenance": {"mfid_version": None, "seed": None,
+                       "settings": {"seed": 0, "only": ["CFz"]}},
+        "fits": [],
+        "tir": {"path": "t1.tir", "fittyp": 61, "key_sources": {"PFZ1": "CFz/mf"}},
+    }
+
+
+def test_a_version_1_fit_json_loads_through_the_migration():
+    assert SCHEMA == FIT_SCHEMA.tag == "mfid.fit/2"
+    run = FitRun.from_dict(_v1_document())
+    settings = run.provenance.settings
+    assert settings.mf_passes == RECORD_DEFAULTS["mf_passes"] == 1  # what such a fit ran with
+    assert settings.segment is False and settings.only == ("CFz",)
+    assert run.provenance.seed == 0 and run.provenance.mfid_version == ""
+    assert run.key_sources["PFZ1"].supplied_by == "CFz/mf"
+    assert run.failed == () and run.coverage == () and dict(run.data_quality) == {}
+    doc = run.to_dict()
+    assert doc["schema"] == "mfid.fit/2"
+    assert FitRun.from_dict(doc).to_dict() == doc
+
+
+def test_a_fit_json_of_another_schema_names_the_key():
+    with pytest.raises(InputError, match="schema is 'mfid.fit/9', expected 'mfid.fit/2'"):
+        FitRun.from_dict({"schema": "mfid.fit/9", "fits": []})
