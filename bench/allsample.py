@@ -28,7 +28,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import shutil  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -126,17 +125,16 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=RD.RESULTS)
     a = ap.parse_args(argv)
     sets = RD.find_sets(a.sets)
+    missing = [s for s in sets if not s.is_dir()]
+    if missing:
+        print(f"allsample: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
+        return 2
     if not sets:
         print(f"allsample: no real measurement sets at {RD.REALDATA} (nothing to judge)")
         return 0
-    tirs: dict[str, list[Path]] = {}
-    for item in a.tir:
-        key, _, path = item.partition("=")
-        if not path or not Path(path).is_file():
-            print(f"allsample: --tir {item}: give SET=FILE.tir of an existing file",
-                  file=sys.stderr)
-            return 2
-        tirs.setdefault(key, []).append(Path(path))
+    tirs = RD.set_files(a.tir, "--tir", "allsample")
+    if tirs is None:
+        return 2
     work = Path(tempfile.mkdtemp(prefix="mfid-allsample-"))
     try:
         recs = [judge_set(s, work, a.variants, tirs.get(s.name, []),
@@ -145,9 +143,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         shutil.rmtree(work, ignore_errors=True)
     md = table_md(recs)
     print(md)
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "allsample.md").write_text(md)
-    (a.out / "allsample.json").write_text(json.dumps(recs, indent=1, default=float))
+    RD.write_results(a.out, "allsample", md, recs)
     return 0
 
 

@@ -35,7 +35,6 @@ os.environ.setdefault("MPLBACKEND", "Agg")
 
 import argparse  # noqa: E402
 import dataclasses  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
 import shutil  # noqa: E402
 import sys  # noqa: E402
@@ -150,6 +149,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--out", type=Path, default=RESULTS, help="folder of pressure_cut.{md,json}")
     a = ap.parse_args(argv)
     sets = RD.find_sets(a.sets)
+    missing = [s for s in sets if not s.is_dir()]
+    if missing:
+        print(f"pressure_cut: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
+        return 2
     if not sets:
         print(f"pressure_cut: no real measurement sets at {RD.REALDATA} (nothing to judge)")
         return 0
@@ -162,9 +165,7 @@ def main(argv: Sequence[str] | None = None) -> int:
             shutil.rmtree(work, ignore_errors=True)
     md = table_md(recs)
     print(md)
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "pressure_cut.md").write_text(md)
-    (a.out / "pressure_cut.json").write_text(json.dumps(recs, indent=1, default=float))
+    RD.write_results(a.out, "pressure_cut", md, recs)
     return 0
 
 

@@ -704,6 +704,27 @@ def tables(rec: dict) -> str:
     return "\n".join(lines + [""])
 
 
+def set_files(items: Sequence[str], flag: str, prog: str) -> dict[str, list[Path]] | None:
+    """``SET=FILE.tir`` arguments as {set name: [files]}; None (after a one-line error on
+    stderr) when one does not name an existing file."""
+    out: dict[str, list[Path]] = {}
+    for item in items:
+        key, _, path = item.partition("=")
+        if not path or not Path(path).is_file():
+            print(f"{prog}: {flag} {item}: give SET=FILE.tir of an existing file",
+                  file=sys.stderr)
+            return None
+        out.setdefault(key, []).append(Path(path))
+    return out
+
+
+def write_results(out: Path, name: str, markdown: str, doc: object) -> None:
+    """Write ``name``.md and ``name``.json into the results folder ``out``."""
+    out.mkdir(parents=True, exist_ok=True)
+    (out / f"{name}.md").write_text(markdown)
+    (out / f"{name}.json").write_text(json.dumps(doc, indent=1, default=_json_default))
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sets", nargs="+", metavar="DIR",
@@ -744,14 +765,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     variants = list(a.variants or (QUICK_VARIANTS if a.quick else VARIANTS))
     if "default" not in variants and not (a.reuse and a.variants):
         variants.insert(0, "default")
-    published: dict[str, list[Path]] = {}
-    for item in a.published:
-        key, _, tir = item.partition("=")
-        if not tir or not Path(tir).is_file():
-            print(f"realdata: --published {item}: give SET=FILE.tir of an existing file",
-                  file=sys.stderr)
-            return 2
-        published.setdefault(key, []).append(Path(tir))
+    published = set_files(a.published, "--published", "realdata")
+    if published is None:
+        return 2
     work = a.work or Path(tempfile.mkdtemp(prefix="mfid-realdata-"))
     work.mkdir(parents=True, exist_ok=True)
 
@@ -773,10 +789,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     from identify.core.version import __version__ as version
     doc = {"mfid_version": version, "quick": a.quick, "variants": variants, "tie": TIE,
            "seed": a.seed, "sets": records}
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "realdata.json").write_text(json.dumps(doc, indent=1, default=_json_default))
-    (a.out / "realdata.md").write_text("# Real-data benchmark\n\n"
-                                       + "\n".join(tables(r) for r in records))
+    write_results(a.out, "realdata", "# Real-data benchmark\n\n"
+                  + "\n".join(tables(r) for r in records), doc)
     print(f"wrote {a.out / 'realdata.md'} and {a.out / 'realdata.json'}")
     verdicts = [x["ok"] for r in records for x in r.get("verdict", {}).values() if "ok" in x]
     print("default best or tied on every set and channel: "
