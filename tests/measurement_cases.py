@@ -9,6 +9,8 @@ part of the no-modification test.
 from __future__ import annotations
 
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -189,3 +191,11 @@ def edit(rel: str, old: str | bytes, new: str | bytes, count: int = 1):
         else:
             path.write_text(data.replace(old, new, count))
     return apply
+
+
+def dead_pid() -> int:
+    """A process id that no process runs under: a child that has exited and been reaped
+    (a subprocess, not a fork, which is unsafe once JAX has started its threads)."""
+    child = subprocess.Popen([sys.executable, "-c", ""])
+    child.wait()
+    return child.pid

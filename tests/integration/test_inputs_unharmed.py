@@ -22,7 +22,7 @@ from typer.testing import CliRunner
 from identify.cli.app import app
 from identify.core.atomic import atomic_write_text, remove_stale
 from identify.io.output_guard import Inputs, check_file_output, check_folder_output
-from tests.measurement_cases import PTS, TR, write_good_folder
+from tests.measurement_cases import PTS, TR, dead_pid, write_good_folder
 
 runner = CliRunner()
 TIR = "extra/tyre.tir"
@@ -233,9 +233,9 @@ def test_a_chain_path_recorded_in_fit_json_stays_in_the_fit_directory(tmp_path):
 
 def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
     target = tmp_path / "r.pdf"
-    dead = tmp_path / f".r.pdf.{_dead_pid()}.abcd1234.tmp"
+    dead = tmp_path / f".r.pdf.{dead_pid()}.abcd1234.tmp"
     alive = tmp_path / f".r.pdf.{os.getpid()}.abcd1234.tmp"  # a writer still running
-    other = tmp_path / f".s.pdf.{_dead_pid()}.abcd1234.tmp"  # another target's
+    other = tmp_path / f".s.pdf.{dead_pid()}.abcd1234.tmp"  # another target's
     foreign = tmp_path / ".r.pdf.notours.tmp"  # not our pattern
     for p in (dead, alive, other, foreign):
         p.write_text("partial")
@@ -244,11 +244,3 @@ def test_a_killed_writers_temporary_is_removed_by_the_next_write(tmp_path):
     assert not dead.exists() and alive.exists() and other.exists() and foreign.exists()
     assert remove_stale(target) == []
 
-
-def _dead_pid() -> int:
-    """A process id that does not run (a child that has exited and been reaped)."""
-    pid = os.fork()
-    if pid == 0:
-        os._exit(0)
-    os.waitpid(pid, 0)
-    return pid

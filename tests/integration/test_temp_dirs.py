@@ -22,6 +22,7 @@ from identify.cli.entry import MESSAGE, Interrupted
 from identify.core import atomic
 from identify.core.atomic import replace_dir, temp_dir
 from identify.workflows import import_session
+from tests.measurement_cases import dead_pid
 
 MFID = shutil.which("mfid", path=str(Path(sys.executable).parent))
 
@@ -37,13 +38,6 @@ def _folder(path: Path, text: str) -> Path:
     (path / "sub" / "f.txt").write_text(text)
     return path
 
-
-def _dead_pid() -> int:
-    pid = os.fork()
-    if pid == 0:
-        os._exit(0)
-    os.waitpid(pid, 0)
-    return pid
 
 
 def test_replace_dir_puts_the_new_folder_in_place_and_removes_the_old(tmp_path):
@@ -87,9 +81,9 @@ def test_sigterm_between_the_renames_puts_the_old_folder_back(tmp_path, monkeypa
 
 def test_a_killed_writers_temporary_folder_is_removed_by_the_next_write(tmp_path):
     target = tmp_path / "out"
-    dead = _folder(tmp_path / f".out.{_dead_pid()}.abcd1234.tmp", "partial")
+    dead = _folder(tmp_path / f".out.{dead_pid()}.abcd1234.tmp", "partial")
     alive = _folder(tmp_path / f".out.{os.getpid()}.abcd1234.tmp", "being written")
-    other = _folder(tmp_path / f".other.{_dead_pid()}.abcd1234.tmp", "another target's")
+    other = _folder(tmp_path / f".other.{dead_pid()}.abcd1234.tmp", "another target's")
     new = temp_dir(target)
     assert not dead.exists() and alive.exists() and other.exists()
     assert new.name.startswith(f".out.{os.getpid()}.") and new.name.endswith(".tmp")
