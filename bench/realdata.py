@@ -17,7 +17,10 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
    there, as the fit takes it (identify.fit.mf.stage_data.rolling_kappa);
 4. held-out error: where the set holds several pressure levels, leave-one-pressure-out (each
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
-   removed samples predicted); else the sweeps of the default segmentation split into
+   removed samples predicted, those whose camber, load band and kind of slip the remaining
+   levels also hold: :func:`covered`; a fold that removes the only camber sweep or the only
+   drive/brake run would otherwise judge an extrapolation in camber or slip, not across
+   pressure); else the sweeps of the default segmentation split into
    ``--folds`` seeded groups, each held out in turn. Each fold is fitted in this process with
    :func:`identify.workflows.fit.fit_measurements` (the loaded set without the fold's samples)
    for the default and every variant. The held-out error of a variant is the mean over the
@@ -206,6 +209,28 @@ def sweep_folds(sweep_of_row: np.ndarray, n_folds: int, seed: int) -> list[Fold]
         folds.append(Fold(f"sweeps {','.join(str(int(s)) for s in sorted(held))}",
                           np.isin(sweep_of_row, held)))
     return folds
+
+
+def condition_cells(table: pd.DataFrame) -> np.ndarray:
+    """A label per sample of the conditions it was measured at, apart from the pressure: the
+    camber to the nearest degree, the load in bands 30 % wide, and which slips are swept (a
+    slip ratio beyond 0.02, a slip angle beyond 1 deg)."""
+    gamma = np.rint(np.degrees(table["gamma"].to_numpy(float)))
+    fz = np.abs(table["Fz"].to_numpy(float))
+    band = np.floor(np.log(np.maximum(fz, 1.0) / 100.0) / np.log(1.3))
+    kappa = np.abs(table["kappa"].to_numpy(float)) > 0.02
+    alpha = np.abs(np.degrees(table["alpha"].to_numpy(float))) > 1.0
+    cells = np.stack([np.nan_to_num(gamma, nan=999), np.nan_to_num(band, nan=999),
+                      kappa, alpha], axis=1)
+    return np.unique(cells, axis=0, return_inverse=True)[1].ravel()
+
+
+def covered(cells: np.ndarray, held: np.ndarray, ok: np.ndarray) -> np.ndarray:
+    """The held-out samples whose conditions (:func:`condition_cells`) the fitted samples
+    also hold: where a leave-one-pressure-out fold measures the prediction across pressure,
+    not an extrapolation to a camber, load or kind of run the remaining pressures never saw."""
+    seen = np.unique(cells[~held & ok])
+    return held & ok & np.isin(cells, seen)
 
 
 def excitation(measured: np.ndarray, rows: np.ndarray, every: np.ndarray) -> float:
@@ -510,9 +535,16 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
         rec["folds_left_out"] = [f.name for k, f in enumerate(folds) if k not in pick]
         folds = [folds[k] for k in sorted(pick)]
     rec.pop("_segments", None)
+    if rec["heldout_kind"] == "leave-one-pressure-out":  # judged where the rest cover it
+        cells = condition_cells(inputs)
+        judged_rows = {f.name: covered(cells, f.rows, ok) for f in folds}
+        rec["covered"] = {f.name: {"held_out": int((f.rows & ok).sum()),
+                                   "covered": int(judged_rows[f.name].sum())} for f in folds}
+    else:
+        judged_rows = {f.name: f.rows & ok for f in folds}
     # the channels each fold excites (from the measured values alone: one rule for every
     # variant)
-    shares = {f.name: {c: excitation(inputs[c].to_numpy(float), f.rows & ok, ok)
+    shares = {f.name: {c: excitation(inputs[c].to_numpy(float), judged_rows[f.name], ok)
                        for c in CHANNELS if c in inputs.columns} for f in folds}
     judged = {name: {c: excited(x) for c, x in sh.items()} for name, sh in shares.items()}
     rec["excitation"] = {"share": EXCITED_SHARE, "folds": shares}
@@ -534,7 +566,7 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
             params = {k: float(x) for k, x in run.tir_values.items()
                       if isinstance(x, (int, float))}
             pm = predict(params, inputs)
-            rows = fold.rows & ok
+            rows = judged_rows[fold.name]
             one = np.zeros(len(table), int)
             per_fold.append({
                 "fold": fold.name, "seconds": time.perf_counter() - t0,
@@ -653,6 +685,11 @@ def tables(rec: dict) -> str:
                      f"({_f(h['insample_mean_pct'].get(c))})" if c in h["mean_pct"]
                      else "n.e." for c in CHANNELS]
             lines.append(f"| {v} | {nf} | " + " | ".join(cells) + " |")
+        cov = rec.get("covered")
+        if cov:
+            lines += ["", "Samples judged per fold (held out, of them at conditions the other "
+                          "pressures cover): " + "; ".join(
+                              f"{k} {x['held_out']}, {x['covered']}" for k, x in cov.items())]
         lines += ["", "Per fold, default (held-out % / in-sample %; n.e.: the fold does not "
                       f"excite the channel, its RMS there under {limit:g} of the set's, "
                       "the share in brackets; left out of the means and the verdict):", "",

@@ -37,6 +37,29 @@ def test_pressure_folds_partition_the_samples_by_nearest_level():
     assert folds[1].rows.tolist() == [False, False, True, True, True, False]
 
 
+def test_a_pressure_fold_is_judged_where_the_other_pressures_cover_its_conditions():
+    # rows 0-3 at 84 kPa (held out): cornering at camber 0 and 4 deg, 1 kN and 2 kN, and a
+    # drive/brake row; rows 4-6 at other pressures: cornering at camber 0, 1 and 2 kN
+    deg = np.radians
+    table = pd.DataFrame({
+        "gamma": deg([0.0, 4.0, 0.2, 0.0, 0.1, 0.0, -0.2]),
+        "Fz": [1000.0, 1000.0, 2050.0, 1000.0, 1020.0, 1980.0, 990.0],
+        "kappa": [0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0],
+        "alpha": deg([5.0, 5.0, -6.0, 0.0, 4.0, -5.0, 3.0]),
+    })
+    held = np.array([True, True, True, True, False, False, False])
+    ok = np.ones(7, bool)
+    cells = R.condition_cells(table)
+    assert cells[0] == cells[4] == cells[6] and cells[2] == cells[5]
+    assert len({cells[0], cells[1], cells[2], cells[3]}) == 4
+    # the camber the others never saw and the drive/brake row are not judged
+    assert R.covered(cells, held, ok).tolist() == [True, False, True, False,
+                                                   False, False, False]
+    # a sample left out of the evaluation (ok False) does not cover a cell either
+    ok[4] = ok[6] = False
+    assert R.covered(cells, held, ok).tolist()[0] is False
+
+
 def test_pressure_levels_split_at_a_slow_pressure_change():
     rng = np.random.default_rng(0)
     p = np.r_[55e3 + 300 * rng.standard_normal(500), 83e3 + 300 * rng.standard_normal(500),
