@@ -18,9 +18,10 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
 4. held-out error: where the set holds several pressure levels, leave-one-pressure-out (each
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
    removed samples predicted, those whose camber, load band and kind of slip the remaining
-   levels also hold: :func:`covered`; a fold that removes the only camber sweep or the only
-   drive/brake run would otherwise judge an extrapolation in camber or slip, not across
-   pressure); else the sweeps of the default segmentation split into
+   data hold at two pressure levels or more: :func:`covered`; a fold that removes the only
+   camber sweep, or leaves the drive/brake runs at one pressure, would otherwise judge an
+   extrapolation in camber or an effect of pressure no remaining sample shows); else the
+   sweeps of the default segmentation split into
    ``--folds`` seeded groups, each held out in turn. Each fold is fitted in this process with
    :func:`identify.workflows.fit.fit_measurements` (the loaded set without the fold's samples)
    for the default and every variant. The held-out error of a variant is the mean over the
@@ -225,11 +226,19 @@ def condition_cells(table: pd.DataFrame) -> np.ndarray:
     return np.unique(cells, axis=0, return_inverse=True)[1].ravel()
 
 
-def covered(cells: np.ndarray, held: np.ndarray, ok: np.ndarray) -> np.ndarray:
-    """The held-out samples whose conditions (:func:`condition_cells`) the fitted samples
-    also hold: where a leave-one-pressure-out fold measures the prediction across pressure,
-    not an extrapolation to a camber, load or kind of run the remaining pressures never saw."""
-    seen = np.unique(cells[~held & ok])
+def covered(cells: np.ndarray, held: np.ndarray, ok: np.ndarray, level: np.ndarray,
+            min_levels: int = 2) -> np.ndarray:
+    """The held-out samples whose conditions (:func:`condition_cells`) the fitted samples hold
+    at ``min_levels`` pressure levels or more (``level``: a sample's pressure level).
+
+    A leave-one-pressure-out fold then measures a prediction across pressure from a pressure
+    trend the fitted data show, not an extrapolation to a camber, load or kind of run the
+    remaining data never saw, nor a pressure effect they cannot show (a kind of run left at
+    one pressure)."""
+    fit = ~held & ok
+    pairs = np.unique(np.stack([cells[fit], level[fit]], axis=1), axis=0)
+    cell_ids, n_levels = np.unique(pairs[:, 0], return_counts=True)
+    seen = cell_ids[n_levels >= min_levels]
     return held & ok & np.isin(cells, seen)
 
 
@@ -537,7 +546,7 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
     rec.pop("_segments", None)
     if rec["heldout_kind"] == "leave-one-pressure-out":  # judged where the rest cover it
         cells = condition_cells(inputs)
-        judged_rows = {f.name: covered(cells, f.rows, ok) for f in folds}
+        judged_rows = {f.name: covered(cells, f.rows, ok, level) for f in folds}
         rec["covered"] = {f.name: {"held_out": int((f.rows & ok).sum()),
                                    "covered": int(judged_rows[f.name].sum())} for f in folds}
     else:
@@ -688,7 +697,7 @@ def tables(rec: dict) -> str:
         cov = rec.get("covered")
         if cov:
             lines += ["", "Samples judged per fold (held out, of them at conditions the other "
-                          "pressures cover): " + "; ".join(
+                          "pressures cover at two levels or more): " + "; ".join(
                               f"{k} {x['held_out']}, {x['covered']}" for k, x in cov.items())]
         lines += ["", "Per fold, default (held-out % / in-sample %; n.e.: the fold does not "
                       f"excite the channel, its RMS there under {limit:g} of the set's, "

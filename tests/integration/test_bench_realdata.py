@@ -37,27 +37,31 @@ def test_pressure_folds_partition_the_samples_by_nearest_level():
     assert folds[1].rows.tolist() == [False, False, True, True, True, False]
 
 
-def test_a_pressure_fold_is_judged_where_the_other_pressures_cover_its_conditions():
-    # rows 0-3 at 84 kPa (held out): cornering at camber 0 and 4 deg, 1 kN and 2 kN, and a
-    # drive/brake row; rows 4-6 at other pressures: cornering at camber 0, 1 and 2 kN
+def test_a_pressure_fold_is_judged_where_the_other_pressures_show_a_trend():
+    # rows 0-3 at level 1 (held out): cornering at camber 0 and 4 deg, at 1 kN and 2 kN, and
+    # a drive/brake row; rows 4-8 at levels 0 and 2: cornering at camber 0 and 1 kN at both,
+    # at 2 kN at level 2 only, and drive/brake at level 0 only
     deg = np.radians
     table = pd.DataFrame({
-        "gamma": deg([0.0, 4.0, 0.2, 0.0, 0.1, 0.0, -0.2]),
-        "Fz": [1000.0, 1000.0, 2050.0, 1000.0, 1020.0, 1980.0, 990.0],
-        "kappa": [0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0],
-        "alpha": deg([5.0, 5.0, -6.0, 0.0, 4.0, -5.0, 3.0]),
+        "gamma": deg([0.0, 4.0, 0.2, 0.0, 0.1, -0.2, 0.0, 0.0, 0.0]),
+        "Fz": [1000.0, 1000.0, 2050.0, 1000.0, 1020.0, 990.0, 1980.0, 1010.0, 1000.0],
+        "kappa": [0.0, 0.0, 0.0, 0.1, 0.0, 0.0, 0.0, -0.1, 0.0],
+        "alpha": deg([5.0, 5.0, -6.0, 0.0, 4.0, 3.0, -5.0, 0.0, 0.0]),
     })
-    held = np.array([True, True, True, True, False, False, False])
-    ok = np.ones(7, bool)
+    level = np.array([1, 1, 1, 1, 0, 2, 2, 0, 0])
+    held = level == 1
+    ok = np.ones(9, bool)
     cells = R.condition_cells(table)
-    assert cells[0] == cells[4] == cells[6] and cells[2] == cells[5]
+    assert cells[0] == cells[4] == cells[5] and cells[2] == cells[6] and cells[3] == cells[7]
     assert len({cells[0], cells[1], cells[2], cells[3]}) == 4
-    # the camber the others never saw and the drive/brake row are not judged
-    assert R.covered(cells, held, ok).tolist() == [True, False, True, False,
-                                                   False, False, False]
+    # judged: camber 0 at 1 kN, which levels 0 and 2 both hold; not judged: the camber no
+    # other level saw, the 2 kN cornering and the drive/brake run seen at one level only
+    assert R.covered(cells, held, ok, level).tolist() == [True] + [False] * 8
+    assert R.covered(cells, held, ok, level, min_levels=1).tolist() == \
+        [True, False, True, True] + [False] * 5
     # a sample left out of the evaluation (ok False) does not cover a cell either
-    ok[4] = ok[6] = False
-    assert R.covered(cells, held, ok).tolist()[0] is False
+    ok[5] = False
+    assert not R.covered(cells, held, ok, level).any()
 
 
 def test_pressure_levels_split_at_a_slow_pressure_change():
