@@ -18,7 +18,8 @@ repository root that hold trailer files; ``--sets DIR ...`` for others), this
 4. held-out error: where the set holds several pressure levels, leave-one-pressure-out (each
    level's samples removed from the loaded table before the segmentation, the rest fitted, the
    removed samples predicted, those whose camber, load band and kind of slip the remaining
-   data hold at two pressure levels or more: :func:`covered`; a fold that removes the only
+   data hold at two pressure levels or more, or at the other level of a two-level set:
+   :func:`covered`; a fold that removes the only
    camber sweep, or leaves the drive/brake runs at one pressure, would otherwise judge an
    extrapolation in camber or an effect of pressure no remaining sample shows); else the
    sweeps of the default segmentation split into
@@ -546,7 +547,8 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
     rec.pop("_segments", None)
     if rec["heldout_kind"] == "leave-one-pressure-out":  # judged where the rest cover it
         cells = condition_cells(inputs)
-        judged_rows = {f.name: covered(cells, f.rows, ok, level) for f in folds}
+        need = min(2, len(levels) - 1)  # two levels, or the one a two-level set keeps
+        judged_rows = {f.name: covered(cells, f.rows, ok, level, need) for f in folds}
         rec["covered"] = {f.name: {"held_out": int((f.rows & ok).sum()),
                                    "covered": int(judged_rows[f.name].sum())} for f in folds}
     else:
