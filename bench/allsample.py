@@ -72,19 +72,12 @@ def kind_errors(inputs: pd.DataFrame, model: Mapping[str, np.ndarray], kinds: np
 
 def judge_set(folder: Path, work: Path, variants: Sequence[str], tirs: Sequence[Path],
               say) -> dict:
-    from identify.io.folder import load_folder
     from identify.workflows.fit import fit_measurements
-    files = RD.trailer_files(folder)
     rec: dict = {"set": folder.name, "fits": {}}
-    meas = work / folder.name / "measurement"
-    _w, _c, code, out = RD.mfid("import", *map(str, files), "--out", str(meas))
-    if code != 0:
-        rec["skipped"] = f"import failed (exit {code}): {out[-300:]}"
+    _w, failed, mset, table, inputs, ok = RD.import_set(folder, work)
+    if failed:
+        rec["skipped"] = failed
         return rec
-    mset = load_folder(meas)
-    table = mset.trailer.reset_index(drop=True)
-    inputs = RD.model_inputs(table)
-    ok = RD.evaluable(inputs)
     kinds = run_kinds({r.id: r.test for r in mset.manifest.runs}, table)
     for v in variants:
         say(f"{folder.name}: fit {v}")

@@ -97,18 +97,11 @@ def judge_cut(mset, table, inputs, ok, level_idx, levels, k, say) -> dict:
 
 
 def judge_set(folder: Path, work: Path, wanted_kpa, say) -> dict:
-    from identify.io.folder import load_folder
-    files = RD.trailer_files(folder)
-    rec: dict = {"set": folder.name, "files": [p.name for p in files]}
-    meas = work / folder.name / "measurement"
-    wall, _cpu, code, out = RD.mfid("import", *map(str, files), "--out", str(meas))
-    if code != 0:
-        rec["skipped"] = f"import failed (exit {code}): {out[-300:]}"
+    rec: dict = {"set": folder.name, "files": [p.name for p in RD.trailer_files(folder)]}
+    _wall, failed, mset, table, inputs, ok = RD.import_set(folder, work)
+    if failed:
+        rec["skipped"] = failed
         return rec
-    mset = load_folder(meas)
-    table = mset.trailer.reset_index(drop=True)
-    inputs = RD.model_inputs(table)
-    ok = RD.evaluable(inputs)
     p = table["p"].to_numpy(float)
     levels = RD.pressure_levels(p)
     rec["levels_kPa"] = [lv / 1e3 for lv in levels]

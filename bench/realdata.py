@@ -752,6 +752,22 @@ def tables(rec: dict) -> str:
     return "\n".join(lines + [""])
 
 
+def import_set(folder: Path, work: Path):
+    """``mfid import`` the trailer files of ``folder`` into ``work``/<set>/measurement and
+    load them: (wall s, the import's failure text or None, the measurement set, its loaded
+    table, the model inputs, the rows the model can evaluate)."""
+    from identify.io.folder import load_folder
+    meas = work / folder.name / "measurement"
+    wall, _cpu, code, out = mfid("import", *map(str, trailer_files(folder)), "--out",
+                                 str(meas))
+    if code != 0:
+        return wall, f"import failed (exit {code}): {out[-300:]}", None, None, None, None
+    mset = load_folder(meas)
+    table = mset.trailer.reset_index(drop=True)
+    inputs = model_inputs(table)
+    return wall, None, mset, table, inputs, evaluable(inputs)
+
+
 def set_files(items: Sequence[str], flag: str, prog: str) -> dict[str, list[Path]] | None:
     """``SET=FILE.tir`` arguments as {set name: [files]}; None (after a one-line error on
     stderr) when one does not name an existing file."""
