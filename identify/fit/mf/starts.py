@@ -72,24 +72,30 @@ def _estimates(trailer: pd.DataFrame, fnomin: float) -> dict[str, float]:
     near = np.abs(fz - fnomin) <= LOAD_BAND * fnomin
     flat = np.abs(gamma) <= np.deg2rad(0.5)
     out = {}
-    lateral = near & (np.abs(kappa) <= PURE_KAPPA)
     if "Fy" in trailer:
-        fy = trailer["Fy"].to_numpy(float)
-        # the friction where the force saturates: beyond the linear range (a cornering run's
-        # free-rolling points at zero slip are no friction sample)
-        past = lateral & (np.abs(alpha) > SMALL_ALPHA)
-        out["PDY1"] = _friction(fy[past], fz[past])
-        lin = lateral & flat & (np.abs(alpha) <= SMALL_ALPHA)
-        # the slope per unit load, so that the loads within the band average out
-        out["PKY1"] = _slope(alpha[lin], fy[lin] / fz[lin])
-    longitudinal = near & (np.abs(alpha) <= PURE_ALPHA)
+        out["PDY1"], out["PKY1"] = _friction_and_slope(
+            trailer["Fy"].to_numpy(float), fz, alpha, near & (np.abs(kappa) <= PURE_KAPPA),
+            flat, SMALL_ALPHA)
     if "Fx" in trailer:
-        fx = trailer["Fx"].to_numpy(float)
-        past = longitudinal & (np.abs(kappa) > SMALL_KAPPA)
-        out["PDX1"] = _friction(fx[past], fz[past])
-        lin = longitudinal & flat & (np.abs(kappa) <= SMALL_KAPPA)
-        out["PKX1"] = _slope(kappa[lin], fx[lin] / fz[lin])
+        out["PDX1"], out["PKX1"] = _friction_and_slope(
+            trailer["Fx"].to_numpy(float), fz, kappa, near & (np.abs(alpha) <= PURE_ALPHA),
+            flat, SMALL_KAPPA)
     return out
+
+
+def _friction_and_slope(force: np.ndarray, fz: np.ndarray, slip: np.ndarray,
+                        pure: np.ndarray, flat: np.ndarray, small: float) -> tuple[float, float]:
+    """The friction coefficient and the slip stiffness per unit load of one pure-slip force.
+
+    force, fz : ndarray [N]; slip : ndarray [rad or -], the swept slip; pure : the samples of
+    pure slip near the nominal load; flat : the samples near zero camber; small : the slip
+    bounding the linear range. The friction is taken where the force saturates, beyond the
+    linear range (a run's free-rolling points at zero slip are no friction sample); the slope
+    per unit load, so that the loads within the band average out.
+    """
+    past = pure & (np.abs(slip) > small)
+    lin = pure & flat & (np.abs(slip) <= small)
+    return _friction(force[past], fz[past]), _slope(slip[lin], force[lin] / fz[lin])
 
 
 def data_starts(trailer: pd.DataFrame, params: Mapping[str, float]) -> dict[str, float]:
