@@ -8,8 +8,9 @@ import scipy.io
 from typer.testing import CliRunner
 
 from identify.cli.app import app
+from identify.io.common import Problems
 from identify.io.tir import read_tir
-from identify.io.ttc.files import TTC_CHANNELS
+from identify.io.ttc.files import TTC_CHANNELS, read_ttc
 from identify.io.ttc.mat73 import write_mat73
 from identify.simulate.default_tyre import default_tir_path
 from identify.simulate.ttc import TtcSession, _write_dat, _write_mat, simulate_ttc
@@ -21,6 +22,14 @@ def import_refused(files: list[Path], out: Path) -> list[str]:
     result = CliRunner().invoke(app, ["import", *map(str, files), "--out", str(out)])
     assert result.exit_code == 2 and not out.exists(), result.output
     return result.stderr.splitlines()
+
+
+def read_clean(path: Path):
+    """A TTC file read with read_ttc, asserting that it raised no problem."""
+    problems = Problems()
+    run = read_ttc(path, problems)
+    assert problems.total == 0, [str(p) for p in problems.finish()]
+    return run
 
 
 def session(path: Path, **settings) -> TtcSession:

@@ -10,10 +10,10 @@ import pytest
 import scipy.io
 
 from identify.core.tyre_size import find_tyre_size
-from identify.io.common import Problems
 from identify.io.trailer.files import read_trailer
-from identify.io.ttc.files import PSI_BELOW, read_ttc, reader_notes
+from identify.io.ttc.files import PSI_BELOW, reader_notes
 from identify.workflows.import_session import import_session, tyre_model
+from tests.ttc_cases import read_clean
 
 LBF = 4.4482216152605
 PSI = 6894.757293168361
@@ -44,16 +44,10 @@ def _mat(path, ch, **extra):
     return path
 
 
-def _read(path):
-    problems = Problems()
-    run = read_ttc(path, problems)
-    assert problems.total == 0, [str(p) for p in problems.finish()]
-    return run
-
 
 def test_a_file_without_channel_struct_takes_the_ttc_si_convention_with_a_warning(tmp_path):
     path = _mat(tmp_path / "B1run1.mat", _session())
-    run = _read(path)
+    run = read_clean(path)
     assert run.units["P"] == "kPa" and run.units["RL"] == "cm" and run.units["FZ"] == "N"
     warnings = []
     frame = read_trailer(path, warnings=warnings)
@@ -66,7 +60,7 @@ def test_a_file_without_channel_struct_takes_the_ttc_si_convention_with_a_warnin
 def test_a_file_without_channel_struct_in_psi_is_read_as_uscs(tmp_path):
     si = read_trailer(_mat(tmp_path / "si.mat", _session()))
     path = _mat(tmp_path / "us.mat", _session(uscs=True))
-    assert _read(path).units["FZ"] == "lbf"
+    assert read_clean(path).units["FZ"] == "lbf"
     warnings = []
     us = read_trailer(path, warnings=warnings)
     assert any("USCS" in w.detail for w in warnings)
@@ -91,7 +85,7 @@ def test_units_given_replace_the_assumed_convention(tmp_path):
 def test_a_longer_run_vector_is_left_out_with_a_warning_and_the_rest_is_read(tmp_path):
     ch = _session()
     path = _mat(tmp_path / "B1run1.mat", ch, RUN=np.full(5000, 25, dtype=np.uint8))
-    run = _read(path)
+    run = read_clean(path)
     assert "RUN" not in run.data and run.data["FZ"].size == 3000
     assert reader_notes(run.attrs)[-1] == ("RUN", "5000 samples, but ET has 3000",
                                            "channel left out")

@@ -16,7 +16,7 @@ from identify.core.errors import InputError
 from identify.io.common import Problems
 from identify.io.trailer.files import channels_to_tidy, read_channels, read_trailer
 from identify.io.ttc.files import TTC_CHANNELS, read_ttc
-from tests.ttc_cases import _small_channels, import_refused
+from tests.ttc_cases import _small_channels, import_refused, read_clean
 
 
 def _mat(path, ch, names=None, units=None, extra=None, shape=lambda v: v.reshape(-1, 1)):
@@ -31,12 +31,6 @@ def _mat(path, ch, names=None, units=None, extra=None, shape=lambda v: v.reshape
     scipy.io.savemat(path, content, format="5")
     return path
 
-
-def _read(path):
-    problems = Problems()
-    run = read_ttc(path, problems)
-    assert problems.total == 0, [str(p) for p in problems.finish()]
-    return run
 
 
 def _refused(path):
@@ -53,7 +47,7 @@ def _refused(path):
 ], ids=["lower", "padded", "lower-padded"])
 def test_channel_struct_names_in_another_case_or_padded(tmp_path, names):
     ch = _small_channels()
-    run = _read(_mat(tmp_path / "B1run1.mat", ch, names,
+    run = read_clean(_mat(tmp_path / "B1run1.mat", ch, names,
                      [TTC_CHANNELS[k].si_unit + "  " for k in ch]))
     assert run.units == {k: TTC_CHANNELS[k].si_unit for k in ch}
     np.testing.assert_array_equal(run.data["FZ"], ch["FZ"])
@@ -70,12 +64,12 @@ def test_channel_struct_as_a_char_matrix(tmp_path):
                           "units": np.array([TTC_CHANNELS[k].si_unit.ljust(unit_width)
                                              for k in ch])}
     scipy.io.savemat(path, content, format="5")
-    assert _read(path).units["MZ"] == "N-m"
+    assert read_clean(path).units["MZ"] == "N-m"
 
 
 def test_variables_in_lower_case_are_the_ttc_channels(tmp_path):
     ch = {k.lower(): v for k, v in _small_channels().items()}
-    run = _read(_mat(tmp_path / "B1run1.mat", ch, list(ch),
+    run = read_clean(_mat(tmp_path / "B1run1.mat", ch, list(ch),
                      [TTC_CHANNELS[k.upper()].si_unit for k in ch]))
     assert set(run.data) == set(_small_channels()) and run.units["P"] == "kPa"
 
@@ -87,7 +81,7 @@ def test_variables_that_are_not_channels_are_left_out(tmp_path):
     extra = {"RIMWIDTH": 7.0, "calib": np.arange(5.0), "gains": np.eye(3),
              "notes": np.array(["a", "bb"], dtype=object), "meta": {"rig": "belt", "k": 3.0},
              "comment": "hello", "nothing": np.zeros((0, 0))}
-    run = _read(_mat(tmp_path / "B1run1.mat", ch, extra=extra))
+    run = read_clean(_mat(tmp_path / "B1run1.mat", ch, extra=extra))
     assert set(run.data) == set(ch)
 
 
@@ -96,7 +90,7 @@ def test_a_listed_channel_of_another_length_is_left_out_and_a_required_one_is_mi
     ch = _small_channels()
     ch["FY"] = ch["FY"][:150]
     path = _mat(tmp_path / "B1run1.mat", ch)
-    run = _read(path)
+    run = read_clean(path)
     assert "FY" not in run.data and "FX" in run.data
     with pytest.raises(InputError) as err:
         read_trailer(path)
@@ -109,7 +103,7 @@ def test_dat_names_in_another_case_or_padded(tmp_path):
     rows = "\n".join("\t".join(f"{ch[k][i]:g}" for k in ch) for i in range(200))
     path.write_text("title\n" + "\t".join(f" {k.lower()} " for k in ch) + "\n"
                     + "\t".join(TTC_CHANNELS[k].si_unit for k in ch) + "\n" + rows + "\n")
-    run = _read(path)
+    run = read_clean(path)
     assert set(run.data) == set(ch) and run.units["FZ"] == "N"
 
 
@@ -134,14 +128,14 @@ def _tidy(path):
 def test_dat_title_in_windows_1252(tmp_path):
     lines = _dat_lines()
     lines[0] = "Prüfstand 18° run"
-    run = _read(_write(tmp_path / "B1run1.dat", lines, encoding="cp1252"))
+    run = read_clean(_write(tmp_path / "B1run1.dat", lines, encoding="cp1252"))
     assert run.attrs["title"] == "Prüfstand 18° run" and run.data["ET"].size == 200
 
 
 @pytest.mark.parametrize("sep,end", [(",", "\n"), ("\t", "\r\n")], ids=["comma", "crlf"])
 def test_dat_comma_separated_or_crlf(tmp_path, sep, end):
     ch = _small_channels()
-    run = _read(_write(tmp_path / "B1run1.dat", _dat_lines(sep=sep), end=end))
+    run = read_clean(_write(tmp_path / "B1run1.dat", _dat_lines(sep=sep), end=end))
     np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
 
 
@@ -152,7 +146,7 @@ def test_dat_trailing_tab_on_the_data_rows_only(tmp_path):
     lines[3:] = [line + "\t" for line in lines[3:]]
     lines[10] = "\t".join(["NaN" if i == 7 else c for i, c in enumerate(lines[10].split("\t"))])
     lines[20] = "\t".join(["NaN" if i == 11 else c for i, c in enumerate(lines[20].split("\t"))])
-    run = _read(_write(tmp_path / "B1run1.dat", lines))
+    run = read_clean(_write(tmp_path / "B1run1.dat", lines))
     assert np.isnan(run.data["FY"][7]) and np.isfinite(run.data["FY"]).sum() == 199
 
 
@@ -226,14 +220,14 @@ def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
     assert [w.kind for w in warnings].count("truncated") == 1
 
 
-def test_dat_gzipped_without_a_gz_suffix_is_read(tmp_path):
+def test_dat_gzipped_without_a_gz_suffix_isread_clean(tmp_path):
     """Gzip data in a file named .dat: the header was read decompressed (open_text tells gzip
     by its magic bytes) and the rows below it as the compressed bytes (pandas by the suffix),
     'not tab-separated numbers (could not convert string to float: ...)'."""
     ch = _small_channels()
     path = tmp_path / "B1run1.dat"
     path.write_bytes(gzip.compress(("\n".join(_dat_lines()) + "\n").encode()))
-    run = _read(path)
+    run = read_clean(path)
     np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
 
 
@@ -339,14 +333,14 @@ def test_channel_struct_as_a_struct_array(tmp_path):
         arr[0, i] = (k, TTC_CHANNELS[k].si_unit)
     scipy.io.savemat(path, {k: v.reshape(-1, 1) for k, v in ch.items()} | {"channel": arr},
                      format="5")
-    assert _read(path).units == {k: TTC_CHANNELS[k].si_unit for k in ch}
+    assert read_clean(path).units == {k: TTC_CHANNELS[k].si_unit for k in ch}
 
 
 def test_a_lower_case_variable_next_to_its_upper_case_channel_is_not_taken_for_it(tmp_path):
     ch = _small_channels()
     fz = ch["FZ"].copy()
     ch["fz"] = 0.5 * fz
-    run = _read(_mat(tmp_path / "B1run1.mat", ch, units=[
+    run = read_clean(_mat(tmp_path / "B1run1.mat", ch, units=[
         TTC_CHANNELS[k].si_unit if k in TTC_CHANNELS else "lbf" for k in ch]))
     np.testing.assert_array_equal(run.data["FZ"], fz)
     assert run.units["FZ"] == "N" and run.units["fz"] == "lbf"
@@ -364,7 +358,7 @@ def test_dat_with_a_decimal_comma(tmp_path):
     ch = _small_channels()
     lines = _dat_lines()
     lines[3:] = [line.replace(".", ",") for line in lines[3:]]
-    run = _read(_write(tmp_path / "B1run1.dat", lines))
+    run = read_clean(_write(tmp_path / "B1run1.dat", lines))
     np.testing.assert_allclose(run.data["FY"], ch["FY"], rtol=1e-5, atol=0)  # %.6g: 5e-6
 
 
