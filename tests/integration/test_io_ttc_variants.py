@@ -220,7 +220,7 @@ def test_dat_with_cr_only_line_ends_cut_inside_its_last_row_drops_it(tmp_path):
     assert [w.kind for w in warnings].count("truncated") == 1
 
 
-def test_dat_gzipped_without_a_gz_suffix_isread_clean(tmp_path):
+def test_dat_gzipped_without_a_gz_suffix_is_read(tmp_path):
     """Gzip data in a file named .dat: the header was read decompressed (open_text tells gzip
     by its magic bytes) and the rows below it as the compressed bytes (pandas by the suffix),
     'not tab-separated numbers (could not convert string to float: ...)'."""
