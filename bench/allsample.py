@@ -117,14 +117,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="also evaluate this .tir on the samples of SET (repeatable)")
     ap.add_argument("--out", type=Path, default=RD.RESULTS)
     a = ap.parse_args(argv)
-    sets = RD.find_sets(a.sets)
-    missing = [s for s in sets if not s.is_dir()]
-    if missing:
-        print(f"allsample: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
-        return 2
+    sets = RD.sets_to_judge(a.sets, "allsample")
     if not sets:
-        print(f"allsample: no real measurement sets at {RD.REALDATA} (nothing to judge)")
-        return 0
+        return 0 if sets is not None else 2
     tirs = RD.set_files(a.tir, "--tir", "allsample")
     if tirs is None:
         return 2

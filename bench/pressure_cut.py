@@ -141,14 +141,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     ap.add_argument("--keep", action="store_true", help="keep the scratch folder")
     ap.add_argument("--out", type=Path, default=RESULTS, help="folder of pressure_cut.{md,json}")
     a = ap.parse_args(argv)
-    sets = RD.find_sets(a.sets)
-    missing = [s for s in sets if not s.is_dir()]
-    if missing:
-        print(f"pressure_cut: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
-        return 2
+    sets = RD.sets_to_judge(a.sets, "pressure_cut")
     if not sets:
-        print(f"pressure_cut: no real measurement sets at {RD.REALDATA} (nothing to judge)")
-        return 0
+        return 0 if sets is not None else 2
     work = a.work or Path(tempfile.mkdtemp(prefix="mfid-pressure-cut-"))
     work.mkdir(parents=True, exist_ok=True)
     try:

@@ -768,6 +768,20 @@ def import_set(folder: Path, work: Path):
     return wall, None, mset, table, inputs, evaluable(inputs)
 
 
+def sets_to_judge(dirs: Sequence[str] | None, prog: str) -> list[Path] | None:
+    """:func:`find_sets`, said on the terminal: None (after a one-line error) when a named set
+    is not a folder, an empty list (after a line saying so) when there is none to judge."""
+    sets = find_sets(dirs)
+    missing = [s for s in sets if not s.is_dir()]
+    if missing:
+        print(f"{prog}: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
+        return None
+    if not sets:
+        print(f"{prog}: no real measurement sets at {REALDATA} (nothing to judge; "
+              "--sets DIR names others)")
+    return sets
+
+
 def set_files(items: Sequence[str], flag: str, prog: str) -> dict[str, list[Path]] | None:
     """``SET=FILE.tir`` arguments as {set name: [files]}; None (after a one-line error on
     stderr) when one does not name an existing file."""
@@ -817,15 +831,9 @@ def main(argv: Sequence[str] | None = None) -> int:
                     help="folder of realdata.md and realdata.json (default bench/results)")
     a = ap.parse_args(argv)
 
-    sets = find_sets(a.sets)
+    sets = sets_to_judge(a.sets, "realdata")
     if not sets:
-        print(f"realdata: no real measurement sets at {REALDATA} (nothing to judge; "
-              "--sets DIR names others)")
-        return 0
-    missing = [s for s in sets if not s.is_dir()]
-    if missing:
-        print(f"realdata: not a folder: {', '.join(map(str, missing))}", file=sys.stderr)
-        return 2
+        return 0 if sets is not None else 2
     variants = list(a.variants or (QUICK_VARIANTS if a.quick else VARIANTS))
     if "default" not in variants and not (a.reuse and a.variants):
         variants.insert(0, "default")
