@@ -148,7 +148,12 @@ def _bad_copy(src: Path, dst: Path) -> str:
     return first.name
 
 
-@pytest.mark.parametrize("engine", [[], ["--scheduler", "local"]], ids=["pool", "dask"])
+@pytest.mark.parametrize("engine", [
+    pytest.param([], id="pool"),
+    # the dask engine's retry is the scheduler's own; its batch is checked against separate
+    # fits in the default run, this slower kill-and-retry case with the trials
+    pytest.param(["--scheduler", "local"], id="dask", marks=pytest.mark.trials),
+])
 def test_killed_worker_costs_a_retry_and_bad_input_is_reported(folders, tmp_path, engine):
     """SIGKILL one worker mid-task: that task runs again, every good folder ends with all its
     outputs and no temporary file; a folder with a malformed number is one line on stderr,
