@@ -129,9 +129,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                           lambda t: print(t, flush=True)) for s in sets]
     finally:
         shutil.rmtree(work, ignore_errors=True)
-    md = table_md(recs)
-    print(md)
-    RD.write_results(a.out, "allsample", md, recs)
+    RD.write_results(a.out, "allsample", table_md(recs), recs)
     return 0
 
 

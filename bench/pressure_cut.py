@@ -151,9 +151,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     finally:
         if not a.keep and a.work is None:
             shutil.rmtree(work, ignore_errors=True)
-    md = table_md(recs)
-    print(md)
-    RD.write_results(a.out, "pressure_cut", md, recs)
+    RD.write_results(a.out, "pressure_cut", table_md(recs), recs)
     return 0
 
 

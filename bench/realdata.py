@@ -796,8 +796,12 @@ def set_files(items: Sequence[str], flag: str, prog: str) -> dict[str, list[Path
     return out
 
 
-def write_results(out: Path, name: str, markdown: str, doc: object) -> None:
-    """Write ``name``.md and ``name``.json into the results folder ``out``."""
+def write_results(out: Path, name: str, markdown: str, doc: object, *,
+                  show: bool = True) -> None:
+    """Print ``markdown`` (with ``show``) and write it and ``doc`` as ``name``.md and
+    ``name``.json into the results folder ``out``."""
+    if show:
+        print(markdown)
     out.mkdir(parents=True, exist_ok=True)
     (out / f"{name}.md").write_text(markdown)
     (out / f"{name}.json").write_text(json.dumps(doc, indent=1, default=_json_default))
@@ -862,7 +866,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     doc = {"mfid_version": version, "quick": a.quick, "variants": variants, "tie": TIE,
            "seed": a.seed, "sets": records}
     write_results(a.out, "realdata", "# Real-data benchmark\n\n"
-                  + "\n".join(tables(r) for r in records), doc)
+                  + "\n".join(tables(r) for r in records), doc, show=False)
     print(f"wrote {a.out / 'realdata.md'} and {a.out / 'realdata.json'}")
     verdicts = [x["ok"] for r in records for x in r.get("verdict", {}).values() if "ok" in x]
     print("default best or tied on every set and channel: "
