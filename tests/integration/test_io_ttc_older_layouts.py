@@ -2,7 +2,8 @@
 (the TTC SI convention, or USCS told by the pressure's magnitude, said in a warning; ``--units``
 overrides), a channel of another length than the time (left out with a warning), radius
 channels in a wrong unit (left out), specimens of one tyre, an unloaded radius without a usable
-RL, and SR standing in for SL in a free-rolling cornering run."""
+RL, SR standing in for SL in a free-rolling cornering run, channels wrapped in one struct (read
+from its fields) and an unnamed matrix (refused with its name)."""
 from __future__ import annotations
 
 import numpy as np
@@ -10,8 +11,9 @@ import pytest
 import scipy.io
 
 from identify.core.tyre_size import find_tyre_size
+from identify.io.common import Problems
 from identify.io.trailer.files import read_trailer
-from identify.io.ttc.files import PSI_BELOW, reader_notes
+from identify.io.ttc.files import PSI_BELOW, read_ttc, reader_notes
 from identify.workflows.import_session import import_session, tyre_model
 from tests.ttc_cases import read_clean
 
@@ -165,3 +167,42 @@ def test_import_without_usable_rl_takes_the_effective_radius_from_the_wheel_spee
                             tmp_path / "out", nominal_pressure_Pa=83_000, nominal_load_N=1100)
     assert result.unloaded_radius_m == pytest.approx(0.25, abs=1e-4)  # not the size's 0.2604
     assert any("V / omega" in n for n in result.notes)
+
+
+def test_channels_held_as_the_fields_of_one_struct_are_read_with_a_warning(tmp_path):
+    """A team's export that wraps every channel in one struct (``run26.FX``) reads as the
+    same run as the channels saved one by one, and a warning names the struct."""
+    ch = _session()
+    flat = read_clean(_mat(tmp_path / "flat.mat", ch))
+    path = tmp_path / "wrapped.mat"
+    scipy.io.savemat(path, {"run26": {k: np.asarray(v).reshape(-1, 1) for k, v in ch.items()},
+                            "tireid": "Hoosier 20.5x7.0-13"}, format="5")
+    warnings = []
+    frame = read_trailer(path, warnings=warnings)
+    note = next(w for w in warnings if w.channels == ("run26",))
+    assert "struct" in note.detail and note.action == "channels read from its fields"
+    wrapped = read_ttc_quiet(path)
+    assert set(wrapped.data) == set(flat.data)
+    for name in flat.data:
+        np.testing.assert_array_equal(wrapped.data[name], flat.data[name])
+    assert wrapped.attrs["tireid"] == "Hoosier 20.5x7.0-13"
+    assert frame["Fy"].abs().max() > 1000.0
+
+
+def test_an_unnamed_matrix_is_refused_with_its_name_and_shape(tmp_path):
+    """Columns without names cannot be told apart: one line naming the matrix and what to do."""
+    ch = _session(n=300)
+    path = tmp_path / "matrix.mat"
+    scipy.io.savemat(path, {"FILE": np.column_stack(list(ch.values()))}, format="5")
+    problems = Problems()
+    assert read_ttc(path, problems) is None
+    (line,) = [str(p) for p in problems.finish()]
+    assert "'FILE' (300 x 13) names no channel" in line and "a variable of its own" in line
+
+
+def read_ttc_quiet(path):
+    """read_ttc of a file that may carry reader notes (warnings), asserting no problem."""
+    problems = Problems()
+    run = read_ttc(path, problems)
+    assert problems.total == 0 and run is not None
+    return run

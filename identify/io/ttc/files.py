@@ -212,9 +212,39 @@ def _read_mat(path: Path, problems: Problems):
     return _contents(path, mat, problems, "ttc-mat")
 
 
+def _wrapping_struct(mat: Mapping) -> tuple[str, Mapping] | None:
+    """The one struct variable of a .mat file that holds the TTC channels as its fields (a
+    team's export: ``run26.FX``, ``run26.SA``, ...) and its name; None when a channel is a
+    variable of its own, or when no single struct holds at least three TTC channels."""
+    variables = {k: v for k, v in mat.items() if not k.startswith("__")}
+    if any(ttc_name(k) in TTC_CHANNELS for k in variables):
+        return None
+    structs = [(k, v) for k, v in variables.items() if isinstance(v, Mapping)
+               and sum(ttc_name(f) in TTC_CHANNELS for f in v) >= 3]
+    return structs[0] if len(structs) == 1 else None
+
+
+def _unnamed_matrix(mat: Mapping) -> str | None:
+    """A description of the first numeric matrix of a .mat file (a team's export of every
+    channel as one column): its name and shape, or None."""
+    for key, value in mat.items():
+        array = np.asarray(value) if not key.startswith("__") else None
+        if array is not None and array.dtype.kind in "fiu" and array.ndim == 2 \
+                and min(array.shape) > 1:
+            return f"'{key}' ({array.shape[0]} x {array.shape[1]})"
+    return None
+
+
 def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
     """The channels, their units and the strings of a loaded .mat file (either version)."""
     start = problems.total
+    wrapped = _wrapping_struct(mat)
+    wrapper_note = []
+    if wrapped is not None:  # the channels are the fields of one struct: read them there
+        name, fields = wrapped
+        mat = {**{k: v for k, v in mat.items() if k in TTC_STRINGS}, **fields}
+        wrapper_note = [reader_note(name, "a struct holding the channels as its fields",
+                                    "channels read from its fields")]
     struct = mat.get("channel")
     names, unit_list = ([], [])
     if isinstance(struct, (list, np.ndarray)) and len(struct) and all(
@@ -255,13 +285,17 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         else:
             notes.append(reader_note(name, "a MATLAB logical (true/false) array, not a "
                                            "measurement", "channel left out"))
+    notes = wrapper_note + notes
     if problems.total > start:
         return None
     # in the channel struct's order: a v7.3 file lists its variables by name
     order = {name: i for i, name in enumerate(names)}
     data = dict(sorted(data.items(), key=lambda kv: order.get(kv[0], len(order))))
     if not data:
-        problems.add(path, "no channel vectors in the .mat file")
+        matrix = _unnamed_matrix(mat)
+        problems.add(path, "no channel vectors in the .mat file" + (
+            f": the numeric matrix {matrix} names no channel; save each channel (ET, V, SA, "
+            "FZ, ...) as a variable of its own" if matrix else ""))
         return None
     attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
     if not units:  # the older layout: no channel struct, the units follow a convention
