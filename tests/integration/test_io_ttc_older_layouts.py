@@ -15,7 +15,7 @@ from identify.io.common import Problems
 from identify.io.trailer.files import read_trailer
 from identify.io.ttc.files import PSI_BELOW, read_ttc, reader_notes
 from identify.workflows.import_session import import_session, tyre_model
-from tests.ttc_cases import read_clean
+from tests.ttc_cases import import_refused, read_clean
 
 LBF = 4.4482216152605
 PSI = 6894.757293168361
@@ -206,3 +206,46 @@ def read_ttc_quiet(path):
     run = read_ttc(path, problems)
     assert problems.total == 0 and run is not None
     return run
+
+
+@pytest.mark.parametrize(("changed", "unit", "taken"), [
+    ({"SA": np.deg2rad, "IA": np.deg2rad}, "rad", ("SA", "IA")),
+    ({"V": lambda v: v / 3.6}, "m/s", ("V",)),
+    ({"RL": lambda r: r / 100.0}, "m", ("RL",)),
+])
+def test_a_converted_file_without_units_is_read_in_the_unit_its_magnitudes_show(
+        tmp_path, changed, unit, taken):
+    """A team script kept the TTC names but wrote radians, m/s or metres: the magnitudes tell
+    (a sweep within 0.35 that saturates the force; V / omega a radius only in m/s; a radius
+    of 0.24 'cm'), the unit is taken with a warning per channel, and the table is the one the
+    file in the convention's units gives."""
+    ch = _session()
+    reference = read_trailer(_mat(tmp_path / "B1run1.mat", ch))
+    converted = _mat(tmp_path / "B1run2.mat", ch | {k: f(ch[k]) for k, f in changed.items()})
+    warnings = []
+    frame = read_trailer(converted, warnings=warnings)
+    notes = {w.channels[0]: w for w in warnings if w.action.startswith("unit taken as")}
+    assert set(notes) == set(taken) and all(notes[k].action == f"unit taken as {unit}"
+                                            for k in taken)
+    for col in ("alpha", "gamma", "Vx", "rl", "Fy"):
+        np.testing.assert_allclose(frame[col].to_numpy(), reference[col].to_numpy(),
+                                   rtol=1e-12, atol=1e-12)
+
+
+def test_a_file_in_the_convention_units_takes_no_other_unit(tmp_path):
+    """The same checks leave a file in the TTC SI convention as it is, a drive/brake run at a
+    slip angle of zero included (SA within 0.35 deg, but no saturated lateral force)."""
+    ch = _session()
+    braking = ch | {"SA": np.zeros_like(ch["SA"]), "FY": 0.02 * ch["FZ"]}
+    for i, channels in enumerate((ch, braking)):
+        warnings = []
+        read_trailer(_mat(tmp_path / f"B1run{i}.mat", channels), warnings=warnings)
+        assert not [w for w in warnings if w.action.startswith("unit taken as")]
+
+
+def test_a_positive_load_in_a_ttc_file_is_refused_naming_the_sae_axes(tmp_path):
+    ch = _session(n=600)
+    lines = import_refused([_mat(tmp_path / "B1run1.mat", ch | {"FZ": -ch["FZ"]})],
+                           tmp_path / "out")
+    assert any("median FZ is positive" in line and "SAE" in line and "--axes" in line
+               for line in lines), lines

@@ -182,12 +182,23 @@ def channels_to_tidy(ch: Channels, *, axes: str | None = None,
     check_declared(problems, ch.file, names.get("Fz", "FZW"), frame["Fz"].to_numpy(),
                    conditions.get("load_N"), "load Fz", "N", median=fz)
     if "load_N" not in conditions and fz < 0:
-        problems.add(ch.file, f"median Fz is negative ({fz:.6g} N): in ISO-W Fz is "
-                              "positive up (are the axes right?)", key=names.get("Fz", "FZW"))
+        problems.add(ch.file, _negative_load(fz, axes), key=names.get("Fz", "FZW"))
     elif "load_N" not in conditions and fz == 0:
         problems.add(ch.file, "median Fz is 0 N: the tyre carries no load",
                      key=names.get("Fz", "FZW"))
     return frame if problems.total == start else None
+
+
+def _negative_load(fz: float, axes: str) -> str:
+    """Why a run whose median load ``fz`` [N] (ISO-W) is negative is refused, in the file's
+    own ``axes``: in SAE a loaded tyre's FZ is negative, so such a file has a positive one
+    (a conversion script that made the load positive)."""
+    if axes == "SAE":
+        return (f"median FZ is positive ({-fz:.6g} N), but in SAE axes (those of a TTC file) a "
+                "loaded tyre's FZ is negative: a file converted to a positive load? --axes "
+                "names the axis system of a converted file")
+    return (f"median Fz is negative ({fz:.6g} N): in {axes} Fz is positive up (are the axes "
+            "right? --axes names them)")
 
 
 #: Tidy columns of the required channels: a file that has one of them with no finite value

@@ -302,6 +302,9 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         units, note = convention_units(data)
         attrs[UNITS_SOURCE] = "convention"
         notes.append(reader_note("channel", note, "units assumed"))
+        units, told = magnitude_units(data, units)
+        notes += [reader_note(name, detail, f"unit taken as {units[name]}")
+                  for name, detail in told.items()]
     if notes:
         attrs[READER_NOTES] = "\n".join(notes)
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
@@ -345,6 +348,69 @@ def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], st
            else "no pressure channel to tell psi from kPa")
     return units, (f"no 'channel' struct with the units: the {system} convention is "
                    f"assumed ({why}); --units CHANNEL=UNIT sets another")
+
+
+#: Largest slip-angle amplitude [rad] that a sweep in radians reaches (20 deg): a file without
+#: units whose SA stays within it while the lateral force reaches :data:`SATURATED_FY` of the
+#: load holds radians (no tyre develops that force within a third of a degree).
+RADIAN_SWEEP = 0.35
+#: |FY| / |FZ| that a slip-angle sweep reaches on every tyre (friction 0.8-3).
+SATURATED_FY = 0.5
+
+
+def _radius(values: np.ndarray | None, factor: float) -> float:
+    """Median of ``values`` times ``factor`` where finite and non-zero (nan when none)."""
+    if values is None:
+        return float("nan")
+    finite = np.abs(values[np.isfinite(values) & (values != 0)])
+    return float(np.median(finite)) * factor if finite.size else float("nan")
+
+
+def magnitude_units(data: Mapping[str, np.ndarray], units: Mapping[str, str]
+                    ) -> tuple[dict[str, str], dict[str, str]]:
+    """The convention's ``units`` with the channels whose magnitudes show another unit, and
+    per such channel why (a file converted by a team script keeps the TTC names but may hold
+    radians, metres or m/s):
+
+    - SA in rad: within :data:`RADIAN_SWEEP` while |FY| reaches :data:`SATURATED_FY` of |FZ|
+      (IA then in rad too: one script converts both angles; ``--units IA=deg`` says otherwise);
+    - RL and RE in m: a median of 0.1-1.5 (a tyre radius in metres, 1-15 mm in cm);
+    - V in m/s: V / omega is a tyre radius (0.1-1.5 m) with V in m/s but not in the
+      convention's km/h (needs the wheel speed N in rpm).
+    Only metric files are judged (a USCS file keeps its convention).
+    """
+    units = dict(units)
+    told: dict[str, str] = {}
+    if units.get("P") != "kPa":
+        return units, told
+    sa, fy, fz = (np.asarray(data[k], float) if k in data else None for k in ("SA", "FY", "FZ"))
+    if sa is not None and fy is not None and fz is not None and units.get("SA") == "deg":
+        loaded = np.isfinite(sa) & np.isfinite(fy) & (np.abs(np.nan_to_num(fz)) > 50.0)
+        amplitude = float(np.max(np.abs(sa[loaded]))) if loaded.any() else np.inf
+        ratio = float(np.quantile(np.abs(fy[loaded] / fz[loaded]), 0.99)) if loaded.any() \
+            else 0.0
+        if amplitude <= RADIAN_SWEEP and ratio >= SATURATED_FY:
+            units["SA"] = "rad"
+            told["SA"] = (f"slip angle within +-{amplitude:.3g} while |FY| reaches "
+                          f"{ratio:.2g} |FZ|: radians, not degrees")
+            if units.get("IA") == "deg":
+                units["IA"] = "rad"
+                told["IA"] = "inclination angle in the unit of the slip angle (radians)"
+    for name in ("RL", "RE"):
+        metres = _radius(data.get(name), 1.0)
+        if units.get(name) == "cm" and 0.1 <= metres <= 1.5:
+            units[name] = "m"
+            told[name] = f"median {metres:.4g}: a tyre radius in metres, not centimetres"
+    v, n = data.get("V"), data.get("N")
+    if v is not None and n is not None and units.get("V") == "kph" and units.get("N") == "rpm":
+        moving = np.isfinite(v) & np.isfinite(n) & (np.abs(n) > 10.0)
+        if moving.any():
+            ratio = float(np.median(np.abs(v[moving]) / (np.abs(n[moving]) * np.pi / 30.0)))
+            if not 0.1 <= ratio / 3.6 <= 1.5 and 0.1 <= ratio <= 1.5:
+                units["V"] = "m/s"
+                told["V"] = (f"V / omega is {ratio:.3g} m with V in m/s, {ratio / 3.6:.3g} m "
+                             "in km/h: metres per second")
+    return units, told
 
 
 def reader_note(channel: str, detail: str, action: str) -> str:
