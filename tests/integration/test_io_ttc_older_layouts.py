@@ -7,6 +7,7 @@ from its fields) and an unnamed matrix (refused with its name)."""
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 import pytest
 import scipy.io
 
@@ -249,3 +250,22 @@ def test_a_positive_load_in_a_ttc_file_is_refused_naming_the_sae_axes(tmp_path):
                            tmp_path / "out")
     assert any("median FZ is positive" in line and "SAE" in line and "--axes" in line
                for line in lines), lines
+
+
+def test_a_csv_with_the_ttc_names_and_no_units_reads_as_the_mat_without_struct(tmp_path):
+    """A team's CSV export of a TTC run (TTC names, no units) is the run its .mat gives: the
+    TTC convention with its warning, SAE axes; a unit the user gives replaces the assumed."""
+    ch = _session()
+    reference = read_trailer(_mat(tmp_path / "B1run1.mat", ch))
+    csv = tmp_path / "B1run1.csv"
+    pd.DataFrame(ch).to_csv(csv, index=False)
+    warnings = []
+    frame = read_trailer(csv, warnings=warnings)
+    note = next(w for w in warnings if w.channels == ("channel",))
+    assert note.detail.startswith("no units in the CSV header: the TTC SI")
+    for col in ("alpha", "Fy", "Fz", "Mz", "p", "Vx", "rl"):
+        np.testing.assert_allclose(frame[col].to_numpy(), reference[col].to_numpy(),
+                                   rtol=1e-9)
+    # the user's unit wins over the assumed one
+    told = read_trailer(csv, units={"P": "psi"}, warnings=[])
+    assert told["p"].median() == pytest.approx(reference["p"].median() * PSI / 1e3, rel=1e-9)

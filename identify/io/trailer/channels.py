@@ -27,8 +27,10 @@ from identify.io.common import Problems, file_problem, read_numeric_csv
 from identify.io.csv_rows import RowLines
 from identify.io.hdf5.channel_files import RawRun, is_hdf5, read_hdf5
 from identify.io.ttc.files import (
+    READER_NOTES,
     TTC_TO_TYDEX,
     UNITS_SOURCE,
+    assumed_units,
     is_ttc_dat,
     is_ttc_mat,
     is_ttc_naming,
@@ -161,12 +163,26 @@ def read_channels(path: str | Path, *, run: str | None = None,
                                           else None)]
     else:
         table = read_numeric_csv(path, problems, allow_nan=True)
-        raws = None if table is None else [(RawRun(run or path.stem, {
-            k: table[0][k].to_numpy() for k in table[0].columns}, table[1]), table[2])]
+        raws = None if table is None else [(_csv_run(run or path.stem, *table[:2]),
+                                            table[2])]
     if raws is None:
         return None
     out = [_to_si(path, raw, line, dict(units or {}), problems) for raw, line in raws]
     return None if problems.total > start else out
+
+
+def _csv_run(name: str, table, header_units: Mapping[str, str]) -> RawRun:
+    """The run of a CSV file. A CSV with the TTC channel names and no unit in its header (a
+    TTC session exported by a team script) is read as a TTC file without its channel struct:
+    the TTC convention, or the unit the magnitudes show, each said in a warning
+    (:func:`identify.io.ttc.files.assumed_units`); a unit the user gives replaces it."""
+    data = {k: table[k].to_numpy() for k in table.columns}
+    if header_units or not is_ttc_naming(data):
+        return RawRun(name, data, header_units)
+    units, notes = assumed_units({k: np.asarray(v, float) for k, v in data.items()},
+                                 "no units in the CSV header")
+    return RawRun(name, data, units, attrs={UNITS_SOURCE: "convention",
+                                            READER_NOTES: "\n".join(notes)})
 
 
 def _from_tydex(tdx: TydexFile, run: str, problems: Problems) -> RawRun:

@@ -54,6 +54,7 @@ from identify.io.ttc.mat73 import Mat73Error, Mat73Unread, is_mat73_header, read
 from identify.io.ttc.mat_guard import loadmat_crash, mat_problem
 
 __all__ = [
+    "assumed_units",
     "READER_NOTES",
     "TTC_CHANNELS",
     "TTC_STRINGS",
@@ -299,12 +300,9 @@ def _contents(path: Path, mat: Mapping, problems: Problems, fmt: str):
         return None
     attrs = {k: _text(mat[k]).strip() for k in TTC_STRINGS if k in mat}
     if not units:  # the older layout: no channel struct, the units follow a convention
-        units, note = convention_units(data)
+        units, assumed = assumed_units(data)
         attrs[UNITS_SOURCE] = "convention"
-        notes.append(reader_note("channel", note, "units assumed"))
-        units, told = magnitude_units(data, units)
-        notes += [reader_note(name, detail, f"unit taken as {units[name]}")
-                  for name, detail in told.items()]
+        notes += assumed
     if notes:
         attrs[READER_NOTES] = "\n".join(notes)
     return data, {k: units[k] for k in data if k in units}, {"format": fmt, **attrs}
@@ -319,12 +317,15 @@ READER_NOTES = "reader_notes"
 #: ``attrs`` key: ``"convention"`` when the units are not in the file but assumed (a unit
 #: given by the manifest or ``--units`` then replaces the assumed one without a conflict).
 UNITS_SOURCE = "units_source"
+#: Where a .mat file's units are missing, as its warning says.
+NO_STRUCT = "no 'channel' struct with the units"
 #: Median inflation pressure below which a file without units is taken to be in psi [file
 #: units]: no tyre is tested below 45 kPa (6.5 psi), and none above 45 psi is in kPa's range.
 PSI_BELOW = 45.0
 
 
-def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], str]:
+def convention_units(data: Mapping[str, np.ndarray], missing: str = NO_STRUCT
+                     ) -> tuple[dict[str, str], str]:
     """The units of a TTC file that does not give them, and the note that says so.
 
     Older TTC files (and files converted by teams) carry no ``channel`` struct. The TTC SI
@@ -346,7 +347,7 @@ def convention_units(data: Mapping[str, np.ndarray]) -> tuple[dict[str, str], st
     why = (f"the median pressure {median:.4g} is below {PSI_BELOW:g}, so psi" if uscs else
            f"the median pressure {median:.4g} is a pressure in kPa" if np.isfinite(median)
            else "no pressure channel to tell psi from kPa")
-    return units, (f"no 'channel' struct with the units: the {system} convention is "
+    return units, (f"{missing}: the {system} convention is "
                    f"assumed ({why}); --units CHANNEL=UNIT sets another")
 
 
@@ -411,6 +412,18 @@ def magnitude_units(data: Mapping[str, np.ndarray], units: Mapping[str, str]
                 told["V"] = (f"V / omega is {ratio:.3g} m with V in m/s, {ratio / 3.6:.3g} m "
                              "in km/h: metres per second")
     return units, told
+
+
+def assumed_units(data: Mapping[str, np.ndarray], missing: str = NO_STRUCT
+                  ) -> tuple[dict[str, str], list[str]]:
+    """The units of TTC channels read from a file that gives none (a .mat without its channel
+    struct, a CSV with the TTC names): the convention (:func:`convention_units`) with the
+    channels whose magnitudes show another unit (:func:`magnitude_units`), and the reader
+    notes (:func:`reader_note`) that say so; ``missing`` says where the units are missing."""
+    units, note = convention_units(data, missing)
+    units, told = magnitude_units(data, units)
+    return units, [reader_note("channel", note, "units assumed")] + [
+        reader_note(name, detail, f"unit taken as {units[name]}") for name, detail in told.items()]
 
 
 def reader_note(channel: str, detail: str, action: str) -> str:
