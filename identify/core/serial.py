@@ -2,12 +2,27 @@
 migrations between document versions.
 
 :func:`to_data` writes a dataclass as a dict of its fields (``dataclasses.fields``, in
-order), nested dataclasses as dicts, tuples as lists, mappings as dicts, then JSON-safe
-(:func:`identify.core.jsonsafe.json_safe`: NaN as null). :func:`from_data` reads it back by
-the fields' type hints: nested dataclasses, ``tuple[X, ...]``, ``X | None``, floats (null as
-NaN for a ``float`` field), so ``from_data(C, to_data(c)) == c`` for the classes it serves.
-A field missing from the data takes its default (a field added later reads as its default);
-an unknown key is an error, never dropped silently.
+order), nested dataclasses as dicts, tuples as lists, mappings as dicts, enums as their
+values, numpy arrays and scalars as lists and numbers, then JSON-safe
+(:func:`identify.core.jsonsafe.json_safe`: a NaN or infinite number as null).
+:func:`from_data` reads it back by the fields' type hints: nested dataclasses,
+``tuple[X, ...]``, ``dict[K, V]``, ``X | None``, enums, ``np.ndarray`` (float), floats (null as
+NaN for a ``float`` field, or the value the field's :func:`meta` names), so
+``from_data(C, to_data(c)) == c`` for the classes it serves. A field missing from the data
+takes its default (a field added later reads as its default; a field without a default is
+an error); an unknown key is an error, never dropped silently.
+
+A class says where its document differs from its fields, and nothing else:
+
+- :func:`meta` on a field (``field(metadata=meta(...))``): the key it is written under, a
+  field that is not written (kept in memory only, e.g. per-point arrays) and what a null
+  reads as;
+- ``serial_derived`` (a class attribute): keys written after the fields, each a function of
+  the object (a printed line, a count); they are derived, so reading ignores them.
+
+A nested dataclass is written by its own ``to_dict`` and read by its own ``from_dict`` when
+it has them, so one class's hook holds wherever it is nested. :class:`Serial` gives a
+dataclass ``to_dict``/``from_dict`` that are :func:`to_data`/:func:`from_data`.
 
 A document carries its schema as ``"<name>/<version>"``. :class:`Schema` holds the current
 version and one migration per older version (version k -> k + 1, a function of the plain
@@ -17,20 +32,72 @@ layout and an old file still loads through the migrations.
 from __future__ import annotations
 
 import dataclasses
+import enum
+import functools
 import math
 import types
 import typing
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
+from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from identify.core.jsonsafe import json_safe
 
-__all__ = ["Schema", "from_data", "to_data"]
+__all__ = ["Schema", "Serial", "from_data", "meta", "to_data"]
+
+_KEY = "serial_key"
+_SKIP = "serial_skip"
+_NULL = "serial_null"
+
+
+def meta(*, key: str | None = None, skip: bool = False, null: float | None = None
+         ) -> dict[str, Any]:
+    """A field's serial metadata, for ``dataclasses.field(metadata=...)``.
+
+    Parameters
+    ----------
+    key : str, optional   the document key of the field (default: its name)
+    skip : bool           not written, and read as its default (data kept in memory only)
+    null : float, optional   what a null reads as for a float field (default NaN), e.g.
+                          ``math.inf`` for a quantity whose null means unbounded
+    """
+    out: dict[str, Any] = {}
+    if key is not None:
+        out[_KEY] = key
+    if skip:
+        out[_SKIP] = True
+    if null is not None:
+        out[_NULL] = float(null)
+    return out
+
+
+@functools.cache
+def _layout(cls: type) -> tuple[tuple[str, str, Any, float], ...]:
+    """(attribute, key, type hint, null value) of every written field of ``cls``."""
+    hints = typing.get_type_hints(cls)
+    return tuple((f.name, f.metadata.get(_KEY, f.name), hints[f.name],
+                  f.metadata.get(_NULL, math.nan))
+                 for f in dataclasses.fields(cls) if not f.metadata.get(_SKIP))
+
+
+def _derived(cls: type) -> Mapping[str, Callable[[Any], Any]]:
+    return getattr(cls, "serial_derived", None) or {}
+
+
+def _fields_plain(obj: Any) -> dict[str, Any]:
+    out = {key: _plain(getattr(obj, name)) for name, key, _, _ in _layout(type(obj))}
+    out.update({key: _plain(fn(obj)) for key, fn in _derived(type(obj)).items()})
+    return out
 
 
 def _plain(obj: Any) -> Any:
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
-        return {f.name: _plain(getattr(obj, f.name)) for f in dataclasses.fields(obj)}
+        to_dict = getattr(obj, "to_dict", None)
+        return to_dict() if callable(to_dict) else _fields_plain(obj)
+    if isinstance(obj, enum.Enum):
+        return obj.value
     if isinstance(obj, Mapping):
         return {str(k): _plain(v) for k, v in obj.items()}
     if isinstance(obj, (tuple, list)):
@@ -39,11 +106,14 @@ def _plain(obj: Any) -> Any:
 
 
 def to_data(obj: Any) -> Any:
-    """A dataclass (and what it holds) as JSON-safe plain data, field by field."""
+    """A dataclass (and what it holds) as JSON-safe plain data, field by field (the class's
+    :func:`meta` and ``serial_derived`` applied; a nested dataclass by its own ``to_dict``)."""
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return json_safe(_fields_plain(obj))
     return json_safe(_plain(obj))
 
 
-def _read(hint: Any, value: Any) -> Any:
+def _read(hint: Any, value: Any, null: float = math.nan) -> Any:
     origin = typing.get_origin(hint)
     args = typing.get_args(hint)
     if origin in (typing.Union, types.UnionType):
@@ -51,20 +121,27 @@ def _read(hint: Any, value: Any) -> Any:
             return None
         inner = [a for a in args if a is not type(None)]
         if len(inner) == 1:
-            return _read(inner[0], value)
+            return _read(inner[0], value, null)
         return value
     if dataclasses.is_dataclass(hint):
-        return from_data(hint, value)
+        from_dict = getattr(hint, "from_dict", None)
+        return from_dict(value) if callable(from_dict) else from_data(hint, value)
     if origin is tuple:
         if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_read(args[0], v) for v in value or ())
-        return tuple(_read(a, v) for a, v in zip(args, value, strict=True))
+            return tuple(_read(args[0], v, null) for v in value or ())
+        return tuple(_read(a, v, null) for a, v in zip(args, value, strict=True))
+    if origin in (list, Sequence) or hint is list:
+        return [_read(args[0] if args else Any, v, null) for v in value or ()]
     if origin in (dict, Mapping) or hint in (dict, Mapping):
-        vt = args[1] if len(args) == 2 else Any
-        return {str(k): _read(vt, v) for k, v in (value or {}).items()}
+        kt, vt = args if len(args) == 2 else (str, Any)
+        return {_read(kt, k): _read(vt, v, null) for k, v in (value or {}).items()}
     if hint is float:
-        return math.nan if value is None else float(value)
-    if hint in (int, str, bool):
+        return null if value is None else float(value)
+    if hint in (int, str, bool, Path):
+        return hint(value)
+    if hint is np.ndarray:
+        return np.asarray(value, dtype=float)
+    if isinstance(hint, type) and issubclass(hint, enum.Enum):
         return hint(value)
     return value
 
@@ -75,16 +152,40 @@ def from_data(cls: type, data: Mapping[str, Any]) -> Any:
     Raises
     ------
     TypeError
-        ``data`` is not a mapping or holds a key that is not a field of ``cls``.
+        ``data`` is not a mapping, holds a key that is neither a written field nor a derived
+        key of ``cls``, or lacks a field that has no default.
     """
     if not isinstance(data, Mapping):
         raise TypeError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
-    fields = {f.name: f for f in dataclasses.fields(cls)}
-    unknown = sorted(set(data) - set(fields))
+    layout = _layout(cls)
+    keys = {key for _, key, _, _ in layout}
+    unknown = sorted(set(data) - keys - set(_derived(cls)))
     if unknown:
-        raise TypeError(f"{cls.__name__}: unknown field(s) {', '.join(unknown)}")
-    hints = typing.get_type_hints(cls)
-    return cls(**{name: _read(hints[name], data[name]) for name in fields if name in data})
+        raise TypeError(f"{cls.__name__}: unknown field(s) {', '.join(map(str, unknown))}")
+    required = {f.name for f in dataclasses.fields(cls) if f.init
+                and f.default is dataclasses.MISSING
+                and f.default_factory is dataclasses.MISSING}
+    missing = sorted(key for name, key, _, _ in layout if name in required and key not in data)
+    if missing:
+        raise TypeError(f"{cls.__name__}: missing field(s) {', '.join(missing)}")
+    return cls(**{name: _read(hint, data[key], null)
+                  for name, key, hint, null in layout if key in data})
+
+
+class Serial:
+    """Mixin of a dataclass written and read field by field: ``to_dict`` is :func:`to_data`,
+    ``from_dict`` is :func:`from_data`."""
+
+    __slots__ = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The JSON-safe dict of the fields (identify.core.serial)."""
+        return to_data(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> Any:
+        """Inverse of :meth:`to_dict` (identify.core.serial.from_data)."""
+        return from_data(cls, d)
 
 
 @dataclasses.dataclass(frozen=True)
