@@ -123,18 +123,20 @@ def _read(hint: Any, value: Any, null: float = math.nan) -> Any:
         if len(inner) == 1:
             return _read(inner[0], value, null)
         return value
+    if value is None and hint is not float and hint is not Any:
+        raise TypeError(f"null where {getattr(hint, '__name__', hint)} is expected")
     if dataclasses.is_dataclass(hint):
         from_dict = getattr(hint, "from_dict", None)
         return from_dict(value) if callable(from_dict) else from_data(hint, value)
     if origin is tuple:
         if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_read(args[0], v, null) for v in value or ())
+            return tuple(_read(args[0], v, null) for v in value)
         return tuple(_read(a, v, null) for a, v in zip(args, value, strict=True))
     if origin in (list, Sequence) or hint is list:
-        return [_read(args[0] if args else Any, v, null) for v in value or ()]
+        return [_read(args[0] if args else Any, v, null) for v in value]
     if origin in (dict, Mapping) or hint in (dict, Mapping):
         kt, vt = args if len(args) == 2 else (str, Any)
-        return {_read(kt, k): _read(vt, v, null) for k, v in (value or {}).items()}
+        return {_read(kt, k): _read(vt, v, null) for k, v in value.items()}
     if hint is float:
         return null if value is None else float(value)
     if hint in (int, str, bool, Path):
@@ -153,7 +155,8 @@ def from_data(cls: type, data: Mapping[str, Any]) -> Any:
     ------
     TypeError
         ``data`` is not a mapping, holds a key that is neither a written field nor a derived
-        key of ``cls``, or lacks a field that has no default.
+        key of ``cls``, lacks a field that has no default, or holds a value its field's type
+        cannot take (a null where no null is allowed); the message names the class and key.
     """
     if not isinstance(data, Mapping):
         raise TypeError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
@@ -168,8 +171,14 @@ def from_data(cls: type, data: Mapping[str, Any]) -> Any:
     missing = sorted(key for name, key, _, _ in layout if name in required and key not in data)
     if missing:
         raise TypeError(f"{cls.__name__}: missing field(s) {', '.join(missing)}")
-    return cls(**{name: _read(hint, data[key], null)
-                  for name, key, hint, null in layout if key in data})
+    values = {}
+    for name, key, hint, null in layout:
+        if key in data:
+            try:
+                values[name] = _read(hint, data[key], null)
+            except (TypeError, ValueError, AttributeError) as exc:
+                raise TypeError(f"{cls.__name__}.{key}: {exc}") from None
+    return cls(**values)
 
 
 class Serial:
