@@ -18,7 +18,9 @@ A class says where its document differs from its fields, and nothing else:
   field that is not written (kept in memory only, e.g. per-point arrays) and what a null
   reads as;
 - ``serial_derived`` (a class attribute): keys written after the fields, each a function of
-  the object (a printed line, a count); they are derived, so reading ignores them.
+  the object (a printed line, a count); they are derived, so reading ignores them;
+- ``serial_order`` (a class attribute): the keys written first, in this order (the others
+  follow in field order), where a document's key order predates its class's field order.
 
 A nested dataclass is written by its own ``to_dict`` and read by its own ``from_dict`` when
 it has them, so one class's hook holds wherever it is nested. :class:`Serial` gives a
@@ -89,6 +91,9 @@ def _derived(cls: type) -> Mapping[str, Callable[[Any], Any]]:
 def _fields_plain(obj: Any) -> dict[str, Any]:
     out = {key: _plain(getattr(obj, name)) for name, key, _, _ in _layout(type(obj))}
     out.update({key: _plain(fn(obj)) for key, fn in _derived(type(obj)).items()})
+    order = getattr(type(obj), "serial_order", ())
+    if order:
+        out = {**{k: out[k] for k in order}, **out}
     return out
 
 

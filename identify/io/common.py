@@ -65,6 +65,7 @@ class Problem(Serial):
 
     #: written after the fields (``to_dict``): ``text`` is the printed line
     serial_derived = {"text": str}
+    serial_order = ("file", "line", "key", "message")
 
 
 class Problems:

@@ -101,6 +101,7 @@ class MeasurementSet(Serial):
     serial_derived = {"rows": lambda self: {"trailer": len(self.trailer),
                                             "flatplank": len(self.flatplank),
                                             "characteristics": len(self.characteristics)}}
+    serial_order = ("path", "manifest", "rows")
 
 
 @dataclass(frozen=True, eq=False)

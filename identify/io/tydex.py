@@ -77,6 +77,7 @@ class TydexFile(Serial):
 
     #: ``to_dict`` is a summary: entries, comments and channels, then the number of rows
     serial_derived = {"rows": lambda self: int(self.data.shape[0])}
+    serial_order = ("path",)
 
 
 def is_tydex(path: str | Path) -> bool:

@@ -151,3 +151,19 @@ def test_nested_classes_keep_their_hooks_and_arrays_become_lists():
     back = from_data(_Holder, data)
     assert back.hooked == obj.hooked
     np.testing.assert_array_equal(back.values, obj.values)  # null reads back as NaN
+
+
+@dataclasses.dataclass(frozen=True)
+class _Ordered(Serial):
+    a: int
+    b: int
+    c: int = 0
+
+    serial_derived = {"total": lambda self: self.a + self.b + self.c}
+    serial_order = ("c", "total")
+
+
+def test_the_keys_named_first_lead_the_document_the_others_follow_in_field_order():
+    assert list(_Ordered(1, 2, 3).to_dict().items()) == [("c", 3), ("total", 6), ("a", 1),
+                                                         ("b", 2)]
+    assert _Ordered.from_dict({"c": 3, "total": 99, "a": 1, "b": 2}) == _Ordered(1, 2, 3)

@@ -90,6 +90,8 @@ class TirFile(Serial):
     sha256: str
     warnings: tuple[str, ...] = field(default=())
 
+    serial_order = ("path", "fittyp", "sha256")  # ``to_dict``: then the other fields
+
     def __post_init__(self) -> None:
         for name in ("values", "units", "unknown", "tables"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))

@@ -122,6 +122,7 @@ class Channels(Serial):
 
     #: ``to_dict`` is a summary (run, file, units, axes, attrs), then the number of samples
     serial_derived = {"samples": lambda self: self.samples}
+    serial_order = ("run", "file", "axes", "samples")
 
 
 def read_channels(path: str | Path, *, run: str | None = None,
