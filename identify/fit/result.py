@@ -23,6 +23,7 @@ from matplotlib.figure import Figure
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
 from identify.core.jsonsafe import json_safe
+from identify.core.serial import Serial, from_data, meta
 from identify.fit.solve.covariance import t_quantile
 from identify.fit.status import FAILED
 
@@ -57,7 +58,7 @@ _EMPTY = np.empty(0)
 
 
 @dataclass(frozen=True)
-class MCMCSummary:
+class MCMCSummary(Serial):
     """Posterior summary from emcee, kept apart from the least-squares optimum.
 
     Attributes
@@ -94,11 +95,18 @@ class MCMCSummary:
     noise: Mapping[str, float]
     seed: int
     converged: bool
-    seconds: float
+    seconds: float = field(metadata=meta(null=0.0))
     chain_file: str | None = None
     stopped: str = ""
     reparametrised: tuple[str, ...] = ()
-    samples: np.ndarray | None = field(default=None, repr=False, compare=False)
+    samples: np.ndarray | None = field(default=None, repr=False, compare=False,
+                                       metadata=meta(skip=True))
+
+    #: fit.json's key order (the quantiles and maps follow), then ``effective_samples``
+    serial_order = ("acceptance", "n_walkers", "n_steps", "n_discard", "n_thin",
+                    "n_samples", "seed", "converged", "seconds", "chain_file", "stopped",
+                    "reparametrised")
+    serial_derived = {"effective_samples": lambda self: float(self.n_samples)}
 
     def interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
         if level == 0.95:
@@ -112,36 +120,19 @@ class MCMCSummary:
         lo = (1 - level) / 2
         return float(np.quantile(col, lo)), float(np.quantile(col, 1 - lo))
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict: one fit's ``mcmc`` entry in fit.json."""
-        d = {k: getattr(self, k) for k in ("acceptance", "n_walkers", "n_steps", "n_discard",
-                                           "n_thin", "n_samples", "seed", "converged",
-                                           "seconds", "chain_file", "stopped")}
-        d["reparametrised"] = list(self.reparametrised)
-        for k in ("median", "q16", "q84", "q025", "q975", "tau", "correlations", "noise"):
-            d[k] = _nums(getattr(self, k))
-        d["effective_samples"] = _num(self.n_samples)
-        return json_safe(d)
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> MCMCSummary:
         """Inverse of :meth:`to_dict` (``effective_samples`` is ``n_samples``; the samples
-        themselves are not in fit.json: read the chain file)."""
-        return cls(median=_floats(d["median"]), q16=_floats(d["q16"]), q84=_floats(d["q84"]),
-                   q025=_floats(d["q025"]), q975=_floats(d["q975"]), tau=_floats(d["tau"]),
-                   acceptance=_float(d["acceptance"]), n_walkers=int(d["n_walkers"]),
-                   n_steps=int(d["n_steps"]), n_discard=int(d["n_discard"]),
-                   n_thin=int(d["n_thin"]), n_samples=int(d["n_samples"]),
-                   correlations=_floats(d.get("correlations")), noise=_floats(d.get("noise")),
-                   seed=int(d["seed"]), converged=bool(d["converged"]),
-                   seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"),
-                   stopped=str(d["stopped"] if "stopped" in d  # older files: the cap
-                               else "" if d["converged"] else "max_steps"),
-                   reparametrised=tuple(d.get("reparametrised") or ()))
+        themselves are not in fit.json: read the chain file). An entry written before a
+        field was recorded reads as what such a run did: no correlations or noise
+        parameters, 0 s, and a chain that did not converge stopped at the step cap."""
+        recorded = {"correlations": {}, "noise": {}, "seconds": 0.0,
+                    "stopped": "" if d.get("converged") else "max_steps"}
+        return from_data(cls, {**recorded, **d})
 
 
 @dataclass(frozen=True)
-class Rival:
+class Rival(Serial):
     """Another local minimum of a fit's objective that the data cannot rule out.
 
     Attributes
@@ -156,12 +147,6 @@ class Rival:
     values: Mapping[str, float]
     dchi2: float
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"values": _nums(self.values), "dchi2": _num(self.dchi2)}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Rival:
-        return cls(values=_floats(d.get("values")), dchi2=_float(d.get("dchi2")))
 
 
 @dataclass(frozen=True)
