@@ -52,10 +52,11 @@ __all__ = ["Schema", "Serial", "from_data", "meta", "to_data"]
 _KEY = "serial_key"
 _SKIP = "serial_skip"
 _NULL = "serial_null"
+_KEY_FORMAT = "serial_key_format"
 
 
-def meta(*, key: str | None = None, skip: bool = False, null: float | None = None
-         ) -> dict[str, Any]:
+def meta(*, key: str | None = None, skip: bool = False, null: float | None = None,
+         key_format: str | None = None) -> dict[str, Any]:
     """A field's serial metadata, for ``dataclasses.field(metadata=...)``.
 
     Parameters
@@ -64,6 +65,9 @@ def meta(*, key: str | None = None, skip: bool = False, null: float | None = Non
     skip : bool           not written, and read as its default (data kept in memory only)
     null : float, optional   what a null reads as for a float field (default NaN), e.g.
                           ``math.inf`` for a quantity whose null means unbounded
+    key_format : str, optional   ``format`` spec of the keys of a mapping field with number
+                          keys (e.g. ``"g"``: a pressure of 2.0 bar as ``"2"``); read back by
+                          the key type
     """
     out: dict[str, Any] = {}
     if key is not None:
@@ -72,6 +76,8 @@ def meta(*, key: str | None = None, skip: bool = False, null: float | None = Non
         out[_SKIP] = True
     if null is not None:
         out[_NULL] = float(null)
+    if key_format is not None:
+        out[_KEY_FORMAT] = key_format
     return out
 
 
@@ -84,12 +90,24 @@ def _layout(cls: type) -> tuple[tuple[str, str, Any, float], ...]:
                  for f in dataclasses.fields(cls) if not f.metadata.get(_SKIP))
 
 
+@functools.cache
+def _key_formats(cls: type) -> Mapping[str, str]:
+    return {f.name: f.metadata[_KEY_FORMAT] for f in dataclasses.fields(cls)
+            if _KEY_FORMAT in f.metadata}
+
+
 def _derived(cls: type) -> Mapping[str, Callable[[Any], Any]]:
     return getattr(cls, "serial_derived", None) or {}
 
 
 def _fields_plain(obj: Any) -> dict[str, Any]:
-    out = {key: _plain(getattr(obj, name)) for name, key, _, _ in _layout(type(obj))}
+    formats = _key_formats(type(obj))
+    out = {}
+    for name, key, _, _ in _layout(type(obj)):
+        value = getattr(obj, name)
+        if name in formats:
+            value = {format(k, formats[name]): v for k, v in value.items()}
+        out[key] = _plain(value)
     out.update({key: _plain(fn(obj)) for key, fn in _derived(type(obj)).items()})
     order = getattr(type(obj), "serial_order", ())
     if order:
@@ -133,6 +151,8 @@ def _read(hint: Any, value: Any, null: float = math.nan) -> Any:
     if dataclasses.is_dataclass(hint):
         from_dict = getattr(hint, "from_dict", None)
         return from_dict(value) if callable(from_dict) else from_data(hint, value)
+    if hint is tuple:
+        return tuple(value)
     if origin is tuple:
         if len(args) == 2 and args[1] is Ellipsis:
             return tuple(_read(args[0], v, null) for v in value)
@@ -153,8 +173,12 @@ def _read(hint: Any, value: Any, null: float = math.nan) -> Any:
     return value
 
 
-def from_data(cls: type, data: Mapping[str, Any]) -> Any:
+def from_data(cls: type, data: Mapping[str, Any], **given: Any) -> Any:
     """The ``cls`` instance that :func:`to_data` wrote as ``data``.
+
+    ``given`` holds values of fields a class's own hook reads (a field that is not written,
+    or one written in a shape of its own): they are passed as they are, and their keys in
+    ``data`` are not read.
 
     Raises
     ------
@@ -165,18 +189,21 @@ def from_data(cls: type, data: Mapping[str, Any]) -> Any:
     """
     if not isinstance(data, Mapping):
         raise TypeError(f"{cls.__name__}: expected a mapping, got {type(data).__name__}")
-    layout = _layout(cls)
+    given_keys = {key for name, key, _, _ in _layout(cls) if name in given} | set(given)
+    layout = tuple(entry for entry in _layout(cls) if entry[0] not in given)
     keys = {key for _, key, _, _ in layout}
-    unknown = sorted(set(data) - keys - set(_derived(cls)))
+    unknown = sorted(set(data) - keys - set(_derived(cls)) - given_keys)
     if unknown:
         raise TypeError(f"{cls.__name__}: unknown field(s) {', '.join(map(str, unknown))}")
     required = {f.name for f in dataclasses.fields(cls) if f.init
                 and f.default is dataclasses.MISSING
                 and f.default_factory is dataclasses.MISSING}
     missing = sorted(key for name, key, _, _ in layout if name in required and key not in data)
+    missing += sorted(name for name in required - set(given)
+                      if name not in {entry[0] for entry in layout})
     if missing:
         raise TypeError(f"{cls.__name__}: missing field(s) {', '.join(missing)}")
-    values = {}
+    values = dict(given)
     for name, key, hint, null in layout:
         if key in data:
             try:

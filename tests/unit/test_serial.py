@@ -119,6 +119,8 @@ class _Hooked(Serial):
     curve: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0),
                                           metadata=meta(skip=True), compare=False)
     by_bar: dict[float, float] = dataclasses.field(default_factory=dict)
+    by_bar_g: dict[float, float] = dataclasses.field(default_factory=dict,
+                                                     metadata=meta(key_format="g"))
 
     serial_derived = {"n_dof": lambda self: len(self.dof)}
 
@@ -130,14 +132,16 @@ class _Holder:
 
 
 def test_a_field_is_written_under_its_key_and_a_derived_key_is_ignored_on_read():
-    h = _Hooked(3, {"a": math.inf, "b": 2.0}, _Colour.BLUE, np.ones(4), {1.9: 0.5})
+    h = _Hooked(3, {"a": math.inf, "b": 2.0}, _Colour.BLUE, np.ones(4), {1.9: 0.5},
+                {2.0: 0.25})
     data = h.to_dict()
     assert data == {"step": 3, "dof": {"a": None, "b": 2.0}, "colour": "blue",
-                    "by_bar": {"1.9": 0.5}, "n_dof": 2}  # curve is not written
+                    "by_bar": {"1.9": 0.5}, "by_bar_g": {"2": 0.25},
+                    "n_dof": 2}  # curve is not written
     back = _Hooked.from_dict(data)
     assert back == dataclasses.replace(h, curve=np.zeros(0))
     assert back.dof["a"] == math.inf  # null reads as the field's null value
-    assert back.curve.size == 0 and back.by_bar == {1.9: 0.5}
+    assert back.curve.size == 0 and back.by_bar == {1.9: 0.5} and back.by_bar_g == {2.0: 0.25}
     with pytest.raises(TypeError, match="missing field.*step"):
         _Hooked.from_dict({"dof": {}})
 
@@ -146,7 +150,7 @@ def test_nested_classes_keep_their_hooks_and_arrays_become_lists():
     obj = _Holder((_Hooked(1),), np.array([1.0, np.nan, np.float32(2.5)]))
     data = to_data(obj)
     assert data["hooked"] == [{"step": 1, "dof": {}, "colour": "red", "by_bar": {},
-                               "n_dof": 0}]
+                               "by_bar_g": {}, "n_dof": 0}]
     assert data["values"] == [1.0, None, 2.5]
     back = from_data(_Holder, data)
     assert back.hooked == obj.hooked
