@@ -194,7 +194,8 @@ def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
     ``pressure_holdout``, the .tir's ``key_sources`` and ``forms``) and the provenance's
     fields, or hold them as null: they read as empty (an unknown version and command, seed 0);
     a key source written as a plain string (the ``relation/form`` that supplied it) is a
-    fitted one; a null text of the tyre (source, size, description) is its default."""
+    fitted one; a null text of the tyre (source, size, description) is its default; the
+    .tir without a FITTYP is 61, without a path ``<tyre id>.tir``."""
     out = dict(doc)
     out["tyre"] = {k: v for k, v in (out.get("tyre") or {}).items()
                    if v is not None or k not in _TYRE_TEXTS}
@@ -202,6 +203,8 @@ def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
                        ("pressure_holdout", {})):
         out[key] = out.get(key) or empty
     tir = dict(out.get("tir") or {})
+    tir["fittyp"] = int(tir.get("fittyp") or 61)
+    tir["path"] = str(tir.get("path") or f"{out['tyre'].get('id')}.tir")
     tir["key_sources"] = {str(k): KeySource.from_dict(v).to_dict()
                           for k, v in (tir.get("key_sources") or {}).items()}
     tir["forms"] = list(tir.get("forms") or [])
@@ -434,7 +437,8 @@ class FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        An older document is first migrated to the current layout (:data:`FIT_SCHEMA`).
+        An older document is first migrated to the current layout (:data:`FIT_SCHEMA`), in
+        which every entry is present: the reader knows that layout only.
 
         Raises
         ------
@@ -448,33 +452,34 @@ class FitRun:
             raise InputError(None, str(exc), key="schema") from None
         if not isinstance(doc.get("fits"), list):
             raise InputError(None, "missing the list of fits", key="fits")
-        tir = doc.get("tir") or {}
         with _entry("tyre"):
             tyre = TyreInfo.from_dict(doc["tyre"])
         with _entry("provenance"):
-            provenance = Provenance.from_dict(doc.get("provenance") or {})
+            provenance = Provenance.from_dict(doc["provenance"])
         results = []
         for i, d in enumerate(doc["fits"]):
             with _entry(f"fits[{i}]"):
                 results.append(FitResult.from_dict(d))
         with _entry("tir"):
-            fittyp = int(tir.get("fittyp") or 61)
-            key_sources = {str(k): KeySource.from_dict(v)
-                           for k, v in (tir.get("key_sources") or {}).items()}
-            forms = tuple(FormChoice.from_dict(c) for c in tir.get("forms") or ())
-            tir_name = str(tir.get("path") or f"{tyre.id}.tir")
+            tir = doc["tir"]
+            fittyp = int(tir["fittyp"])
+            key_sources = {str(k): KeySource.from_dict(v) for k, v in tir["key_sources"].items()}
+            forms = tuple(FormChoice.from_dict(c) for c in tir["forms"])
+            tir_name = str(tir["path"])
         with _entry("flags"):
-            flags = tuple(dict(f) for f in doc.get("flags") or ())
+            flags = tuple(dict(f) for f in doc["flags"])
+        with _entry("failed"):
+            failed = tuple(str(f) for f in doc["failed"])
         with _entry("coverage"):
-            coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
+            coverage = tuple(StageCoverage.from_dict(c) for c in doc["coverage"])
         with _entry("data_quality"):
-            quality = dict(doc.get("data_quality") or {})
+            quality = dict(doc["data_quality"])
         with _entry("pressure_holdout"):
-            holdout = dict(doc.get("pressure_holdout") or {})
+            holdout = dict(doc["pressure_holdout"])
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
-                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
-                   coverage=coverage, data_quality=quality, pressure_holdout=holdout)
+                   failed=failed, form_choices=forms, coverage=coverage,
+                   data_quality=quality, pressure_holdout=holdout)
 
 
 class _entry:

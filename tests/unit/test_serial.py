@@ -171,3 +171,20 @@ def test_the_keys_named_first_lead_the_document_the_others_follow_in_field_order
     assert list(_Ordered(1, 2, 3).to_dict().items()) == [("c", 3), ("total", 6), ("a", 1),
                                                          ("b", 2)]
     assert _Ordered.from_dict({"c": 3, "total": 99, "a": 1, "b": 2}) == _Ordered(1, 2, 3)
+
+
+def test_a_null_tyre_text_of_version_1_reads_as_its_default_and_the_tir_path_follows_the_id():
+    doc = _v1_document()
+    doc["tyre"] = {"id": "t1", "size": None, "nominal_load_N": None}
+    del doc["tir"]["path"]
+    run = FitRun.from_dict(doc)
+    assert run.tyre.size == "" and math.isnan(run.tyre.nominal_load_N)
+    assert run.tir_name == "t1.tir" and run.fittyp == 61
+
+
+def test_an_unknown_key_in_a_fit_entry_is_refused_naming_the_entry():
+    doc = FitRun.from_dict(_v1_document()).to_dict()
+    doc["tir"]["forms"] = [{"relation": "CFx", "form": "f", "simpler": "a", "richer": "b",
+                            "criterion": "F", "reason": "r", "colour": "red"}]
+    with pytest.raises(InputError, match="tir.*unknown field.*colour"):
+        FitRun.from_dict(doc)
