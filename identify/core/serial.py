@@ -10,20 +10,24 @@ values, numpy arrays and scalars as lists and numbers, then JSON-safe
 NaN for a ``float`` field, or the value the field's :func:`meta` names), so
 ``from_data(C, to_data(c)) == c`` for the classes it serves. A field missing from the data
 takes its default (a field added later reads as its default; a field without a default is
-an error); an unknown key is an error, never dropped silently.
+an error); an unknown key, or a null where the field's type allows none, is an error naming
+the class and key, never dropped or coerced silently.
 
 A class says where its document differs from its fields, and nothing else:
 
 - :func:`meta` on a field (``field(metadata=meta(...))``): the key it is written under, a
-  field that is not written (kept in memory only, e.g. per-point arrays) and what a null
-  reads as;
+  field that is not written (kept in memory only, e.g. per-point arrays), what a null reads
+  as, and the format of number keys;
 - ``serial_derived`` (a class attribute): keys written after the fields, each a function of
   the object (a printed line, a count); they are derived, so reading ignores them;
 - ``serial_order`` (a class attribute): the keys written first, in this order (the others
   follow in field order), where a document's key order predates its class's field order.
 
-A nested dataclass is written by its own ``to_dict`` and read by its own ``from_dict`` when
-it has them, so one class's hook holds wherever it is nested. :class:`Serial` gives a
+A class whose document has a shape of its own for some fields keeps a small ``from_dict``
+that reads those and passes them to :func:`from_data` (its ``given`` values); legacy
+readings of a record go into explicit defaults of that hook or into the document's
+migrations. A nested dataclass is written by its own ``to_dict`` and read by its own
+``from_dict`` when it has them, so one class's hook holds wherever it is nested. :class:`Serial` gives a
 dataclass ``to_dict``/``from_dict`` that are :func:`to_data`/:func:`from_data`.
 
 A document carries its schema as ``"<name>/<version>"``. :class:`Schema` holds the current
