@@ -27,8 +27,9 @@ A class whose document has a shape of its own for some fields keeps a small ``fr
 that reads those and passes them to :func:`from_data` (its ``given`` values); legacy
 readings of a record go into explicit defaults of that hook or into the document's
 migrations. A nested dataclass is written by its own ``to_dict`` and read by its own
-``from_dict`` when it has them, so one class's hook holds wherever it is nested. :class:`Serial` gives a
-dataclass ``to_dict``/``from_dict`` that are :func:`to_data`/:func:`from_data`.
+``from_dict`` when it has them, so one class's hook holds wherever it is nested.
+:class:`Serial` gives a dataclass ``to_dict``/``from_dict`` that are
+:func:`to_data`/:func:`from_data`.
 
 A document carries its schema as ``"<name>/<version>"``. :class:`Schema` holds the current
 version and one migration per older version (version k -> k + 1, a function of the plain
