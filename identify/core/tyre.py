@@ -5,18 +5,17 @@ fit.json and discovery.json; kept in core so that every layer can use it.
 """
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
-from identify.core.jsonsafe import json_safe
+from identify.core.serial import Serial, from_data
 
 __all__ = ["TyreInfo"]
 
 
 @dataclass(frozen=True)
-class TyreInfo:
+class TyreInfo(Serial):
     """The ``[tyre]`` table: identity and nominal operating point [SI].
 
     Attributes
@@ -37,20 +36,14 @@ class TyreInfo:
     size: str = ""
     description: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict (an unknown value, NaN, becomes None)."""
-        return json_safe({f.name: getattr(self, f.name) for f in fields(self)})
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> TyreInfo:
-        """Inverse of :meth:`to_dict`; a missing or null number is NaN, a missing text the
-        default. Raises KeyError without ``id``."""
-        def number(key: str) -> float:
-            v = d.get(key)
-            return math.nan if v is None else float(v)
+        """Inverse of :meth:`to_dict` (an unknown number, NaN, is written as null); a
+        missing number reads as unknown (NaN), a missing text as its default. Raises
+        TypeError without ``id``."""
+        return from_data(cls, {**_UNKNOWN_NUMBERS, **d})
 
-        return cls(id=str(d["id"]), nominal_pressure_Pa=number("nominal_pressure_Pa"),
-                   nominal_load_N=number("nominal_load_N"),
-                   unloaded_radius_m=number("unloaded_radius_m"),
-                   source=str(d.get("source") or "measured"), size=str(d.get("size") or ""),
-                   description=str(d.get("description") or ""))
+
+_UNKNOWN_NUMBERS: Mapping[str, Any] = dict.fromkeys(
+    ("nominal_pressure_Pa", "nominal_load_N", "unloaded_radius_m"))
+"""The numbers of the ``[tyre]`` table as unknown (null): what a record without them holds."""

@@ -16,6 +16,7 @@ from importlib.resources import files
 from pathlib import Path
 
 from identify.core.errors import InputError
+from identify.core.serial import Serial
 
 __all__ = ["Candidate", "BaseForm", "Library", "load_library"]
 
@@ -23,7 +24,7 @@ _REQUIRED = ("name", "coefficients", "relations", "equation", "description")
 
 
 @dataclass(frozen=True)
-class Candidate:
+class Candidate(Serial):
     """One candidate effect.
 
     Attributes
@@ -67,13 +68,6 @@ class Candidate:
     def applies_to(self, problem_name: str) -> bool:
         """True when ``problem_name`` matches one of :attr:`relations`."""
         return any(fnmatch.fnmatchcase(problem_name, pat) for pat in self.relations)
-
-    def to_dict(self) -> dict:
-        return {"name": self.name, "coefficients": dict(self.coefficients),
-                "bounds": {k: list(v) for k, v in self.bounds.items()},
-                "relations": list(self.relations), "equation": self.equation,
-                "description": self.description, "expected_sign": self.expected_sign,
-                "source": self.source, "nuisance": self.nuisance}
 
 
 @dataclass(frozen=True)

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from identify.core.jsonsafe import json_float
+from identify.core.serial import Serial
 
 __all__ = ["NoiseModel", "Sweeps", "sweep_index", "group_variogram", "lag1", "variogram",
            "fit_ar1", "choose_noise", "whiten", "noise_sigma", "PHI_MIN", "MAX_LAG",
@@ -36,7 +36,7 @@ MIN_SWEEP = 5
 
 
 @dataclass(frozen=True)
-class NoiseModel:
+class NoiseModel(Serial):
     """The error model chosen for one problem.
 
     Attributes
@@ -56,10 +56,6 @@ class NoiseModel:
     n_sweeps: int
     reason: str
 
-    def to_dict(self) -> dict:
-        return {"kind": self.kind, "phi": self.phi, "rho_lag1": json_float(self.rho_lag1),
-                "rho_variogram": json_float(self.rho_variogram), "n_sweeps": self.n_sweeps,
-                "reason": self.reason}
 
 
 class Sweeps(Sequence):

@@ -18,6 +18,7 @@ import numpy as np
 
 from identify.core.jsonsafe import json_float as _num
 from identify.core.jsonsafe import json_floats as _nums
+from identify.core.serial import Serial, meta
 from identify.discover.noise import NoiseModel
 
 __all__ = ["CandidateRow", "Trial", "Step", "Accepted", "ProblemSummary", "Discovery",
@@ -27,7 +28,7 @@ SCHEMA = "mfid.discovery/1"
 
 
 @dataclass(frozen=True)
-class CandidateRow:
+class CandidateRow(Serial):
     """One row of a step's candidate table.
 
     Attributes
@@ -64,20 +65,10 @@ class CandidateRow:
     ambiguity_group: tuple[str, ...]
     passes: bool
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "problem": self.problem,
-                "coefficients": list(self.coefficients), "equation": self.equation,
-                "description": self.description, "testable": self.testable,
-                "rel_norm": _num(self.rel_norm), "statistic": _num(self.statistic),
-                "dof": self.dof, "p_value": _num(self.p_value), "p_holm": _num(self.p_holm),
-                "predicted_error_pct": _num(self.predicted_error_pct),
-                "predicted_explained": _num(self.predicted_explained),
-                "cosines": _nums(self.cosines), "ambiguity_group": list(self.ambiguity_group),
-                "passes": self.passes}
 
 
 @dataclass(frozen=True)
-class Trial:
+class Trial(Serial):
     """One refit-and-confirm attempt.
 
     Attributes
@@ -109,33 +100,24 @@ class Trial:
     accepted: bool
     reason: str
 
-    def to_dict(self) -> dict[str, Any]:
-        d = {k: getattr(self, k) for k in ("name", "problem", "test", "heldout_scheme",
-                                            "accepted", "reason")}
-        d.update({k: _num(getattr(self, k)) for k in (
-            "statistic", "p_value", "p_adjusted", "error_before_pct", "error_after_pct",
-            "heldout_before_pct", "heldout_after_pct")})
-        d["coefficients"] = _nums(self.coefficients)
-        d["stderr"] = _nums(self.stderr)
-        return d
+    serial_order = ("name", "problem", "test", "heldout_scheme", "accepted", "reason",
+                    "statistic", "p_value", "p_adjusted", "error_before_pct",
+                    "error_after_pct", "heldout_before_pct", "heldout_after_pct")
 
 
 @dataclass(frozen=True)
-class Step:
+class Step(Serial):
     """One forward step: the candidate table, the attempts, what was accepted."""
 
-    index: int
+    index: int = field(metadata=meta(key="step"))
     candidates: tuple[CandidateRow, ...]
     tried: tuple[Trial, ...]
     accepted: str | None
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"step": self.index, "candidates": [c.to_dict() for c in self.candidates],
-                "tried": [t.to_dict() for t in self.tried], "accepted": self.accepted}
 
 
 @dataclass(frozen=True)
-class Accepted:
+class Accepted(Serial):
     """An accepted effect (the discovery.json ``accepted`` entries).
 
     ``p_value`` is the F test's (or cluster-robust Wald test's) p-value after the refit, Holm
@@ -160,19 +142,12 @@ class Accepted:
     note: str = ""
     heldout_scheme: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
-        d = {"name": self.name, "problem": self.problem, "description": self.description,
-             "coefficients": _nums(self.coefficients), "stderr": _nums(self.stderr),
-             "ambiguous_with": list(self.ambiguous_with), "note": self.note,
-             "heldout_scheme": self.heldout_scheme}
-        d.update({k: _num(getattr(self, k)) for k in (
-            "error_before_pct", "error_after_pct", "heldout_before_pct", "heldout_after_pct",
-            "p_value", "noise_floor_pct", "excess_explained")})
-        return d
+    serial_order = ("name", "problem", "description", "coefficients", "stderr",
+                    "ambiguous_with", "note", "heldout_scheme")
 
 
 @dataclass(frozen=True)
-class ProblemSummary:
+class ProblemSummary(Serial):
     """One problem's base fit, diagnosis and final state.
 
     Attributes
@@ -213,7 +188,7 @@ class ProblemSummary:
     candidates: tuple[str, ...]
     base_error_pct: float
     final_error_pct: float
-    base_error_by_pressure_pct: Mapping[float, float]
+    base_error_by_pressure_pct: Mapping[float, float] = field(metadata=meta(key_format="g"))
     converged: bool
     stationary: bool
     message: str
@@ -228,8 +203,9 @@ class ProblemSummary:
     parameters: Mapping[str, float]
     stderr: Mapping[str, float]
     final_free: tuple[str, ...]
-    arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False)
-    fit: Any = field(default=None, repr=False, compare=False)
+    arrays: Mapping[str, np.ndarray] = field(default_factory=dict, repr=False, compare=False,
+                                             metadata=meta(skip=True))
+    fit: Any = field(default=None, repr=False, compare=False, metadata=meta(skip=True))
     heldout_scheme: str = ""
     reads: Mapping[str, str] = field(default_factory=dict)
     upstream: tuple[str, ...] = ()
@@ -238,26 +214,13 @@ class ProblemSummary:
     def excess_explained(self) -> float:
         return excess_explained(self.base_error_pct, self.final_error_pct, self.noise_floor_pct)
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"name": self.name, "relation": self.relation, "form": self.form,
-                "unit": self.unit, "n_points": self.n_points, "free": list(self.free),
-                "candidates": list(self.candidates),
-                "base_error_pct": _num(self.base_error_pct),
-                "final_error_pct": _num(self.final_error_pct),
-                "base_error_by_pressure_pct": {f"{k:g}": _num(v) for k, v in
-                                               self.base_error_by_pressure_pct.items()},
-                "converged": self.converged, "stationary": self.stationary,
-                "message": self.message, "noise": self.noise.to_dict(),
-                "base_noise": self.base_noise.to_dict(),
-                "noise_floor_pct": _num(self.noise_floor_pct), "floor_source": self.floor_source,
-                "excess_explained": _num(self.excess_explained),
-                "cells": [dict(c) for c in self.cells],
-                "final_cells": [dict(c) for c in self.final_cells],
-                "fit_seconds": self.fit_seconds,
-                "score_seconds": self.score_seconds, "parameters": _nums(self.parameters),
-                "stderr": _nums(self.stderr), "final_free": list(self.final_free),
-                "heldout_scheme": self.heldout_scheme, "reads": dict(self.reads),
-                "upstream": list(self.upstream)}
+    #: discovery.json's key order: the fields to ``floor_source``, the derived
+    #: ``excess_explained``, then the other fields (the arrays and the fit are not written)
+    serial_derived = {"excess_explained": lambda self: self.excess_explained}
+    serial_order = ("name", "relation", "form", "unit", "n_points", "free", "candidates",
+                    "base_error_pct", "final_error_pct", "base_error_by_pressure_pct",
+                    "converged", "stationary", "message", "noise", "base_noise",
+                    "noise_floor_pct", "floor_source", "excess_explained")
 
 
 def excess_explained(before: float, after: float, floor: float) -> float:

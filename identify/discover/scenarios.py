@@ -34,7 +34,7 @@ import lmfit
 import numpy as np
 import pandas as pd
 
-from identify.discover.stage_problems import STAGES, stage_problem, sweep_shapes
+from identify.discover.stage_problems import DISCOVERY_STAGES, stage_problem, sweep_shapes
 from identify.fit.relations.problems import Context, rolling_resistance
 from identify.fit.solve.problem import FitProblem
 from identify.io.tir import read_tir
@@ -170,7 +170,7 @@ def make_problem(scenario: str, rng: np.random.Generator, hidden: str | None = N
     if scenario == "CFy":
         return _locked_hub(rng, start, hidden, value, noise, rho, matrix)
     stage = scenario.split("/")[-1] if scenario.startswith("MF/") else None
-    free = STAGES[stage].free if stage else ("QSY1", "QSY3", "QSY4")
+    free = DISCOVERY_STAGES[stage].free if stage else ("QSY1", "QSY3", "QSY4")
     truth = _randomised(rng, start, free)
     if hidden is not None:
         truth[hidden] = value

@@ -15,7 +15,6 @@ as one confident name.
 """
 from __future__ import annotations
 
-import dataclasses
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -24,6 +23,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
+from identify.core.serial import Serial
 from identify.discover.conclude import conclusion, summaries
 from identify.discover.confirm import confirm
 from identify.discover.final_accepted import final_accepted, headline, sign_note
@@ -40,7 +40,7 @@ __all__ = ["Settings", "discover"]
 
 
 @dataclass(frozen=True)
-class Settings:
+class Settings(Serial):
     """Settings of a discovery run.
 
     Attributes
@@ -68,8 +68,6 @@ class Settings:
     heldout: str = "auto"
     joint: bool = True
 
-    def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
 
 
 def _score(w: Working) -> tuple[dict, dict, list]:

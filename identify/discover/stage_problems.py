@@ -28,51 +28,65 @@ from scipy.ndimage import median_filter
 
 from identify.discover.design import levels
 from identify.discover.drift import session_positions
+from identify.fit.mf.pressure_holdout import is_pressure_coefficient
+from identify.fit.mf.stage_specs import STAGES
 from identify.fit.solve.problem import FitProblem
 from identify.model import aligning, lateral, longitudinal, moments
 from identify.model.modes import TRAILER_MODE
 from identify.model.parameters import bounds as table_bounds
 from identify.model.state import prepare
 
-__all__ = ["Stage", "STAGES", "label_sweeps", "stage_problem", "add_parameter",
+__all__ = ["DiscoveryStage", "DISCOVERY_STAGES", "label_sweeps", "stage_problem", "add_parameter",
            "sweep_shapes", "covering"]
 
 _TINY = 1e-6
 
 
 @dataclass(frozen=True)
-class Stage:
-    """One MF stage for discovery.
+class DiscoveryStage:
+    """The discovery problem of one measured output: which sweeps, which coefficients.
+
+    The coefficients are those of one MF fitting stage (``fit_stage``, a key of
+    :data:`identify.fit.mf.stage_specs.STAGES`, the one table of the stages' coefficients):
+    ``free`` is the subset discovery's base model fits, and the library candidates present
+    in the problem are that stage's pressure coefficients.
 
     Attributes
     ----------
     output : str                 measured channel (Fx, Fy, Mx, Mz)
+    fit_stage : str              the MF stage whose coefficients these are
     kinds : tuple of str         sweep kinds used
     free : tuple of str          MF coefficients fitted in the base model
-    candidates : tuple of str    library coefficients present (held at their neutral values)
     """
 
     output: str
+    fit_stage: str
     kinds: tuple[str, ...]
     free: tuple[str, ...]
-    candidates: tuple[str, ...]
+
+    @property
+    def candidates(self) -> tuple[str, ...]:
+        """The fit stage's pressure coefficients
+        (:func:`identify.fit.mf.pressure_holdout.is_pressure_coefficient`), by name: the
+        library candidates present in the problem, held at their neutral values."""
+        return tuple(sorted(c for c in STAGES[self.fit_stage].coefficients
+                            if is_pressure_coefficient(c)))
 
 
-STAGES: dict[str, Stage] = {
-    "Fx": Stage("Fx", ("braking_driving",),
-                ("PCX1", "PDX1", "PDX2", "PEX1", "PEX2", "PEX4", "PKX1", "PKX2", "PKX3",
-                 "PHX1", "PVX1"),
-                ("PPX1", "PPX2", "PPX3", "PPX4")),
-    "Fy": Stage("Fy", ("cornering", "camber"),
-                ("PCY1", "PDY1", "PDY2", "PDY3", "PEY1", "PEY2", "PEY3", "PKY1", "PKY2",
-                 "PKY3", "PKY6", "PKY7", "PHY1", "PHY2", "PVY1", "PVY2", "PVY3", "PVY4"),
-                ("PPY1", "PPY2", "PPY3", "PPY4", "PPY5")),
-    "Mx": Stage("Mx", ("cornering", "camber"), ("QSX1", "QSX2", "QSX3"), ("PPMX1",)),
-    "Mz": Stage("Mz", ("cornering", "camber"),
-                ("QBZ1", "QBZ2", "QCZ1", "QDZ1", "QDZ2", "QDZ3", "QEZ1", "QEZ2", "QHZ1",
-                 "QHZ3", "QDZ6", "QDZ8", "QDZ9"),
-                ("PPZ1", "PPZ2")),
+DISCOVERY_STAGES: dict[str, DiscoveryStage] = {
+    "Fx": DiscoveryStage("Fx", "Fx0", ("braking_driving",),
+                         ("PCX1", "PDX1", "PDX2", "PEX1", "PEX2", "PEX4", "PKX1", "PKX2",
+                          "PKX3", "PHX1", "PVX1")),
+    "Fy": DiscoveryStage("Fy", "Fy0", ("cornering", "camber"),
+                         ("PCY1", "PDY1", "PDY2", "PDY3", "PEY1", "PEY2", "PEY3", "PKY1",
+                          "PKY2", "PKY3", "PKY6", "PKY7", "PHY1", "PHY2", "PVY1", "PVY2",
+                          "PVY3", "PVY4")),
+    "Mx": DiscoveryStage("Mx", "Mx", ("cornering", "camber"), ("QSX1", "QSX2", "QSX3")),
+    "Mz": DiscoveryStage("Mz", "Mz0", ("cornering", "camber"),
+                         ("QBZ1", "QBZ2", "QCZ1", "QDZ1", "QDZ2", "QDZ3", "QEZ1", "QEZ2",
+                          "QHZ1", "QHZ3", "QDZ6", "QDZ8", "QDZ9")),
 }
+"""Discovery's problems by measured output (:func:`stage_problem`)."""
 
 
 LOAD_WINDOW = 15
@@ -205,7 +219,7 @@ def add_parameter(problem: FitProblem, name: str, value: float, *, vary: bool = 
 def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
                   free: tuple[str, ...] | None = None, extra_fixed: Mapping[str, float] = {},
                   mode: int = TRAILER_MODE) -> FitProblem | None:
-    """The FitProblem of MF stage ``name`` (a key of :data:`STAGES`) on a labelled trailer
+    """The FitProblem of output ``name`` (a key of :data:`DISCOVERY_STAGES`) on a labelled trailer
     table (:func:`label_sweeps`); None when the table has no sweep of the stage's kinds.
 
     Parameters
@@ -220,7 +234,7 @@ def stage_problem(name: str, frame: pd.DataFrame, tir: Mapping[str, float], *,
     extra_fixed : mapping
         Further parameters held fixed (e.g. library candidates at their neutral values).
     """
-    stage = STAGES[name]
+    stage = DISCOVERY_STAGES[name]
     d = frame[frame["kind"].isin(stage.kinds)].reset_index(drop=True)
     if d.empty or stage.output not in d or d[stage.output].isna().all():
         return None

@@ -13,6 +13,7 @@ from typing import Any
 
 from identify.core.jsonsafe import json_safe
 from identify.core.quantities import QUANTITIES
+from identify.core.serial import Serial
 from identify.core.units import SI_UNITS
 
 __all__ = ["FLAG_NAMES", "Flag", "RunDiagnostic", "Part", "row", "json_safe"]
@@ -22,7 +23,7 @@ FLAG_NAMES = ("stick_slip", "short_run", "asymmetry", "spread", "condition")
 
 
 @dataclass(frozen=True)
-class Flag:
+class Flag(Serial):
     """A data problem a test engineer should know about.
 
     Attributes
@@ -46,9 +47,6 @@ class Flag:
         if self.flag not in FLAG_NAMES:
             raise ValueError(f"unknown flag {self.flag!r}")
 
-    def to_dict(self) -> dict[str, str]:
-        """JSON-safe dict ``{run, test, flag, detail}``."""
-        return {"run": self.run, "test": self.test, "flag": self.flag, "detail": self.detail}
 
 
 @dataclass(frozen=True)

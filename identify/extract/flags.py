@@ -9,12 +9,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.stats import chi2
 from scipy.stats import f as f_dist
 
+from identify.core.serial import Serial
 from identify.extract.diagnostics import Flag, row
 from identify.extract.runs import RunData, cell_label
 
@@ -22,7 +23,7 @@ __all__ = ["Thresholds", "stick_slip_score", "condition_flags", "spread_flag", "
 
 
 @dataclass(frozen=True)
-class Thresholds:
+class Thresholds(Serial):
     """Settings of the extraction and its flags.
 
     Attributes
@@ -63,11 +64,6 @@ class Thresholds:
     band: tuple[float, float] = (0.10, 0.70)
     parking_band: float = 0.75
 
-    def to_dict(self) -> dict:
-        """JSON-safe dict."""
-        out = asdict(self)
-        out["band"] = list(self.band)
-        return out
 
 
 def stick_slip_score(x: np.ndarray, y: np.ndarray, scale: float) -> tuple[float, float]:

@@ -16,6 +16,8 @@ from scipy.ndimage import uniform_filter1d
 from scipy.stats import chi2, norm
 from scipy.stats import f as f_dist
 
+from identify.core.serial import Serial
+
 __all__ = ["LineFit", "line_fit", "noise_sigma", "smooth", "linear_window"]
 
 #: Candidate window edges per run (a coarser grid than the samples on long runs).
@@ -23,7 +25,7 @@ _EDGES = 64
 
 
 @dataclass(frozen=True)
-class LineFit:
+class LineFit(Serial):
     """A least-squares line y = slope * x + intercept over a window of samples.
 
     Attributes
@@ -55,10 +57,6 @@ class LineFit:
     rmse: float
     slope_se: float
 
-    def to_dict(self) -> dict:
-        """JSON-safe dict."""
-        return {k: (int(v) if isinstance(v, (int, np.integer)) else float(v))
-                for k, v in self.__dict__.items()}
 
 
 def line_fit(x: np.ndarray, y: np.ndarray, i0: int = 0, i1: int | None = None) -> LineFit:

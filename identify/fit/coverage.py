@@ -29,13 +29,12 @@ of the fit itself may hold more (identify.fit.mf.screen), and fit.json lists tho
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field, fields
-from typing import Any
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
 
-from identify.core.jsonsafe import json_safe
+from identify.core.serial import Serial
 from identify.fit.mf import stage_data as mf_data
 from identify.fit.mf.stage_specs import DEFAULT_STAGES, NEEDS, PURE_ALPHA, STAGES
 from identify.model.parameters import spec
@@ -57,7 +56,7 @@ _CHANNEL_NAMES = {"omega": "wheel speed (omega)", "kappa": "slip ratio (kappa)",
 
 
 @dataclass(frozen=True)
-class StageCoverage:
+class StageCoverage(Serial):
     """What the data hold for one MF stage.
 
     Attributes
@@ -126,21 +125,6 @@ class StageCoverage:
                 f"{len(self.pressures)} pressure(s), {cambers}; "
                 f"{len(self.identifiable)} of {len(self.identifiable) + len(self.not_identifiable)}"
                 " coefficients identifiable")
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict (see :meth:`from_dict`)."""
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        out["not_identifiable"] = dict(self.not_identifiable)
-        return json_safe(out)
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> StageCoverage:
-        """Inverse of :meth:`to_dict`."""
-        tuples = ("runs", "loads", "pressures", "cambers", "speeds", "alpha_deg", "kappa",
-                  "camber_deg", "identifiable")
-        kw = {k: (tuple(v) if k in tuples else v) for k, v in d.items()}
-        kw["not_identifiable"] = dict(d.get("not_identifiable") or {})
-        return cls(**kw)
 
 
 def _levels(x: np.ndarray, resolution: float) -> tuple[float, ...]:

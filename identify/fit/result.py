@@ -20,9 +20,7 @@ from lmfit import Parameters
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 
-from identify.core.jsonsafe import json_float as _num
-from identify.core.jsonsafe import json_floats as _nums
-from identify.core.jsonsafe import json_safe
+from identify.core.serial import Serial, from_data, meta
 from identify.fit.solve.covariance import t_quantile
 from identify.fit.status import FAILED
 
@@ -57,7 +55,7 @@ _EMPTY = np.empty(0)
 
 
 @dataclass(frozen=True)
-class MCMCSummary:
+class MCMCSummary(Serial):
     """Posterior summary from emcee, kept apart from the least-squares optimum.
 
     Attributes
@@ -94,11 +92,18 @@ class MCMCSummary:
     noise: Mapping[str, float]
     seed: int
     converged: bool
-    seconds: float
+    seconds: float = field(metadata=meta(null=0.0))
     chain_file: str | None = None
     stopped: str = ""
     reparametrised: tuple[str, ...] = ()
-    samples: np.ndarray | None = field(default=None, repr=False, compare=False)
+    samples: np.ndarray | None = field(default=None, repr=False, compare=False,
+                                       metadata=meta(skip=True))
+
+    #: fit.json's key order (the quantiles and maps follow), then ``effective_samples``
+    serial_order = ("acceptance", "n_walkers", "n_steps", "n_discard", "n_thin",
+                    "n_samples", "seed", "converged", "seconds", "chain_file", "stopped",
+                    "reparametrised")
+    serial_derived = {"effective_samples": lambda self: float(self.n_samples)}
 
     def interval(self, name: str, level: float = 0.95) -> tuple[float, float]:
         if level == 0.95:
@@ -112,36 +117,19 @@ class MCMCSummary:
         lo = (1 - level) / 2
         return float(np.quantile(col, lo)), float(np.quantile(col, 1 - lo))
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict: one fit's ``mcmc`` entry in fit.json."""
-        d = {k: getattr(self, k) for k in ("acceptance", "n_walkers", "n_steps", "n_discard",
-                                           "n_thin", "n_samples", "seed", "converged",
-                                           "seconds", "chain_file", "stopped")}
-        d["reparametrised"] = list(self.reparametrised)
-        for k in ("median", "q16", "q84", "q025", "q975", "tau", "correlations", "noise"):
-            d[k] = _nums(getattr(self, k))
-        d["effective_samples"] = _num(self.n_samples)
-        return json_safe(d)
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> MCMCSummary:
         """Inverse of :meth:`to_dict` (``effective_samples`` is ``n_samples``; the samples
-        themselves are not in fit.json: read the chain file)."""
-        return cls(median=_floats(d["median"]), q16=_floats(d["q16"]), q84=_floats(d["q84"]),
-                   q025=_floats(d["q025"]), q975=_floats(d["q975"]), tau=_floats(d["tau"]),
-                   acceptance=_float(d["acceptance"]), n_walkers=int(d["n_walkers"]),
-                   n_steps=int(d["n_steps"]), n_discard=int(d["n_discard"]),
-                   n_thin=int(d["n_thin"]), n_samples=int(d["n_samples"]),
-                   correlations=_floats(d.get("correlations")), noise=_floats(d.get("noise")),
-                   seed=int(d["seed"]), converged=bool(d["converged"]),
-                   seconds=_float(d.get("seconds"), 0.0), chain_file=d.get("chain_file"),
-                   stopped=str(d["stopped"] if "stopped" in d  # older files: the cap
-                               else "" if d["converged"] else "max_steps"),
-                   reparametrised=tuple(d.get("reparametrised") or ()))
+        themselves are not in fit.json: read the chain file). An entry written before a
+        field was recorded reads as what such a run did: no correlations or noise
+        parameters, 0 s, and a chain that did not converge stopped at the step cap."""
+        recorded = {"correlations": {}, "noise": {}, "seconds": 0.0,
+                    "stopped": "" if d.get("converged") else "max_steps"}
+        return from_data(cls, {**recorded, **d})
 
 
 @dataclass(frozen=True)
-class Rival:
+class Rival(Serial):
     """Another local minimum of a fit's objective that the data cannot rule out.
 
     Attributes
@@ -156,16 +144,20 @@ class Rival:
     values: Mapping[str, float]
     dchi2: float
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"values": _nums(self.values), "dchi2": _num(self.dchi2)}
 
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Rival:
-        return cls(values=_floats(d.get("values")), dchi2=_float(d.get("dchi2")))
+
+RESULT_RECORD_DEFAULTS: Mapping[str, Any] = {
+    "objective": "", "fixed": {}, "stderr": {}, "bounds": {}, "at_bound": (),
+    "active_constraints": (), "error_total_pct": None, "error_by_pressure_pct": {},
+    "wls": None, "n_points": 0, "message": "", "n_starts": 0, "starts_at_best": 0,
+    "correlations": {}}
+"""Entries of a fit.json ``fits`` item written before they were recorded: what such a fit
+had (no objective name, no fixed parameters, standard errors, bounds or correlations, unknown
+errors, no counts)."""
 
 
 @dataclass(frozen=True)
-class FitResult:
+class FitResult(Serial):
     """One fitted relation or MF stage.
 
     Attributes
@@ -248,14 +240,14 @@ class FitResult:
     relation: str
     form: str
     objective: str
-    parameters: Mapping[str, float]
-    free: tuple[str, ...]
+    parameters: Mapping[str, float] = field(metadata=meta(skip=True))
+    free: tuple[str, ...] = field(metadata=meta(skip=True))
     stderr: Mapping[str, float]
     bounds: Mapping[str, tuple[float, float]]
     at_bound: tuple[str, ...]
     active_constraints: tuple[str, ...]
     error_total_pct: float
-    error_by_pressure_pct: Mapping[float, float]
+    error_by_pressure_pct: Mapping[float, float] = field(metadata=meta(key_format="g"))
     wls: float
     n_points: int
     converged: bool
@@ -263,10 +255,10 @@ class FitResult:
     n_starts: int
     starts_at_best: int
     correlations: Mapping[str, float]
-    predicted: np.ndarray = field(repr=False, compare=False)
-    measured: np.ndarray = field(repr=False, compare=False)
-    pressure_bar: np.ndarray = field(repr=False, compare=False)
-    seconds: float = 0.0
+    predicted: np.ndarray = field(repr=False, compare=False, metadata=meta(skip=True))
+    measured: np.ndarray = field(repr=False, compare=False, metadata=meta(skip=True))
+    pressure_bar: np.ndarray = field(repr=False, compare=False, metadata=meta(skip=True))
+    seconds: float = field(default=0.0, metadata=meta(null=0.0))
     mcmc: MCMCSummary | None = None
     nfev: int = 0
     status: int = 0
@@ -276,15 +268,30 @@ class FitResult:
     covariance: str = "iid"
     clusters: int = 0
     unidentified: Mapping[str, str] = field(default_factory=dict)
-    dof: Mapping[str, float] = field(default_factory=dict)
+    dof: Mapping[str, float] = field(default_factory=dict, metadata=meta(null=math.inf))
     rivals: tuple[Rival, ...] = ()
     conditional: Mapping[str, str] = field(default_factory=dict)
     profile: Mapping[str, tuple[float, float]] = field(default_factory=dict)
     unconstrained_wls: float = math.nan
     noise_floor_pct: float = math.nan
     floor_source: str = ""
-    fit_status: str = field(default="", compare=False)  # derived by assess()
-    points: Any = field(default=None, repr=False, compare=False)
+    fit_status: str = field(default="", compare=False,  # derived by assess()
+                            metadata=meta(skip=True))
+    points: Any = field(default=None, repr=False, compare=False, metadata=meta(skip=True))
+
+    #: fit.json writes the free parameters' values (``parameters``) and the others
+    #: (``fixed``) in place of :attr:`parameters` and :attr:`free`, and the status as
+    #: :attr:`status_text`; the MCMC summary last
+    serial_derived = {"parameters": lambda self: _floats(self.fitted),
+                      "fixed": lambda self: _floats(self.fixed),
+                      "fit_status": lambda self: self.status_text}
+    serial_order = ("relation", "form", "objective", "parameters", "fixed", "stderr",
+                    "bounds", "at_bound", "active_constraints", "error_total_pct",
+                    "error_by_pressure_pct", "wls", "n_points", "converged", "message",
+                    "n_starts", "starts_at_best", "correlations", "seconds", "nfev", "status",
+                    "identification", "reasons", "held", "covariance", "clusters",
+                    "unidentified", "dof", "rivals", "conditional", "profile",
+                    "unconstrained_wls", "noise_floor_pct", "floor_source", "fit_status")
 
     def __repr__(self) -> str:
         state = self.status_text
@@ -415,93 +422,26 @@ class FitResult:
             return FAILED
         return self.fit_status or self.identification
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict in the fit.json schema."""
-        return json_safe({
-            "relation": self.relation, "form": self.form, "objective": self.objective,
-            "parameters": _nums(self.fitted), "fixed": _nums(self.fixed),
-            "stderr": _nums(self.stderr),
-            "bounds": {k: [_num(a), _num(b)] for k, (a, b) in self.bounds.items()},
-            "at_bound": list(self.at_bound),
-            "active_constraints": list(self.active_constraints),
-            "error_total_pct": _num(self.error_total_pct),
-            "error_by_pressure_pct": {f"{k:g}": _num(v)
-                                      for k, v in self.error_by_pressure_pct.items()},
-            "wls": _num(self.wls), "n_points": self.n_points, "converged": self.converged,
-            "message": self.message, "n_starts": self.n_starts,
-            "starts_at_best": self.starts_at_best,
-            "correlations": _nums(self.correlations),
-            "seconds": self.seconds, "nfev": self.nfev, "status": self.status,
-            "identification": self.identification, "reasons": list(self.reasons),
-            "held": dict(self.held),
-            "covariance": self.covariance, "clusters": self.clusters,
-            "unidentified": dict(self.unidentified),
-            "dof": _nums(self.dof),
-            "rivals": [v.to_dict() for v in self.rivals],
-            "conditional": dict(self.conditional),
-            "profile": {k: [_num(a), _num(b)] for k, (a, b) in self.profile.items()},
-            "unconstrained_wls": _num(self.unconstrained_wls),
-            "noise_floor_pct": _num(self.noise_floor_pct), "floor_source": self.floor_source,
-            "fit_status": self.status_text,
-            "mcmc": None if self.mcmc is None else self.mcmc.to_dict(),
-        })
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitResult:
         """Inverse of :meth:`to_dict`.
 
         ``parameters`` (the free ones, in order) and ``fixed`` are merged into
-        :attr:`parameters`; null numbers are NaN, a null bound is open (-inf, +inf). The
-        per-point arrays are empty: they live in measured_vs_model.csv (see
-        :func:`identify.io.fitdir.read_fit_dir`). ``nfev`` and ``status`` default to 0 for
-        documents written before they were recorded, ``identification`` to "ok" and
-        ``reasons``/``held`` to empty, ``covariance`` to "iid" (every standard error
-        was iid before it was recorded), ``unidentified`` to empty. Raises KeyError or
-        TypeError/ValueError on a malformed entry. ``dof`` defaults to empty (1.96 standard
-        errors, as intervals were before it was recorded); a null one is infinite.
-        ``rivals``, ``conditional`` and ``profile`` default to empty,
-        ``unconstrained_wls`` to NaN, ``noise_floor_pct`` to NaN and ``fit_status`` to ""
-        (the status then follows the identification, as before it was recorded).
+        :attr:`parameters`; null numbers are NaN, a null bound is open (-inf, +inf), a null
+        ``dof`` infinite. The per-point arrays are empty: they live in measured_vs_model.csv
+        (see :func:`identify.io.fitdir.read_fit_dir`). An entry written before a field was
+        recorded reads as what such a fit had (:data:`RESULT_RECORD_DEFAULTS`, else the
+        field's default): no counts, no messages, iid standard errors, ``fit_status`` ""
+        (the status then follows the identification, as before it was recorded). Raises
+        TypeError on a malformed entry (the message names the key).
         """
+        d = {**RESULT_RECORD_DEFAULTS, **d}
         free = {str(k): _float(v) for k, v in d["parameters"].items()}
-        fixed = _floats(d.get("fixed"))
         bounds = {str(k): (_float(b[0], -math.inf), _float(b[1], math.inf))
-                  for k, b in (d.get("bounds") or {}).items()}
-        mc = d.get("mcmc")
-        return cls(relation=str(d["relation"]), form=str(d["form"]),
-                   objective=str(d.get("objective", "")), parameters={**free, **fixed},
-                   free=tuple(free), stderr=_floats(d.get("stderr")), bounds=bounds,
-                   at_bound=tuple(d.get("at_bound") or ()),
-                   active_constraints=tuple(d.get("active_constraints") or ()),
-                   error_total_pct=_float(d.get("error_total_pct")),
-                   error_by_pressure_pct={float(k): _float(v) for k, v in
-                                          (d.get("error_by_pressure_pct") or {}).items()},
-                   wls=_float(d.get("wls")), n_points=int(d.get("n_points") or 0),
-                   converged=bool(d["converged"]), message=str(d.get("message", "")),
-                   n_starts=int(d.get("n_starts") or 0),
-                   starts_at_best=int(d.get("starts_at_best") or 0),
-                   correlations=_floats(d.get("correlations")),
-                   predicted=_EMPTY, measured=_EMPTY, pressure_bar=_EMPTY,
-                   seconds=_float(d.get("seconds"), 0.0),
-                   mcmc=None if mc is None else MCMCSummary.from_dict(mc),
-                   nfev=int(d.get("nfev") or 0), status=int(d.get("status") or 0),
-                   identification=str(d.get("identification") or "ok"),
-                   reasons=tuple(str(x) for x in d.get("reasons") or ()),
-                   held={str(k): str(v) for k, v in (d.get("held") or {}).items()},
-                   covariance=str(d.get("covariance") or "iid"),
-                   clusters=int(d.get("clusters") or 0),
-                   unidentified={str(k): str(v)
-                                 for k, v in (d.get("unidentified") or {}).items()},
-                   dof={str(k): _float(v, math.inf) for k, v in (d.get("dof") or {}).items()},
-                   rivals=tuple(Rival.from_dict(v) for v in d.get("rivals") or ()),
-                   conditional={str(k): str(v)
-                                for k, v in (d.get("conditional") or {}).items()},
-                   profile={str(k): (_float(b[0]), _float(b[1]))
-                            for k, b in (d.get("profile") or {}).items()},
-                   unconstrained_wls=_float(d.get("unconstrained_wls")),
-                   noise_floor_pct=_float(d.get("noise_floor_pct")),
-                   floor_source=str(d.get("floor_source") or ""),
-                   fit_status=str(d.get("fit_status") or ""))
+                  for k, b in d["bounds"].items()}
+        return from_data(cls, d, parameters={**free, **_floats(d["fixed"])},
+                         free=tuple(free), bounds=bounds, predicted=_EMPTY, measured=_EMPTY,
+                         pressure_bar=_EMPTY, fit_status=str(d.get("fit_status", "")))
 
     @property
     def fitted(self) -> dict[str, float]:

@@ -14,7 +14,6 @@ are not in fit.json (they are in the .tir and measured_vs_model.csv):
 """
 from __future__ import annotations
 
-import dataclasses
 import datetime as _dt
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
@@ -25,7 +24,7 @@ import pandas as pd
 
 from identify.core.errors import InputError
 from identify.core.jsonsafe import json_safe
-from identify.core.serial import Schema, from_data, to_data
+from identify.core.serial import Schema, Serial, from_data
 from identify.core.tyre import TyreInfo
 from identify.core.version import __version__
 from identify.fit.coverage import StageCoverage
@@ -52,7 +51,7 @@ CSV_NAME = "measured_vs_model.csv"
 
 
 @dataclass(frozen=True)
-class FitSettings:
+class FitSettings(Serial):
     """Settings that make a fit (recorded in fit.json's provenance).
 
     Attributes
@@ -115,10 +114,6 @@ class FitSettings:
     mf_passes: int = 2
     pressure_holdout: bool = False
 
-    def to_dict(self) -> dict[str, Any]:
-        """JSON-safe dict (``only``, ``forms``, ``hold`` as lists)."""
-        return to_data(self)
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitSettings:
         """Inverse of :meth:`to_dict`; an unknown setting is a TypeError.
@@ -141,22 +136,15 @@ it was."""
 
 
 @dataclass(frozen=True)
-class InputFile:
+class InputFile(Serial):
     """One input file of a fit and its SHA-256 (hex)."""
 
     path: str
     sha256: str
 
-    def to_dict(self) -> dict[str, str]:
-        return to_data(self)
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> InputFile:
-        return from_data(cls, d)
-
 
 @dataclass(frozen=True)
-class Provenance:
+class Provenance(Serial):
     """Where a fit came from: enough to reproduce it.
 
     Attributes
@@ -199,31 +187,24 @@ class Provenance:
             return None
         return stamp if stamp.tzinfo is not None else stamp.replace(tzinfo=_dt.UTC)
 
-    def to_dict(self) -> dict[str, Any]:
-        return to_data(self)
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Provenance:
-        """Inverse of :meth:`to_dict` (the settings read by :meth:`FitSettings.from_dict`)."""
-        d = dict(d)
-        settings = d.pop("settings", None)
-        run = from_data(cls, {**d, "settings": None})
-        return dataclasses.replace(
-            run, settings=None if settings is None else FitSettings.from_dict(settings))
-
 
 def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
-    """mfid.fit/2 -> /2: every entry present. A version-1 document may lack the entries
+    """mfid.fit/1 -> /2: every entry present. A version-1 document may lack the entries
     recorded later (``failed``, ``flags``, ``coverage``, ``data_quality``,
     ``pressure_holdout``, the .tir's ``key_sources`` and ``forms``) and the provenance's
     fields, or hold them as null: they read as empty (an unknown version and command, seed 0);
     a key source written as a plain string (the ``relation/form`` that supplied it) is a
-    fitted one."""
+    fitted one; a null text of the tyre (source, size, description) is its default; the
+    .tir without a FITTYP is 61, without a path ``<tyre id>.tir``."""
     out = dict(doc)
+    out["tyre"] = {k: v for k, v in (out.get("tyre") or {}).items()
+                   if v is not None or k not in _TYRE_TEXTS}
     for key, empty in (("failed", []), ("flags", []), ("coverage", []), ("data_quality", {}),
                        ("pressure_holdout", {})):
         out[key] = out.get(key) or empty
     tir = dict(out.get("tir") or {})
+    tir["fittyp"] = int(tir.get("fittyp") or 61)
+    tir["path"] = str(tir.get("path") or f"{out['tyre'].get('id')}.tir")
     tir["key_sources"] = {str(k): KeySource.from_dict(v).to_dict()
                           for k, v in (tir.get("key_sources") or {}).items()}
     tir["forms"] = list(tir.get("forms") or [])
@@ -237,6 +218,9 @@ def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
                          "inputs": list(prov.get("inputs") or [])}
     return out
 
+
+_TYRE_TEXTS = ("source", "size", "description")
+"""The tyre's texts: a null one in a version-1 document reads as its default."""
 
 FIT_SCHEMA = Schema("mfid.fit", 2, {1: _fit_v1_to_v2})
 """fit.json's layout: its version and the migrations from the older ones."""
@@ -453,7 +437,8 @@ class FitRun:
         """Read a fit.json document.
 
         The .tir values and per-point arrays are left empty (see the module docstring).
-        An older document is first migrated to the current layout (:data:`FIT_SCHEMA`).
+        An older document is first migrated to the current layout (:data:`FIT_SCHEMA`), in
+        which every entry is present: the reader knows that layout only.
 
         Raises
         ------
@@ -467,33 +452,34 @@ class FitRun:
             raise InputError(None, str(exc), key="schema") from None
         if not isinstance(doc.get("fits"), list):
             raise InputError(None, "missing the list of fits", key="fits")
-        tir = doc.get("tir") or {}
         with _entry("tyre"):
             tyre = TyreInfo.from_dict(doc["tyre"])
         with _entry("provenance"):
-            provenance = Provenance.from_dict(doc.get("provenance") or {})
+            provenance = Provenance.from_dict(doc["provenance"])
         results = []
         for i, d in enumerate(doc["fits"]):
             with _entry(f"fits[{i}]"):
                 results.append(FitResult.from_dict(d))
         with _entry("tir"):
-            fittyp = int(tir.get("fittyp") or 61)
-            key_sources = {str(k): KeySource.from_dict(v)
-                           for k, v in (tir.get("key_sources") or {}).items()}
-            forms = tuple(FormChoice.from_dict(c) for c in tir.get("forms") or ())
-            tir_name = str(tir.get("path") or f"{tyre.id}.tir")
+            tir = doc["tir"]
+            fittyp = int(tir["fittyp"])
+            key_sources = {str(k): KeySource.from_dict(v) for k, v in tir["key_sources"].items()}
+            forms = tuple(FormChoice.from_dict(c) for c in tir["forms"])
+            tir_name = str(tir["path"])
         with _entry("flags"):
-            flags = tuple(dict(f) for f in doc.get("flags") or ())
+            flags = tuple(dict(f) for f in doc["flags"])
+        with _entry("failed"):
+            failed = tuple(str(f) for f in doc["failed"])
         with _entry("coverage"):
-            coverage = tuple(StageCoverage.from_dict(c) for c in doc.get("coverage") or ())
+            coverage = tuple(StageCoverage.from_dict(c) for c in doc["coverage"])
         with _entry("data_quality"):
-            quality = dict(doc.get("data_quality") or {})
+            quality = dict(doc["data_quality"])
         with _entry("pressure_holdout"):
-            holdout = dict(doc.get("pressure_holdout") or {})
+            holdout = dict(doc["pressure_holdout"])
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
-                   failed=tuple(str(f) for f in doc.get("failed") or ()), form_choices=forms,
-                   coverage=coverage, data_quality=quality, pressure_holdout=holdout)
+                   failed=failed, form_choices=forms, coverage=coverage,
+                   data_quality=quality, pressure_holdout=holdout)
 
 
 class _entry:

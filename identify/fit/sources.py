@@ -24,7 +24,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from identify.core.jsonsafe import json_float
+from identify.core.serial import Serial, from_data
 
 __all__ = ["KINDS", "KeySource", "DEFAULT", "FITTED", "FORMAT", "HELD", "INPUT", "MEASURED",
            "SETTING", "TYRE_TOML"]
@@ -44,7 +44,7 @@ _DEFAULT_TEXT = "default, not identified by these data"
 
 
 @dataclass(frozen=True)
-class KeySource:
+class KeySource(Serial):
     """The source of one .tir key.
 
     Attributes
@@ -89,15 +89,9 @@ class KeySource:
             return ""
         return self.detail.split(" ", 1)[0]
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"kind": self.kind, "detail": self.detail, "stderr": json_float(self.stderr)}
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | str) -> KeySource:
-        """Inverse of :meth:`to_dict`; a plain string (fit.json before typed sources: the
-        ``relation/form`` that supplied the key) reads as a fitted source."""
-        if isinstance(d, str):
-            return cls.fitted(d)
-        se = d.get("stderr")
-        return cls(str(d["kind"]), str(d.get("detail") or ""),
-                   math.nan if se is None else float(se))
+        """Inverse of :meth:`to_dict` (field by field, a NaN stderr as null); a plain string
+        (fit.json before typed sources: the ``relation/form`` that supplied the key) reads as
+        a fitted source."""
+        return cls.fitted(d) if isinstance(d, str) else from_data(cls, d)

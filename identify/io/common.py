@@ -24,6 +24,7 @@ import numpy as np
 import pandas as pd
 
 from identify.core.errors import InputError
+from identify.core.serial import Serial
 from identify.io.csv_rows import RowError, RowLines, row_starts, walk_rows, walk_suspects
 
 __all__ = ["BOOLEAN_CELLS", "CR_ONLY", "cr_only", "Problem", "Problems", "TOLERANCE",
@@ -47,7 +48,7 @@ TOLERANCE = 0.15
 
 
 @dataclass(frozen=True)
-class Problem:
+class Problem(Serial):
     """One thing wrong with a measurement input; ``str()`` is ``file:line: key: message``."""
 
     file: str | None
@@ -62,10 +63,9 @@ class Problem:
         """The same problem as an exception."""
         return InputError(self.file, self.message, line=self.line, key=self.key)
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return {"file": self.file, "line": self.line, "key": self.key, "message": self.message,
-                "text": str(self)}
+    #: written after the fields (``to_dict``): ``text`` is the printed line
+    serial_derived = {"text": str}
+    serial_order = ("file", "line", "key", "message")
 
 
 class Problems:

@@ -3,17 +3,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
+from identify.core.serial import Serial
 from identify.io.csv_rows import RowLines
 
 __all__ = ["DataWarning", "WarningReport", "per_channel", "runs_of"]
 
 
 @dataclass(frozen=True)
-class DataWarning:
+class DataWarning(Serial):
     """One quirk of one run: usable data, cleaned, reported with a count.
 
     Attributes
@@ -53,18 +53,8 @@ class DataWarning:
         return (f"{where}: {', '.join(self.channels)}: {self.detail} ({self.count} of "
                 f"{self.total} samples); {self.action}")
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict (``text`` is the printed line)."""
-        return {"file": self.file, "run": self.run, "kind": self.kind,
-                "channels": list(self.channels), "count": self.count, "total": self.total,
-                "detail": self.detail, "action": self.action, "line": self.line,
-                "text": str(self)}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> DataWarning:
-        """Inverse of :meth:`to_dict`."""
-        return cls(d["file"], d["run"], d["kind"], tuple(d["channels"]), int(d["count"]),
-                   int(d["total"]), d["detail"], d["action"], d.get("line"))
+    #: written after the fields (``to_dict``): ``text`` is the printed line
+    serial_derived = {"text": str}
 
 
 def runs_of(mask: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -12,13 +12,13 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from identify.core.names import inside, safe_name
 from identify.core.plausible import judge
+from identify.core.serial import Serial, meta
 from identify.io.common import (
     Problem,
     Problems,
@@ -44,7 +44,7 @@ IMPLICIT_TABLE = "characteristics.csv"
 
 
 @dataclass(frozen=True, eq=False)
-class MeasurementSet:
+class MeasurementSet(Serial):
     """Everything a measurement folder holds, in SI units and ISO-W axes.
 
     Attributes
@@ -65,9 +65,9 @@ class MeasurementSet:
 
     path: str
     manifest: Manifest
-    trailer: pd.DataFrame
-    flatplank: pd.DataFrame
-    characteristics: pd.DataFrame
+    trailer: pd.DataFrame = field(metadata=meta(skip=True))
+    flatplank: pd.DataFrame = field(metadata=meta(skip=True))
+    characteristics: pd.DataFrame = field(metadata=meta(skip=True))
     checksums: Mapping[str, str] = field(default_factory=dict)
     warnings: tuple[DataWarning, ...] = ()
 
@@ -97,13 +97,11 @@ class MeasurementSet:
                 f"{len(self.trailer)} trailer samples, {len(self.flatplank)} flatplank samples, "
                 f"{len(self.characteristics)} characteristic values")
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe summary (manifest, row counts, checksums; not the tables)."""
-        return {"path": self.path, "manifest": self.manifest.to_dict(),
-                "rows": {"trailer": len(self.trailer), "flatplank": len(self.flatplank),
-                         "characteristics": len(self.characteristics)},
-                "checksums": dict(self.checksums),
-                "warnings": [w.to_dict() for w in self.warnings]}
+    #: ``to_dict`` is a summary: the fields but the tables, then their row counts
+    serial_derived = {"rows": lambda self: {"trailer": len(self.trailer),
+                                            "flatplank": len(self.flatplank),
+                                            "characteristics": len(self.characteristics)}}
+    serial_order = ("path", "manifest", "rows")
 
 
 @dataclass(frozen=True, eq=False)

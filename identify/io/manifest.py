@@ -18,6 +18,7 @@ from typing import Any
 
 from identify.core.names import name_problem
 from identify.core.plausible import judge
+from identify.core.serial import Serial
 from identify.core.tyre import TyreInfo
 from identify.core.units import unit_problem
 from identify.io.axes import AXES, axes_name
@@ -66,20 +67,16 @@ def _frozen(mapping: Mapping) -> Mapping:
 
 
 @dataclass(frozen=True)
-class RigInfo:
+class RigInfo(Serial):
     """The ``[rig]`` table: Flatplank hub geometry [m]."""
 
     hub_a_m: float
     hub_b_m: float
     name: str = ""
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return dict(self.__dict__)
-
 
 @dataclass(frozen=True)
-class RunSpec:
+class RunSpec(Serial):
     """One ``[[runs]]`` entry: a data file, what it holds and how to read it.
 
     ``file`` is relative to the folder; ``units`` maps channel -> unit name; ``conditions``
@@ -98,14 +95,9 @@ class RunSpec:
         object.__setattr__(self, "units", _frozen(self.units))
         object.__setattr__(self, "conditions", _frozen(self.conditions))
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return {"id": self.id, "file": self.file, "kind": self.kind, "test": self.test,
-                "axes": self.axes, "units": dict(self.units), "conditions": dict(self.conditions)}
-
 
 @dataclass(frozen=True)
-class Manifest:
+class Manifest(Serial):
     """A folder's ``tyre.toml``: tyre, rig (or None), runs, and other top-level tables."""
 
     path: str
@@ -122,13 +114,6 @@ class Manifest:
     def folder(self) -> Path:
         """The folder the run files are relative to."""
         return Path(self.path).parent
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return {"path": self.path, "tyre": self.tyre.to_dict(),
-                "rig": None if self.rig is None else self.rig.to_dict(),
-                "runs": [r.to_dict() for r in self.runs], "extra": dict(self.extra),
-                "notes": list(self.notes)}
 
 
 def _typename(value: Any) -> str:

@@ -18,12 +18,12 @@ import io
 import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 import pandas as pd
 
 from identify.core.atomic import atomic_write_text
+from identify.core.serial import Serial, meta
 from identify.io.common import BOOLEAN_CELLS, CR_ONLY, Problems, cr_only, file_problem
 
 __all__ = ["TydexEntry", "TydexChannel", "TydexFile", "is_tydex", "read_tydex", "write_tydex"]
@@ -55,7 +55,7 @@ class TydexChannel:
 
 
 @dataclass(frozen=True, eq=False)
-class TydexFile:
+class TydexFile(Serial):
     """A TYDEX file: entries, comments, channels and the data [channel units].
 
     ``data`` has one column per channel (factor and offsets applied); ``data_line`` is the
@@ -66,19 +66,18 @@ class TydexFile:
     comments: tuple[str, ...] = ()
     constants: tuple[TydexEntry, ...] = ()
     channels: tuple[TydexChannel, ...] = ()
-    data: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)))
+    data: np.ndarray = field(default_factory=lambda: np.zeros((0, 0)),
+                             metadata=meta(skip=True))
     path: str = ""
-    data_line: int | None = None
+    data_line: int | None = field(default=None, metadata=meta(skip=True))
 
     def column(self, name: str) -> np.ndarray:
         """The values of channel ``name``."""
         return self.data[:, [c.name for c in self.channels].index(name)]
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe summary (entries, channels and the number of rows, not the data)."""
-        return {"path": self.path, "header": [e.__dict__ for e in self.header],
-                "comments": list(self.comments), "constants": [e.__dict__ for e in self.constants],
-                "channels": [c.__dict__ for c in self.channels], "rows": int(self.data.shape[0])}
+    #: ``to_dict`` is a summary: entries, comments and channels, then the number of rows
+    serial_derived = {"rows": lambda self: int(self.data.shape[0])}
+    serial_order = ("path",)
 
 
 def is_tydex(path: str | Path) -> bool:

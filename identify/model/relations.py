@@ -14,10 +14,12 @@ frozen dataclass per relation bundles its coefficients (``to_dict()`` is JSON-sa
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import asdict, dataclass, fields
+from dataclasses import dataclass, fields
 from typing import ClassVar
 
 import numpy as np
+
+from identify.core.serial import Serial
 
 __all__ = [
     "dpi", "dfz",
@@ -34,15 +36,12 @@ __all__ = [
 ]
 
 
-class _Coefficients:
+class _Coefficients(Serial):
     """Base of the relation dataclasses: the fields are the relation's coefficients, in the
-    order its functions take them after the operating point."""
+    order its functions take them after the operating point (``to_dict``: field by field)."""
 
     def coefficients(self) -> tuple:
         return tuple(getattr(self, f.name) for f in fields(self))
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 class _LoadPressureRelation(_Coefficients):
@@ -228,12 +227,11 @@ def cmz_t2(fz, dp, nominal, p1, p2, p3, fz0):
 
 
 class _YawStiffness(_LoadPressureRelation):
-    """A CMz form; ``to_dict`` names it (``form``)."""
+    """A CMz form; ``to_dict`` names it (``form``, first)."""
 
     form: ClassVar[str]
-
-    def to_dict(self) -> dict:
-        return {"form": self.form, **asdict(self)}
+    serial_derived = {"form": lambda self: self.form}
+    serial_order = ("form",)
 
 
 @dataclass(frozen=True)
@@ -360,7 +358,7 @@ def fxrr_old(fz, fx, vx, gamma, qsy, fz0, vref, lmy=1.0):
 
 
 @dataclass(frozen=True)
-class RollingResistance:
+class RollingResistance(Serial):
     """Rolling-resistance coefficients qsy1..qsy8 [-], p0 [Pa], fz0 [N], vref [m/s]."""
 
     qsy: tuple[float, ...]
@@ -370,9 +368,6 @@ class RollingResistance:
 
     def __call__(self, fz, p, fx, vx, gamma):
         return fxrr_new(fz, p, fx, vx, gamma, self.qsy, self.p0, self.fz0, self.vref)
-
-    def to_dict(self) -> dict:
-        return {"qsy": list(self.qsy), "p0": self.p0, "fz0": self.fz0, "vref": self.vref}
 
 
 # --- camber ------------------------------------------------------------------------------------
@@ -444,7 +439,7 @@ RING_MODES = ("x", "y", "z", "theta", "gamma", "psi")
 
 
 @dataclass(frozen=True)
-class SidewallRing:
+class SidewallRing(Serial):
     """Rigid-ring sidewall stiffnesses at p0 and their pressure scaling.
 
     Attributes
@@ -478,6 +473,6 @@ class SidewallRing:
         """Free-hanging (fixed rim) eigenfrequency of ``mode`` [Hz]."""
         return eigenfrequency(self.stiffness(mode, dp), self.inertia(mode))
 
-    def to_dict(self) -> dict:
-        return {"modes": list(RING_MODES), "c0": list(self.c0), "f": list(self.f),
-                "m_b": self.m_b, "i_bx": self.i_bx, "i_by": self.i_by}
+    #: ``to_dict`` names the modes (first) that ``c0`` and ``f`` go with
+    serial_derived = {"modes": lambda self: list(RING_MODES)}
+    serial_order = ("modes",)

@@ -7,9 +7,11 @@ round-trip it through JSON exactly.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 from types import MappingProxyType
 from typing import Any
+
+from identify.core.serial import Serial
 
 __all__ = ["CONDITION_UNITS", "FilterCount", "Level", "Segment", "Segmentation"]
 
@@ -17,17 +19,8 @@ __all__ = ["CONDITION_UNITS", "FilterCount", "Level", "Segment", "Segmentation"]
 CONDITION_UNITS = {"Fz": "N", "p": "Pa", "gamma": "rad", "Vx": "m/s", "alpha": "rad"}
 
 
-class _Record:
-    """Base of the flat records: ``to_dict`` gives the fields in order, a mapping as a dict."""
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        out = {f.name: getattr(self, f.name) for f in fields(self)}
-        return {k: dict(v) if isinstance(v, Mapping) else v for k, v in out.items()}
-
-
 @dataclass(frozen=True)
-class Level(_Record):
+class Level(Serial):
     """One quasi-steady level of a condition channel (SI).
 
     Attributes
@@ -57,7 +50,7 @@ class Level(_Record):
 
 
 @dataclass(frozen=True)
-class Segment(_Record):
+class Segment(Serial):
     """A stretch of one run at quasi-steady conditions, or a warm-up or transition.
 
     Attributes
@@ -99,7 +92,7 @@ class Segment(_Record):
 
 
 @dataclass(frozen=True)
-class FilterCount(_Record):
+class FilterCount(Serial):
     """One named filter and how many samples it removed.
 
     ``applied`` is False (with ``note`` saying why) when the data lack what the filter needs.
@@ -113,7 +106,7 @@ class FilterCount(_Record):
 
 
 @dataclass(frozen=True)
-class Segmentation:
+class Segmentation(Serial):
     """The segmentation of a trailer table: levels, segments, filters, sample counts.
 
     Attributes
@@ -158,18 +151,3 @@ class Segmentation:
             out[s.kind] = out.get(s.kind, 0) + 1
         return out
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict (see :meth:`from_dict`)."""
-        return {"levels": {k: [lv.to_dict() for lv in v] for k, v in self.levels.items()},
-                "segments": [s.to_dict() for s in self.segments],
-                "filters": [f.to_dict() for f in self.filters], "samples": self.samples,
-                "in_sweeps": self.in_sweeps, "kept": self.kept,
-                "settings": dict(self.settings)}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> Segmentation:
-        """Inverse of :meth:`to_dict`."""
-        return cls({k: tuple(Level(**lv) for lv in v) for k, v in d["levels"].items()},
-                   tuple(Segment(**s) for s in d["segments"]),
-                   tuple(FilterCount(**f) for f in d["filters"]), d["samples"],
-                   d["in_sweeps"], d["kept"], d.get("settings", {}))

@@ -1,8 +1,9 @@
 """Settings of the segmentation (all thresholds in one frozen record, JSON round trip)."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
-from typing import Any
+from dataclasses import dataclass
+
+from identify.core.serial import Serial
 
 __all__ = ["CONDITIONS", "SegmentSettings"]
 
@@ -12,7 +13,7 @@ CONDITIONS = ("Fz", "p", "gamma", "Vx")
 
 
 @dataclass(frozen=True)
-class SegmentSettings:
+class SegmentSettings(Serial):
     """Thresholds of :func:`identify.segment.segment_trailer`.
 
     Attributes
@@ -82,7 +83,3 @@ class SegmentSettings:
     revolution_average: bool = True
     bin_alpha_deg: float | None = None
     bin_kappa: float | None = None
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict."""
-        return asdict(self)

@@ -5,18 +5,20 @@ generator passed in (``numpy.random.Generator``); nothing seeds a global state.
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 from zlib import crc32
 
 import numpy as np
 from scipy.signal import lfilter
+
+from identify.core.serial import Serial
 
 __all__ = ["Artefacts", "run_rng", "ar1_unit", "add_noise", "saturate", "stick_slip",
            "startup_transient"]
 
 
 @dataclass(frozen=True)
-class Artefacts:
+class Artefacts(Serial):
     """What the simulator does to otherwise ideal data.
 
     Attributes
@@ -54,9 +56,6 @@ class Artefacts:
             raise ValueError(f"ar1_rho must lie in (-1, 1), not {self.ar1_rho!r}")
         if not self.asymmetry > -1:
             raise ValueError(f"asymmetry must be > -1, not {self.asymmetry!r}")
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 def run_rng(seed: int, run_id: str) -> np.random.Generator:

@@ -1,13 +1,15 @@
 """Test grids of the simulator: which runs are made and how densely they are sampled."""
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
+
+from identify.core.serial import Serial
 
 __all__ = ["Samples", "Grid", "FULL", "SMALL", "GRIDS"]
 
 
 @dataclass(frozen=True)
-class Samples:
+class Samples(Serial):
     """Samples per run (Flatplank) or per sweep (trailer).
 
     ``vertical`` counts loading plus unloading; ``rolling`` is the rolling part of relaxation
@@ -39,12 +41,9 @@ class Samples:
     trailer_camber: int = 129
     trailer_rr: int = 20
 
-    def to_dict(self) -> dict:
-        return asdict(self)
-
 
 @dataclass(frozen=True)
-class Grid:
+class Grid(Serial):
     """Pressures, loads, angles and sample counts of one simulated folder.
 
     Pressures in [bar], loads in [N], angles in [deg], speeds in [m/s].
@@ -71,9 +70,6 @@ class Grid:
     rr_speeds: tuple[float, ...] = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0)
     eigen_pressures_bar: tuple[float, ...] = (1.9, 2.2, 2.5, 2.7, 3.0)
     samples: Samples = Samples()
-
-    def to_dict(self) -> dict:
-        return asdict(self)
 
 
 #: The thesis grid (5 pressures x 3 loads; CFx at 2/4/6 kN; parking at 1..6 kN).

@@ -7,9 +7,11 @@ cannot measure My independently: My = -Tz sin(gamma) + Fx rl cos(gamma) follows 
 """
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 import numpy as np
+
+from identify.core.serial import Serial
 
 __all__ = ["Rig", "DEFAULT_RIG", "bridges_from_contact", "BRIDGES", "FLATPLANK_CHANNELS"]
 
@@ -21,7 +23,7 @@ FLATPLANK_CHANNELS = ("time", *BRIDGES, "plank_x", "wheel_angle", "psi", "hub_z"
 
 
 @dataclass(frozen=True)
-class Rig:
+class Rig(Serial):
     """Flatplank constants and the shape of the effects the simulator gives each test.
 
     Attributes
@@ -104,9 +106,6 @@ class Rig:
         gamma = np.asarray(gamma, dtype=float)
         wheel = np.clip(gamma, -self.wheel_camber_max, self.wheel_camber_max)
         return wheel, gamma - wheel
-
-    def to_dict(self) -> dict:
-        return {k: float(v) for k, v in asdict(self).items()}
 
 
 DEFAULT_RIG = Rig()

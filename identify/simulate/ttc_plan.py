@@ -23,6 +23,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from identify.core.serial import Serial
+
 __all__ = [
     "LOAD_FACTORS",
     "PRESSURE_FACTORS",
@@ -46,7 +48,7 @@ KIND_CODES = {"start": 0, "pressure_change": 1, "warmup": 2, "transition": 3, "s
 
 
 @dataclass(frozen=True)
-class SessionPlan:
+class SessionPlan(Serial):
     """Set points of a session [SI; angles in deg, ISO-W signs]."""
 
     pressures_Pa: tuple[float, ...]
@@ -60,9 +62,6 @@ class SessionPlan:
     warmup_load_N: float = 0.0
     lifted_load_N: float = 0.0
 
-    def to_dict(self) -> dict:
-        """A JSON-safe dict."""
-        return {k: list(v) if isinstance(v, tuple) else v for k, v in self.__dict__.items()}
 
 
 def session_plan(fnomin: float, nompres: float) -> SessionPlan:

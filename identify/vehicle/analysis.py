@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import asdict, dataclass, field
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from identify.core.errors import InputError
+from identify.core.serial import Serial, meta
 from identify.vehicle import steady
 from identify.vehicle.ride import ROAD_CLASSES, QuarterCarModel, ride_response, road_profile
 from identify.vehicle.spec import VehicleSpec
@@ -152,7 +153,7 @@ class SettingResult:
 
 
 @dataclass(frozen=True)
-class VehicleResult:
+class VehicleResult(Serial):
     """The analysis of one tyre on one vehicle at several pressure settings.
 
     Attributes
@@ -167,26 +168,14 @@ class VehicleResult:
     """
 
     tyre: Mapping[str, Any]
-    spec: VehicleSpec
+    spec: VehicleSpec = field(metadata=meta(key="vehicle"))
     options: VehicleOptions
     settings: tuple[SettingResult, ...]
-    stiffness_vs_pressure: Mapping[str, tuple]
-    version: str = field(default="")
+    stiffness_vs_pressure: Mapping[str, tuple] = field(
+        metadata=meta(key="axle_cornering_stiffness_vs_pressure"))
+    version: str = field(default="", metadata=meta(key="mfid_version"))
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"mfid_version": self.version, "tyre": dict(self.tyre),
-                "vehicle": self.spec.to_dict(), "options": asdict(self.options),
-                "settings": [s.to_dict() for s in self.settings],
-                "axle_cornering_stiffness_vs_pressure": {
-                    k: list(v) for k, v in self.stiffness_vs_pressure.items()}}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> VehicleResult:
-        return cls(d["tyre"], VehicleSpec.from_dict(d["vehicle"]),
-                   VehicleOptions(**d["options"]),
-                   tuple(SettingResult.from_dict(s) for s in d["settings"]),
-                   {k: tuple(v) for k, v in d["axle_cornering_stiffness_vs_pressure"].items()},
-                   d.get("mfid_version", ""))
+    serial_order = ("mfid_version",)  # vehicle.json's order: then the fields
 
 
 def _outside(value: float, rng: tuple[float, float]) -> bool:

@@ -12,12 +12,13 @@ import hashlib
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import MISSING, asdict, dataclass, fields
+from dataclasses import MISSING, dataclass, fields
 from importlib.resources import files
 from pathlib import Path
 from typing import Any
 
 from identify.core.errors import InputError
+from identify.core.serial import Serial
 
 __all__ = ["Vehicle", "QuarterCar", "VehicleSpec", "read_vehicle", "default_vehicle",
            "DEFAULT_VEHICLE_FILE", "G"]
@@ -129,7 +130,7 @@ class QuarterCar:
 
 
 @dataclass(frozen=True)
-class VehicleSpec:
+class VehicleSpec(Serial):
     """A vehicle file, read: the vehicle, its quarter car, where it came from.
 
     Attributes
@@ -145,16 +146,7 @@ class VehicleSpec:
     source: str
     sha256: str
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"source": self.source, "sha256": self.sha256,
-                "vehicle": asdict(self.vehicle), "quarter_car": asdict(self.quarter_car)}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> VehicleSpec:
-        v = dict(d["vehicle"])
-        if v.get("yaw_inertia_kgm2") is None:
-            v["yaw_inertia_kgm2"] = math.nan
-        return cls(Vehicle(**v), QuarterCar(**d["quarter_car"]), d["source"], d["sha256"])
+    serial_order = ("source", "sha256")  # vehicle.json's order: then the vehicle, the corner
 
 
 # (lower, upper, lower inclusive) of every number; the bounds reject what no road car has

@@ -21,6 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
+from identify.core.serial import Serial
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE
 
@@ -28,7 +29,7 @@ __all__ = ["AxleTyre", "MfTyre", "ValidityRange", "wheel_lateral"]
 
 
 @dataclass(frozen=True)
-class ValidityRange:
+class ValidityRange(Serial):
     """The ranges a .tir is valid in (its [*_RANGE] sections).
 
     Attributes
@@ -48,10 +49,6 @@ class ValidityRange:
         return cls(pair("PRESMIN", "PRESMAX"), pair("FZMIN", "FZMAX"),
                    pair("ALPMIN", "ALPMAX"), pair("CAMMIN", "CAMMAX"))
 
-    def to_dict(self) -> dict[str, list[float]]:
-        return {"pressure_Pa": list(self.pressure_Pa), "load_N": list(self.load_N),
-                "slip_angle_rad": list(self.slip_angle_rad),
-                "camber_rad": list(self.camber_rad)}
 
 
 class AxleTyre(Protocol):

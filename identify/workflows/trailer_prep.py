@@ -19,10 +19,10 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
 
 import pandas as pd
 
+from identify.core.serial import Serial, meta
 from identify.fit.mf.stage_data import SEGMENT_COLUMN
 from identify.segment import LEVEL_COLUMNS, Segmentation, SegmentSettings, segment_trailer
 from identify.segment.turnaround import turnaround_mask
@@ -46,7 +46,7 @@ _USED = ("omega", "kappa", "rl", "Fx", "Fy", "Mz", "Mx", "My")
 
 
 @dataclass(frozen=True, eq=False)
-class TrailerData:
+class TrailerData(Serial):
     """The trailer table to fit and what happened to it.
 
     Attributes
@@ -61,19 +61,16 @@ class TrailerData:
                                  segmentation
     """
 
-    table: pd.DataFrame
+    table: pd.DataFrame = field(metadata=meta(skip=True))
     segmentation: Segmentation | None
     segmented_runs: tuple[str, ...] = ()
     unavailable: Mapping[str, str] = field(default_factory=dict)
-    mz_turnaround: int = 0
+    mz_turnaround: int = field(default=0, metadata=meta(key="mz_turnaround_samples"))
 
-    def to_dict(self) -> dict[str, Any]:
-        """The trailer part of fit.json's ``data_quality``."""
-        return {"segmented_runs": list(self.segmented_runs),
-                "segmentation": None if self.segmentation is None
-                else self.segmentation.to_dict(),
-                "unavailable": dict(self.unavailable), "rows_fitted": len(self.table),
-                "mz_turnaround_samples": self.mz_turnaround}
+    #: ``to_dict`` is the trailer part of fit.json's ``data_quality``: the fields but the
+    #: table, and the number of its rows
+    serial_derived = {"rows_fitted": lambda self: len(self.table)}
+    serial_order = ("segmented_runs", "segmentation", "unavailable", "rows_fitted")
 
 
 def unavailable_channels(trailer: pd.DataFrame, warnings) -> dict[str, str]:

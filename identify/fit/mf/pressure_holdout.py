@@ -37,6 +37,7 @@ import pandas as pd
 from threadpoolctl import threadpool_limits
 
 from identify.core.progress import Progress
+from identify.core.serial import Serial, from_data
 from identify.fit.mf.problem import stage_problem
 from identify.fit.mf.result import MFFit
 from identify.fit.mf.search import MAX_NFEV
@@ -63,7 +64,7 @@ def is_pressure_coefficient(name: str) -> bool:
 
 
 @dataclass(frozen=True)
-class LevelHoldout:
+class LevelHoldout(Serial):
     """One pressure level held out.
 
     Attributes
@@ -83,23 +84,10 @@ class LevelHoldout:
     seconds: float
     converged: bool
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"pressure_bar": self.pressure_bar, "points": dict(self.points),
-                "insample_pct": {k: _num(v) for k, v in self.insample_pct.items()},
-                "heldout_pct": {k: _num(v) for k, v in self.heldout_pct.items()},
-                "seconds": self.seconds, "converged": self.converged}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> LevelHoldout:
-        def nums(m):
-            return {k: (math.nan if v is None else float(v)) for k, v in m.items()}
-        return cls(float(d["pressure_bar"]), {k: int(v) for k, v in d["points"].items()},
-                   nums(d["insample_pct"]), nums(d["heldout_pct"]), float(d["seconds"]),
-                   bool(d["converged"]))
 
 
 @dataclass(frozen=True)
-class PressureHoldout:
+class PressureHoldout(Serial):
     """Every pressure level of the MF fit predicted without it (fit.json ``pressure_holdout``).
 
     Attributes
@@ -115,17 +103,10 @@ class PressureHoldout:
     method: str = ""
     seconds: float = 0.0
 
-    def to_dict(self) -> dict[str, Any]:
-        return {"levels": [lv.to_dict() for lv in self.levels], "skipped": self.skipped,
-                "method": self.method, "seconds": self.seconds}
-
     @classmethod
     def from_dict(cls, d: Mapping[str, Any] | None) -> PressureHoldout | None:
-        if not d:
-            return None
-        return cls(tuple(LevelHoldout.from_dict(x) for x in d.get("levels", [])),
-                   str(d.get("skipped", "")), str(d.get("method", "")),
-                   float(d.get("seconds", 0.0)))
+        """Inverse of :meth:`to_dict`; None for fit.json's empty entry (not computed)."""
+        return from_data(cls, d) if d else None
 
 
 METHOD = ("each level's rows removed from the MF table; the force and moment stages solved "

@@ -37,6 +37,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from identify.core.serial import Serial
 from identify.fit.optimize import fit
 from identify.fit.result import FitResult
 from identify.fit.solve.problem import FitProblem
@@ -59,7 +60,7 @@ Builder = Callable[[pd.DataFrame, Any], FitProblem | None]
 
 
 @dataclass(frozen=True)
-class FormChoice:
+class FormChoice(Serial):
     """The form of one relation written to the .tir, and why.
 
     Attributes
@@ -86,25 +87,6 @@ class FormChoice:
     held_out_pct: Mapping[str, float] = field(default_factory=dict)
     overridden: bool = False
 
-    def to_dict(self) -> dict[str, Any]:
-        def num(x: float) -> float | None:
-            return float(x) if np.isfinite(x) else None
-        return {"relation": self.relation, "form": self.form, "simpler": self.simpler,
-                "richer": self.richer, "criterion": self.criterion, "reason": self.reason,
-                "f_statistic": num(self.f_statistic), "p_value": num(self.p_value),
-                "held_out_pct": {k: num(v) for k, v in self.held_out_pct.items()},
-                "overridden": self.overridden}
-
-    @classmethod
-    def from_dict(cls, d: Mapping[str, Any]) -> FormChoice:
-        def num(x) -> float:
-            return float("nan") if x is None else float(x)
-        return cls(relation=str(d["relation"]), form=str(d["form"]),
-                   simpler=str(d["simpler"]), richer=str(d["richer"]),
-                   criterion=str(d["criterion"]), reason=str(d["reason"]),
-                   f_statistic=num(d.get("f_statistic")), p_value=num(d.get("p_value")),
-                   held_out_pct={k: num(v) for k, v in (d.get("held_out_pct") or {}).items()},
-                   overridden=bool(d.get("overridden", False)))
 
 
 CRITERION = (f"richer form only if its F test against the simpler one has p < {ALPHA:g} and "

@@ -18,10 +18,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
 
 from identify.core.errors import InputError
 from identify.core.plausible import judge
+from identify.core.serial import Serial
 from identify.core.units import dimension_factor, unit_factor
 from identify.io.common import file_problem
 from identify.model.parameters import EXTENSION_PREFIX, PARAMETERS, spec
@@ -53,7 +53,7 @@ _NON_UTF8 = re.compile("[\udc80-\udcff]")
 
 
 @dataclass(frozen=True)
-class TirFile:
+class TirFile(Serial):
     """A parsed .tir file, all dimensional values in SI.
 
     Attributes
@@ -90,6 +90,8 @@ class TirFile:
     sha256: str
     warnings: tuple[str, ...] = field(default=())
 
+    serial_order = ("path", "fittyp", "sha256")  # ``to_dict``: then the other fields
+
     def __post_init__(self) -> None:
         for name in ("values", "units", "unknown", "tables"):
             object.__setattr__(self, name, MappingProxyType(dict(getattr(self, name))))
@@ -102,14 +104,6 @@ class TirFile:
     def params(self) -> dict[str, float]:
         """All numeric values (SI), FITTYP included as a float, for the forward model."""
         return {k: v for k, v in self.values.items() if not isinstance(v, str)}
-
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe dict of every field."""
-        return {"path": self.path, "fittyp": self.fittyp, "sha256": self.sha256,
-                "values": dict(self.values), "units": dict(self.units),
-                "defaults_used": list(self.defaults_used), "unknown": dict(self.unknown),
-                "tables": {k: list(v) for k, v in self.tables.items()},
-                "warnings": list(self.warnings)}
 
 
 @dataclass

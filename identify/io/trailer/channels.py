@@ -11,10 +11,10 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import MappingProxyType
-from typing import Any
 
 import numpy as np
 
+from identify.core.serial import Serial, meta
 from identify.core.units import (
     SI_UNITS,
     UNITS,
@@ -86,7 +86,7 @@ def canonical(name: str, ttc: bool = False) -> str | None:
 
 
 @dataclass(frozen=True, eq=False)
-class Channels:
+class Channels(Serial):
     """The channels of one run [SI where the unit is known], before the axis conversion.
 
     ``first_line`` is the line of the first sample in a text file (None for HDF5;
@@ -99,14 +99,14 @@ class Channels:
     """
 
     run: str
-    data: Mapping[str, np.ndarray]
+    data: Mapping[str, np.ndarray] = field(metadata=meta(skip=True))
     units: Mapping[str, str]
     file: str
-    long_names: Mapping[str, str] = field(default_factory=dict)
-    first_line: int | RowLines | None = None
+    long_names: Mapping[str, str] = field(default_factory=dict, metadata=meta(skip=True))
+    first_line: int | RowLines | None = field(default=None, metadata=meta(skip=True))
     axes: str | None = None
     attrs: Mapping[str, str] = field(default_factory=dict)
-    file_units: Mapping[str, str] = field(default_factory=dict)
+    file_units: Mapping[str, str] = field(default_factory=dict, metadata=meta(skip=True))
 
     def __post_init__(self) -> None:
         for name in ("data", "units", "long_names", "attrs", "file_units"):
@@ -117,11 +117,14 @@ class Channels:
         """True when the channels have the Tire Test Consortium's names (ET, FZ, ...)."""
         return str(self.attrs.get("format", "")).startswith("ttc") or is_ttc_naming(self.data)
 
-    def to_dict(self) -> dict[str, Any]:
-        """A JSON-safe summary (channel names, units, number of samples)."""
-        n = len(next(iter(self.data.values()))) if self.data else 0
-        return {"run": self.run, "file": self.file, "axes": self.axes, "samples": n,
-                "units": dict(self.units), "attrs": dict(self.attrs)}
+    @property
+    def samples(self) -> int:
+        """Samples of the run (of its first channel)."""
+        return len(next(iter(self.data.values()))) if self.data else 0
+
+    #: ``to_dict`` is a summary (run, file, units, axes, attrs), then the number of samples
+    serial_derived = {"samples": lambda self: self.samples}
+    serial_order = ("run", "file", "axes", "samples")
 
 
 def read_channels(path: str | Path, *, run: str | None = None,
