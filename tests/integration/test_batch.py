@@ -23,7 +23,6 @@ from pathlib import Path
 
 import pandas as pd
 import pytest
-from distributed import LocalCluster
 from pypdf import PdfReader
 from rich.console import Console
 from typer.testing import CliRunner
@@ -119,18 +118,6 @@ def test_pool_batch_matches_separate_fits(folders, tmp_path):
     _check_same_as_separate_fits(folders, tmp_path, IDS[:2], {"pool": ["--workers", "2"]})
 
 
-@pytest.mark.trials  # 16 fits, 2 Dask clusters: ~55 CPU-s, ~30 s on 2 idle cores (est.)
-def test_batch_matches_separate_fits_on_pool_and_dask(folders, tmp_path):
-    """Issue 16, acceptance 1: the outputs of `mfid batch` on four folders equal those of four
-    `mfid fit` runs (as in the test above), on the process pool, on a 2-worker Dask
-    LocalCluster reached through its tcp:// address, and on `--scheduler local --workers 2`
-    (which starts such a cluster itself)."""
-    with LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster:
-        _check_same_as_separate_fits(folders, tmp_path, IDS, {
-            "pool": ["--workers", "2"], "tcp": ["--scheduler", cluster.scheduler_address],
-            "local": ["--scheduler", "local", "--workers", "2"]})
-
-
 # ----------------------------------------------------------------- worker killed, bad input
 
 def _bad_copy(src: Path, dst: Path) -> str:
@@ -148,12 +135,9 @@ def _bad_copy(src: Path, dst: Path) -> str:
     return first.name
 
 
-@pytest.mark.parametrize("engine", [
-    pytest.param([], id="pool"),
-    # the dask engine's retry is the scheduler's own; its batch is checked against separate
-    # fits in the default run, this slower kill-and-retry case with the trials
-    pytest.param(["--scheduler", "local"], id="dask", marks=pytest.mark.trials),
-])
+# the dask engine's retry is the scheduler's own; its batch is checked against separate fits
+# in the default run, this slower kill-and-retry case in tests/trials/test_batch_trials.py
+@pytest.mark.parametrize("engine", [pytest.param([], id="pool")])
 def test_killed_worker_costs_a_retry_and_bad_input_is_reported(folders, tmp_path, engine):
     """SIGKILL one worker mid-task: that task runs again, every good folder ends with all its
     outputs and no temporary file; a folder with a malformed number is one line on stderr,

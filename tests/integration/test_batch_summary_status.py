@@ -91,14 +91,6 @@ def test_summary_and_pdf_say_what_every_fit_says(folders, tmp_path):
     _check_summary_agrees(run, out, ["s1"])
 
 
-@pytest.mark.trials
-def test_summary_of_the_sample_says_what_every_fit_says(tmp_path):
-    out = tmp_path / "fits"
-    run = run_batch([SAMPLE], out_root=out, reports=tmp_path / "reports", workers=1)
-    assert "poorly identified" in _fit_statuses(out / SAMPLE.name).values()
-    _check_summary_agrees(run, out, [SAMPLE.name])
-
-
 def test_a_later_batch_keeps_the_rows_of_tyres_it_did_not_touch(folders, tmp_path):
     out, reports = tmp_path / "fits", tmp_path / "reports"
     settings = FitSettings(only=("CFz",))

@@ -411,38 +411,6 @@ def test_bundled_sample_longitudinal_stages():
     assert d["held"]["Fx0"]["PDX3"] == "data: no camber variation"
 
 
-@pytest.mark.trials
-@pytest.mark.parametrize("seed", [2, 3, 4, 5, 6])
-def test_recovery_from_other_perturbations(seed, truth, data, free_sets):
-    for stage in DEFAULT_STAGES:
-        start = _perturb(truth, free_sets[stage], seed=seed)
-        result = fit_mf(data, start, stages=(stage,)).result(stage)
-        errors = _rel_errors(result, truth)
-        worst = max(errors, key=errors.get)
-        assert errors[worst] <= RECOVERY_RTOL, (stage, worst, errors[worst])
-
-
-@pytest.mark.trials
-def test_bundled_sample_all_stages_from_the_defaults():
-    """What ``mfid fit`` does with the bundled folder's trailer runs: MFeval defaults with the
-    folder's nominal conditions as the start; every stage converges to the 1 % noise."""
-    from identify.io.folder import load_folder
-    from identify.model.parameters import defaults
-
-    mset = load_folder(SAMPLE.parent)
-    base = {k: v for k, v in defaults().items() if not isinstance(v, str)}
-    tyre = mset.manifest.tyre
-    base.update(FNOMIN=float(tyre.nominal_load_N), NOMPRES=float(tyre.nominal_pressure_Pa),
-                INFLPRES=float(tyre.nominal_pressure_Pa),
-                UNLOADED_RADIUS=float(tyre.unloaded_radius_m))
-    mf = fit_mf(mset.trailer, base)
-    assert [r.form for r in mf.results] == list(DEFAULT_STAGES)
-    for r in mf.results:
-        print(f"{r.form}: {r.error_total_pct:.3f} %, {r.seconds:.1f} s")
-        assert r.converged, (r.form, r.message)
-        assert r.error_total_pct < 1.2, r.form
-
-
 def test_a_second_pass_solves_the_stages_whose_inputs_a_later_stage_moved(truth, data,
                                                                           free_sets):
     """SSZ1..4 (stage Mz) act on the Mz0 points through s Fx: fitted in one pass, Mz0's

@@ -244,9 +244,3 @@ def test_the_base_files_are_valid():
 @pytest.mark.parametrize("kind", list(READERS))
 def test_reader_raises_only_one_line_input_errors(kind):
     _test(kind, QUICK[kind])()
-
-
-@pytest.mark.trials
-@pytest.mark.parametrize("kind", list(READERS))
-def test_reader_10000_cases(kind):
-    _test(kind, 10_000)()
