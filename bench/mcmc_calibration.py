@@ -7,7 +7,7 @@ seeded data sets (1 % noise, the simulator's definition) is fitted as ``mfid fit
 reparametrisation (identify.fit.mcmc.reparam); prints every trial's steps, largest tau and
 seconds, then the share of 90 % credible intervals that hold the true coefficient (the bar:
 >= 85 % of 40 trials) and how many chains passed 50 tau. The same count is the trials test
-``tests/unit/test_fit_calibration_mf.py::test_reparametrised_fy0_covers_the_truth_on_the_sample_loads``.
+``tests/trials/test_fit_calibration_mf_trials.py::test_reparametrised_fy0_covers_the_truth_on_the_sample_loads``.
 
     python bench/mcmc_calibration.py [--trials 40] [--loads 3000 5000 7000] [--no-reparam]
                                      [--ridge-only] [--json out.json]
