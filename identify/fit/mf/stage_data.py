@@ -51,9 +51,12 @@ SIGN_SHARE = 0.25
 of the longer one's extent, each side's extent its 0.5 % or 99.5 % quantile."""
 
 
-SWEPT_SLIP = {"longitudinal": ("kappa", PURE_KAPPA), "lateral": ("alpha", PURE_ALPHA)}
+SWEPT_SLIP = {"lateral": ("alpha", PURE_ALPHA)}
 """Selection of a pure-slip stage -> the slip it sweeps and the pure-slip threshold beyond which
-a point is on the sweep (:func:`coverage_missing`)."""
+a point is on the sweep (:func:`coverage_missing`): the pure lateral stages Fy0 and Mz0. Fx0's
+zero-slip points (the cornering runs at kappa = 0) still count for all its coefficients: on a
+real session with drive/brake runs at two of five pressures, holding its pressure-curvature
+terms by the swept points alone made the fitted longitudinal force worse on every sample."""
 
 
 DERIVED = ("Re", "Rl")
@@ -323,9 +326,9 @@ def coverage_missing(pts: pd.DataFrame, selection: str, fnomin: float,
     """Coefficient -> why the points ``pts`` of a stage (selection ``selection``) cannot
     identify it (:meth:`Coverage.missing` of its NEEDS), for the ``names`` they cannot.
 
-    A pure-slip stage's points (``longitudinal``, ``lateral``: :data:`SWEPT_SLIP`) include
-    points at zero slip of its kind: the cornering runs' zero slip ratio for Fx0, the drive/brake
-    runs' zero slip angle for Fy0 and Mz0. Those measure the offsets (ZERO_SLIP of
+    The pure lateral stages' points (``lateral``: :data:`SWEPT_SLIP`) include points at zero
+    slip angle: the drive/brake runs', at their cambers, loads and pressures. Those measure the
+    offsets (ZERO_SLIP of
     identify.fit.mf.stage_specs), not the shape along the slip: a shaping coefficient's load,
     pressure and camber levels are counted on the points beyond the pure-slip threshold only
     (every point when none is), the offsets' on every point."""
