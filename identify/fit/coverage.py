@@ -36,7 +36,7 @@ import pandas as pd
 
 from identify.core.serial import Serial
 from identify.fit.mf import stage_data as mf_data
-from identify.fit.mf.stage_specs import DEFAULT_STAGES, NEEDS, PURE_ALPHA, STAGES
+from identify.fit.mf.stage_specs import DEFAULT_STAGES, PURE_ALPHA, STAGES
 from identify.model.parameters import spec
 
 __all__ = ["MIN_POINTS", "StageCoverage", "coverage_text", "mf_coverage"]
@@ -221,9 +221,8 @@ def mf_coverage(trailer: pd.DataFrame, fnomin: float, *,
             why = f"builds on {', '.join(up)}, which is skipped"
         pts = trailer.iloc[rows]
         names = [n for n in sd.coefficients if spec(n).fit_default_vary]
-        cov = mf_data.Coverage.of(pts, fnomin) if rows.size else None
-        blocked = {n: (cov.missing(NEEDS.get(n, ())) if cov else "stage skipped") for n in names}
-        blocked = {n: w for n, w in blocked.items() if w}
+        blocked = (mf_data.coverage_missing(pts, sd.selection, fnomin, names) if rows.size
+                   else dict.fromkeys(names, "stage skipped"))
         out[stage] = StageCoverage(
             stage=stage, points=int(rows.size),
             runs=tuple(str(r) for r in pd.unique(pts["run"])),

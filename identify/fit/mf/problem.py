@@ -22,7 +22,6 @@ from identify.fit.mf.screen import screen as sensitivity_screen
 from identify.fit.mf.screen import term_magnitudes
 from identify.fit.mf.stage_specs import (
     EVEN_START,
-    NEEDS,
     STAGES,
     StageDef,
     stage_model,
@@ -186,11 +185,7 @@ def stage_problem(stage: str, trailer: pd.DataFrame, params: Mapping[str, float]
     if hold is not None:
         held = {n: why for n, why in hold.items() if n in names}
     elif screen:
-        cov = mf_data.Coverage.of(pts, fnomin)
-        for n in names:
-            why = cov.missing(NEEDS.get(n, ()))
-            if why:
-                held[n] = why
+        held = mf_data.coverage_missing(pts, sd.selection, fnomin, names)
 
     extra, groups, sweeps = at.extra, at.groups, at.sweeps
 

@@ -16,12 +16,13 @@ the model's fixed point omega = (1 + kappa) Vx/Re, i.e. Vx/omega = Re at kappa =
 """
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
 
-from identify.fit.mf.stage_specs import PURE_ALPHA, PURE_KAPPA
+from identify.fit.mf.stage_specs import NEEDS, PURE_ALPHA, PURE_KAPPA, ZERO_SLIP
 
 REQUIRED = ("run", "Vx", "alpha", "kappa", "gamma", "p", "Fz")
 SWEEP_KAPPA = 0.02
@@ -48,6 +49,14 @@ CAMBER_SPREAD = np.deg2rad(0.5)
 SIGN_SHARE = 0.25
 """Slip counts as of both signs (:func:`both_signs`) when the shorter side reaches this fraction
 of the longer one's extent, each side's extent its 0.5 % or 99.5 % quantile."""
+
+
+SWEPT_SLIP = {"lateral": ("alpha", PURE_ALPHA)}
+"""Selection of a pure-slip stage -> the slip it sweeps and the pure-slip threshold beyond which
+a point is on the sweep (:func:`coverage_missing`): the pure lateral stages Fy0 and Mz0. Fx0's
+zero-slip points (the cornering runs at kappa = 0) still count for all its coefficients: on a
+real session with drive/brake runs at two of five pressures, holding its pressure-curvature
+terms by the swept points alone made the fitted longitudinal force worse on every sample."""
 
 
 DERIVED = ("Re", "Rl")
@@ -310,3 +319,31 @@ class Coverage:
             if not ok:
                 return "data: " + why
         return None
+
+
+def coverage_missing(pts: pd.DataFrame, selection: str, fnomin: float,
+                     names: tuple[str, ...] | list[str]) -> dict[str, str]:
+    """Coefficient -> why the points ``pts`` of a stage (selection ``selection``) cannot
+    identify it (:meth:`Coverage.missing` of its NEEDS), for the ``names`` they cannot.
+
+    The pure lateral stages' points (``lateral``: :data:`SWEPT_SLIP`) include points at zero
+    slip angle: the drive/brake runs', at their cambers, loads and pressures. Those measure the
+    offsets (ZERO_SLIP of
+    identify.fit.mf.stage_specs), not the shape along the slip: a shaping coefficient's load,
+    pressure and camber levels are counted on the points beyond the pure-slip threshold only
+    (every point when none is), the offsets' on every point."""
+    whole = Coverage.of(pts, fnomin)
+    swept = whole
+    if selection in SWEPT_SLIP:
+        var, pure = SWEPT_SLIP[selection]
+        beyond = np.abs(pts[var].to_numpy(float)) > pure
+        if beyond.any() and not beyond.all():
+            part = Coverage.of(pts[beyond], fnomin)
+            swept = dataclasses.replace(whole, loads=part.loads, pressures=part.pressures,
+                                        camber=part.camber)
+    out = {}
+    for n in names:
+        why = (whole if n in ZERO_SLIP else swept).missing(NEEDS.get(n, ()))
+        if why:
+            out[n] = why
+    return out

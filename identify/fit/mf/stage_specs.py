@@ -170,6 +170,19 @@ x = Fz/Fz0, so at one pressure n load levels determine Q_RE0 and n - 1 of DREFF,
 scaling of that term by the held Cz' = VERTICAL_STIFFNESS (1 + PFZ1 dpi), i.e. at two or more
 pressures with PFZ1 != 0 (the sensitivity screen holds it otherwise, and the value then rests
 on the CFz relation's PFZ1); Q_V1 needs free rolling at two speeds (omega^2 term)."""
+ZERO_SLIP = frozenset(
+    "PHY1 PHY2 PVY1 PVY2 PKY6 PKY7 QDZ6 QDZ7 QDZ8 QDZ9 QDZ10 QDZ11 PPZ2".split())
+"""Coefficients of the pure lateral stages that a point at zero slip angle measures: the
+offsets of Fy0 (SHy, SVy at zero camber), its camber stiffness (at zero slip angle a cambered
+tyre's side force is Kyg0 gamma: PKY6, PKY7) and the residual torque of Mz0 (Dr, with its
+camber and pressure terms). Their coverage (:data:`NEEDS`) counts every point of the stage.
+The other coefficients of Fy0 and Mz0 shape the characteristic along the slip angle
+(stiffness, peak, curvature, trail; the camber shift of the trail QHZ3, QHZ4 and of SVy,
+PVY3, PVY4, which trade with PKY6, PKY7 at zero slip): their loads, pressures and cambers are
+counted on the swept points only (identify.fit.mf.stage_data.coverage_missing). A real
+drive/brake run stepped in camber puts zero-slip points at cambers, loads and pressures the
+cornering sweeps may not hold; counted for a trail or stiffness term they freed it with no
+sweep to fit it to, and the fitted trail followed the scatter of a few zero-slip points."""
 TERM_VARIABLES = {"camber": "gamma", "load": "dfz", "load2": "dfz", "load3": "dfz",
                   "pressure": "dpi", "pressure2": "dpi"}
 """The variable of a need that the coefficient's term multiplies: |gamma| [rad], |dfz| [-],
