@@ -84,8 +84,8 @@ def test_an_effect_spread_over_two_correlated_columns_is_found_by_their_block():
 @pytest.mark.parametrize("name", ["G1", "G2", "G1+G2"])
 def test_null_rejects_at_its_level_with_few_sweeps_per_pressure(name):
     """Nothing hidden: the share of p-values below 0.05 stays near 0.05 (referred to
-    F(q, C - 1), the centred test rejected about twice that often here, as few sweeps carry
-    the variance; the Satterthwaite degrees of freedom of those sweeps keep the level)."""
+    F(q, C - 1), the centred test rejects well above that here, as few sweeps carry the
+    variance; the Satterthwaite degrees of freedom of those sweeps keep the level)."""
     rng = np.random.default_rng(13)
     p = np.array([_scores(rng)[name].p_value for _ in range(200)])
     assert 0.015 <= np.mean(p < 0.05) <= 0.085
