@@ -103,3 +103,21 @@ def test_degrees_of_freedom_count_the_sweeps_that_carry_the_candidate():
     lopsided[20:] *= 1e-3
     _, dof1 = left_out_score_variance(lopsided, r, even)
     assert dof1 < 1.1
+
+
+def test_reported_standard_errors_honour_the_correlation_along_the_sweeps():
+    """The standard errors discovery prints beside an accepted coefficient are the confirming
+    test's cluster-robust ones where the noise runs along the sweeps: with AR(1) noise at
+    phi = 0.95 and an offset per sweep, a sweep of 60 samples holds about one independent
+    sample of a coefficient that is constant along it (the load term), whose residual-variance
+    error is then about sqrt(60 / 2) ~ 5 times too small."""
+    from identify.discover.conclude import standard_errors
+    from identify.fit.solve.engine import covariance
+
+    r, J, _, sweeps = _session(np.random.default_rng(5), c1=0.0)
+    names = ["offset", "slope", "shape", "load", "slope_load"]
+    robust = standard_errors(J, r, names, sweeps)
+    plain = standard_errors(J, r, names)
+    cov = covariance(J, r, clusters=sweeps)
+    assert robust["load"] == pytest.approx(np.sqrt(cov[3, 3]), rel=1e-12)
+    assert robust["load"] > 3.0 * plain["load"]
