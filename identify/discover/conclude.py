@@ -16,12 +16,21 @@ UNEXPLAINED_RATIO = 1.25
 """A final error above this multiple of the noise floor is an unexplained discrepancy."""
 
 
-def _stderr(w: Working) -> dict[str, float]:
-    J, r = w.sol.jac, w.sol.r
-    if J.shape[1] == 0:
+def standard_errors(jac: np.ndarray, r: np.ndarray, free, clusters=None) -> dict[str, float]:
+    """Standard errors of the coefficients ``free`` from the Jacobian ``jac`` (n, k) and the
+    residuals ``r`` (n,) at the optimum: cluster-robust over ``clusters`` (index arrays, one
+    per sweep) where the noise is correlated along the sweeps, as the confirming test's, else
+    from the residual variance. An interval that ignored the correlation along a sweep would
+    claim a precision the data do not hold."""
+    if jac.shape[1] == 0:
         return {}
-    cov = covariance(J, r)
-    return {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(w.problem.free)}
+    cov = covariance(jac, r, clusters=clusters) if clusters is not None else covariance(jac, r)
+    return {name: float(np.sqrt(max(cov[i, i], 0.0))) for i, name in enumerate(free)}
+
+
+def _stderr(w: Working) -> dict[str, float]:
+    return standard_errors(w.sol.jac, w.sol.r, w.problem.free,
+                           w.objective.index if w.noise.kind == "cluster" else None)
 
 
 def summaries(works: list[Working], reads: dict | None = None,

@@ -12,8 +12,12 @@ is the properly scaled gradient of the objective at the neutral value:
     D_k = s_k^T (G~_k^T G~_k)^-1 s_k          one-step drop of the residual sum of squares
     independent / AR(1):  LM_k = D_k / sigma^2,
                           F_k = (D_k / q) / ((r^T r - D_k) / (n - p - q))   ~ F(q, n - p - q)
-    cluster-robust:       W_k = s_k^T V_k^-1 s_k / q,  V_k = C/(C-1) sum_c (G~_kc^T r_c)(...)^T
-                                                                         ~ F(q, C - 1)
+    cluster-robust:       W_k = s_k^T V_k^-1 s_k / q (d - q + 1) / d,   ~ F(q, d - q + 1)
+                          V_k = sum_c e_kc e_kc^T, e_kc = G~_kc^T r_c - A_kc d_k(c): sweep
+                          c's score centred at the one-step estimate d_k(c) of the other
+                          sweeps; d: Satterthwaite degrees of freedom of V_k, the number of
+                          sweeps that effectively carry the candidate
+                          (:func:`left_out_score_variance`)
 
 The statistic used is the one-step F form of the LM test (sigma^2 estimated with the candidate
 added in one Gauss-Newton step): asymptotically the chi^2(q) LM test, and exact for linear
@@ -31,7 +35,8 @@ from scipy import special, stats
 from identify.discover.noise import Sweeps
 from identify.fit.solve.engine import pseudo_solve
 
-__all__ = ["Score", "project_basis", "score_candidates", "canonical_cosines",
+__all__ = ["Score", "project_basis", "score_candidates", "left_out_score_variance",
+           "canonical_cosines",
            "ambiguity_groups", "holm", "TESTABLE_REL_NORM", "AMBIGUITY_COS"]
 
 TESTABLE_REL_NORM = 1e-3
@@ -123,11 +128,11 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
         drop = float(s @ z)
         step = tuple(float(v) for v in -z)
         if kind == "cluster" and clusters is not None and len(clusters):
-            C = len(clusters)
-            contrib = clusters.sums(Gt * r[:, None])  # (C, q): per-sweep scores
-            V = C / max(C - 1, 1) * (contrib.T @ contrib)
-            stat = float(s @ pseudo_solve(V, s)) / q
-            log_p = _log_sf("f", stat, q, max(C - 1, 1))
+            V, d = left_out_score_variance(Gt, r, clusters, A)
+            # Hotelling's small-sample form for a q x q variance with d degrees of freedom
+            d2 = max(d - q + 1.0, 1.0)
+            stat = float(s @ pseudo_solve(V, s)) / q * d2 / d
+            log_p = _log_sf("f", stat, q, d2)
         else:
             dof = max(n - Q.shape[1] - q, 1)
             rest = max(float(r @ r) - drop, 1e-300)
@@ -135,6 +140,65 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
             log_p = _log_sf("f", stat, q, dof)
         scores[name] = Score(q, stat, float(np.exp(log_p)), log_p, rel, True, drop, step)
     return scores, projected
+
+
+def left_out_score_variance(Gt: np.ndarray, r: np.ndarray, clusters: Sweeps,
+                            A: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """Cluster-robust variance of the score s = G~^T r from the sweeps' own contributions,
+    each centred at the one-step estimate of the sweeps without it, (q, q).
+
+    With s_c = G~_c^T r_c and A_c = G~_c^T G~_c of sweep c, A = G~^T G~, and the one-step
+    estimate of the other sweeps d_(c) = (A - A_c)^+ (s - s_c), the contribution of sweep c
+    is its prediction residual e_c = s_c - A_c d_(c), and V = sum_c e_c e_c^T: the
+    delete-one-sweep jackknife (MacKinnon's CV3) of the one-step estimate, expressed on the
+    score (s^T V^+ s is the Wald statistic of that estimate with its jackknife covariance
+    A^+ V A^+).
+
+    Why centred: the uncentred sum of s_c s_c^T holds the effect itself whenever the
+    candidate is missing. Where a few sweeps carry it (a pressure law seen in the two or
+    three sweeps at each off-nominal pressure) their contributions are the score: W =
+    (sum s_c)^2 / sum s_c^2 is then at most about the number of those sweeps however strong
+    and consistent the effect, and a pressure law that every sweep at every pressure agrees on
+    stayed untested. The independent-noise F form takes its sigma^2 with the candidate added
+    (one step) for the same reason. Leaving the sweep out of its own centring keeps the
+    variance from shrinking where one sweep pulls the estimate: a sweep that alone carries a
+    direction (A - A_c singular there) keeps its uncentred contribution along it.
+
+    Degrees of freedom: V is a weighted sum of C squares, not a chi-square with C - 1 degrees
+    of freedom. Where a few sweeps carry the candidate (a pressure law: the sweeps at the
+    off-nominal pressures, the high loads most) V rests on those few and W referred to
+    F(q, C - 1) rejects a true null far more often than its level. Satterthwaite's
+    approximation under a working model of independent residuals of one variance gives the
+    degrees of freedom d of each coefficient's variance, (sum_c l_c)^2 / sum_c l_c^2 with
+    l_c = diag((A - A_c)^+ A_c (A - A_c)^+) (the Bell-McCaffrey construction the fit's
+    jackknife intervals use); the smallest over the block is returned, in [1, C - 1].
+
+    Returns
+    -------
+    V : ndarray (q, q)
+    dof : float
+    """
+    q = Gt.shape[1]
+    C = len(clusters)
+    s_c = clusters.sums(Gt * r[:, None]).reshape(-1, q)  # (C, q): per-sweep scores
+    outer = (Gt[:, :, None] * Gt[:, None, :]).reshape(Gt.shape[0], q * q)
+    A_c = clusters.sums(outer).reshape(-1, q, q)
+    A = Gt.T @ Gt if A is None else A
+    s = Gt.T @ r
+    w, U = np.linalg.eigh(A[None] - A_c)
+    big = w > 1e-10 * max(float(np.linalg.eigvalsh(A)[-1]), 1e-300)
+    inv = np.divide(1.0, w, out=np.zeros_like(w), where=big)
+    R = np.einsum("cij,cj,ckj->cik", U, inv, U)  # (A - A_c)^+
+    d = np.einsum("cij,cj->ci", R, s[None] - s_c)
+    e = s_c - np.einsum("cij,cj->ci", A_c, d)
+    # Satterthwaite on V's diagonal under a working model of independent residuals of one
+    # variance (Bell and McCaffrey; identify.fit.solve.covariance.jackknife_dof for the
+    # fit's intervals): the variance of e_c is then about the leverage-inflated A_c
+    lam = np.einsum("cij,cjk,cki->ci", R, A_c, R).reshape(C, q)
+    total, squares = lam.sum(axis=0), (lam ** 2).sum(axis=0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dof = np.where(squares > 0, total ** 2 / squares, C - 1.0)
+    return e.T @ e, float(np.clip(dof.min(), 1.0, max(C - 1.0, 1.0)))
 
 
 def _log_sf(dist: str, x: float, d1: int, d2: int = 1) -> float:
