@@ -359,6 +359,38 @@ def errors(table: pd.DataFrame, model: Mapping[str, np.ndarray], groups: np.ndar
 # ----- running ----------------------------------------------------------------------------
 
 
+def mx_by_run_kind(table: pd.DataFrame, models: Mapping[str, Mapping[str, np.ndarray]],
+                   groups: np.ndarray, ok: np.ndarray) -> dict[str, dict[str, float]]:
+    """Per fit the Mx error on the freely rolling runs (those the Mx stage fits:
+    identify.fit.mf.stage_data.run_sweeps) and on the other runs (drive/brake), and the other
+    runs' share of the all-sample squared Mx error [%]; empty without Mx or without both
+    kinds of run.
+
+    Returns
+    -------
+    dict
+        ``{fit: {"rolling": ChannelError as dict, "other": ..., "other_sse_share_pct": float}}``
+    """
+    from identify.fit.mf.stage_data import run_sweeps
+    if "Mx" not in table.columns:
+        return {}
+    rolling = run_sweeps(table)[2]
+    measured = table["Mx"].to_numpy(float)
+    ok = ok & np.isfinite(measured)
+    parts = {"rolling": ok & rolling, "other": ok & ~rolling}
+    if not all(r.any() for r in parts.values()):
+        return {}
+    out = {}
+    for v, m in models.items():
+        sq = (m["Mx"] - measured) ** 2
+        rec = {k: dataclasses.asdict(channel_error(measured[r], m["Mx"][r], groups[r]))
+               for k, r in parts.items()}
+        rec["other_sse_share_pct"] = float(100 * np.nansum(sq[parts["other"]])
+                                           / np.nansum(sq[ok]))
+        out[v] = rec
+    return out
+
+
 def mfid(*args: str) -> tuple[float, float, int, str]:
     """Run ``mfid ARGS`` niced in its own process: (wall time [s], CPU time [s] (user + system,
     the process and its children), exit code, last output). On a shared machine the wall time
@@ -506,6 +538,14 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], *, n_folds: int
     rec["all_samples"] = {v: {c: dataclasses.asdict(e)
                               for c, e in errors(inputs, m, level, ok).items()}
                           for v, m in models.items()}
+    # Mx split by the kind of run: the Mx stage fits the freely rolling runs only (its MF
+    # equation reads no Fx; a drive/brake run's Mx follows Fx and carries a zero of its own,
+    # identify.fit.mf.stage_specs), so the all-sample Mx mixes the fitted runs with an
+    # extrapolation the model cannot represent; a change of the fitted points can move the
+    # two parts in opposite directions
+    mx_kind = mx_by_run_kind(inputs, models, level, ok)
+    if mx_kind:
+        rec["mx_by_run_kind"] = mx_kind
     # the same on the samples of the default segmentation's sweeps (where a steady-state
     # model applies; the rest are warm-ups, transitions, partial sweeps)
     in_sweep = (sweep_rows(table, rec["_segments"]) >= 0) & ok if rec.get("_segments") \
@@ -663,6 +703,18 @@ def tables(rec: dict) -> str:
         ratio = [f"{c} {d[c]['pooled_pct'] / e[c]['pooled_pct']:.2f}x" for c in CHANNELS
                  if c in d and c in e and e[c]["pooled_pct"]]
         lines.append(f"|  default / published (pooled) | | | {', '.join(ratio)} |")
+    mk = rec.get("mx_by_run_kind", {})
+    if mk:
+        lines += ["", "Mx by kind of run (pooled % / thesis %): the freely rolling runs the Mx "
+                      "stage fits, the other (drive/brake) runs it does not, and their share "
+                      "of the all-sample squared Mx error:", "",
+                  "| variant | Mx rolling runs | Mx other runs | other's share % |",
+                  "|---|---|---|---|"]
+        for v, e in mk.items():
+            lines.append(f"| {v} | {_f(e['rolling']['pooled_pct'])} / "
+                         f"{_f(e['rolling']['thesis_pct'])} | {_f(e['other']['pooled_pct'])} / "
+                         f"{_f(e['other']['thesis_pct'])} | "
+                         f"{_f(e['other_sse_share_pct'], '{:.0f}')} |")
     sw = rec.get("sweep_samples", {})
     if sw:
         lines += ["", f"The {rec['samples'].get('in_sweeps')} samples in the default "

@@ -77,6 +77,9 @@ class FitSettings(Serial):
                            before the MF stages (identify.workflows.sweep_bins); None: every
                            sample is fitted
     bin_kappa : float or None       the same for slip-ratio sweeps [-]
+    bin_passes : bool      one bin point per pass of a sweep, not one per bin
+                           (identify.segment.filters, ``binning``: merging the passes averages
+                           operating points where a rig's load follows the slip direction)
     segment : bool         fit the trailer runs with a warm-up (logged test programmes) on
                            their quasi-steady sweeps only (identify.workflows.sweep_bins)
     revolution_average : bool   average the trailer samples over one wheel revolution
@@ -109,6 +112,7 @@ class FitSettings(Serial):
     hold: tuple[str, ...] = ()
     bin_alpha_deg: float | None = BIN_ALPHA_DEG
     bin_kappa: float | None = BIN_KAPPA
+    bin_passes: bool = False
     segment: bool = True
     revolution_average: bool = True
     mf_passes: int = 2

@@ -59,6 +59,9 @@ class SegmentSettings(Serial):
         Average every channel over one wheel revolution (against wheel eccentricity).
     bin_alpha_deg, bin_kappa : float or None
         Bin width of the slip-angle / slip-ratio sweeps (None: no binning).
+    bin_passes : bool
+        One point per bin and pass of a sweep, not per bin (identify.segment.filters,
+        ``binning``).
     """
 
     smooth_s: float = 1.0
@@ -83,3 +86,4 @@ class SegmentSettings(Serial):
     revolution_average: bool = True
     bin_alpha_deg: float | None = None
     bin_kappa: float | None = None
+    bin_passes: bool = False

@@ -35,7 +35,10 @@ samples, so white noise per point shrinks by the square root of the count while 
 points shrinks by the count, and the covariance s^2 (J'J)^-1 stays the same; correlated
 (AR(1)) noise, which makes per-sample standard errors too small, is averaged within a bin, so
 the binned errors are the more honest ones. The up- and down-going halves of a sweep are merged
-(a relaxation lag or hysteresis is averaged out, not fitted: the MF is a steady-state model).
+(a relaxation lag or hysteresis is averaged out, not fitted: the MF is a steady-state model),
+unless ``FitSettings.bin_passes`` asks for one point per bin and pass (where a rig's load
+follows the slip direction, a merged bin averages two operating points;
+identify.segment.filters, ``binning``).
 """
 from __future__ import annotations
 
@@ -86,7 +89,7 @@ def _kinds(trailer: pd.DataFrame, segment: np.ndarray, widths: dict) -> np.ndarr
 
 
 def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
-               kappa: float | None) -> tuple[pd.DataFrame, FilterCount]:
+               kappa: float | None, passes: bool = False) -> tuple[pd.DataFrame, FilterCount]:
     """The trailer table with every dense slip sweep averaged in bins of its swept variable.
 
     Parameters
@@ -118,7 +121,8 @@ def bin_sweeps(trailer: pd.DataFrame, fnomin: float, *, alpha_deg: float | None,
         return trailer, FilterCount("binning", 0, len(trailer), True, "no dense sweep")
     frame = trailer.drop(columns=SEGMENT_COLUMN, errors="ignore").assign(segment=segment,
                                                                          sweep=kinds)
-    out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa))
+    out, count = binning(frame, SegmentSettings(bin_alpha_deg=alpha_deg, bin_kappa=kappa,
+                                                bin_passes=passes))
     return _labelled(out, trailer), count
 
 
@@ -136,6 +140,7 @@ def segment_settings(settings: FitSettings) -> SegmentSettings:
     identify.workflows.trailer_prep and the other runs' in :func:`mf_table`) takes this one
     object, so that an option cannot reach one and miss the other."""
     return SegmentSettings(bin_alpha_deg=settings.bin_alpha_deg, bin_kappa=settings.bin_kappa,
+                           bin_passes=settings.bin_passes,
                            revolution_average=settings.revolution_average)
 
 
@@ -186,7 +191,7 @@ def mf_table(trailer: pd.DataFrame, fnomin: float, *, segment: bool, settings: S
             parts.append(picked)
             rest = trailer[~mine]
     binned, count = bin_sweeps(rest, fnomin, alpha_deg=settings.bin_alpha_deg,
-                               kappa=settings.bin_kappa)
+                               kappa=settings.bin_kappa, passes=settings.bin_passes)
     if count.applied and len(rest) and parts:
         notes.append(f"bin: the other runs' {len(rest)} samples -> {count.remaining} points "
                      f"({count.note}; dense sweeps only)")

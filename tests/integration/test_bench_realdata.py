@@ -197,3 +197,24 @@ def test_the_simulated_session_splits_into_one_fold_per_pressure(simulated):
     assert np.all(held == 1)
     for f, level in zip(folds, levels):
         assert np.median(table.loc[f.rows, "p"]) == pytest.approx(level, rel=0.02)
+
+
+def test_mx_is_split_into_the_freely_rolling_runs_and_the_others():
+    # run "c" sweeps alpha and rolls freely; run "d" sweeps kappa (a drive/brake run)
+    n = 10
+    table = pd.DataFrame({
+        "run": ["c"] * n + ["d"] * n,
+        "alpha": np.r_[np.linspace(-0.1, 0.1, n), np.zeros(n)],
+        "kappa": np.r_[np.zeros(n), np.linspace(-0.2, 0.2, n)],
+        "gamma": np.zeros(2 * n),
+        "Mx": np.r_[np.full(n, 10.0), np.full(n, 2.0)]})
+    model = {"Mx": np.r_[np.full(n, 11.0), np.full(n, 0.0)]}  # 10 % and 100 % off
+    ok = np.ones(2 * n, bool)
+    out = R.mx_by_run_kind(table, {"default": model}, np.zeros(2 * n), ok)["default"]
+    assert out["rolling"]["pooled_pct"] == pytest.approx(10.0)
+    assert out["other"]["pooled_pct"] == pytest.approx(100.0)
+    # squared errors 1 per rolling sample, 4 per drive/brake sample: 40 of 50
+    assert out["other_sse_share_pct"] == pytest.approx(80.0)
+    # one kind of run only: nothing to split
+    assert R.mx_by_run_kind(table[:n], {"default": {"Mx": model["Mx"][:n]}}, np.zeros(n),
+                            ok[:n]) == {}

@@ -110,3 +110,34 @@ def test_runs_without_a_warmup_are_kept_as_they_are():
     assert notes == []
     pd.testing.assert_frame_equal(out.reset_index(drop=True),
                                   mset.trailer.reset_index(drop=True))
+
+
+def test_bins_per_pass_keep_the_passes_operating_points_apart():
+    # out and back through +-10 deg; the load follows the slip direction (+-80 N: within one
+    # load level, mf_data.LOAD_RESOLUTION), as on a rig
+    # whose load swings within a sweep: a merged bin averages the two passes' loads into one
+    # no sample had, a bin per pass keeps each pass's
+    n = 2000
+    up = np.deg2rad(np.linspace(-10, 10, n, endpoint=False))
+    sweep = pd.DataFrame({"run": "lat", "t": np.arange(2 * n) * 0.01, "Vx": 11.0,
+                          "alpha": np.r_[up, up[::-1]], "kappa": 0.0, "gamma": 0.0, "p": 2.5e5,
+                          "Fz": np.r_[np.full(n, 4080.0), np.full(n, 3920.0)], "Fy": 0.0})
+    merged, _ = bin_sweeps(sweep, 4000.0, alpha_deg=0.25, kappa=0.0025)
+    assert len(merged) == 80
+    np.testing.assert_allclose(merged["Fz"], 4000.0, atol=1e-9)
+    split, count = bin_sweeps(sweep, 4000.0, alpha_deg=0.25, kappa=0.0025, passes=True)
+    # the bin the sweep turns in is the end of the first pass, its samples from both ways
+    assert len(split) == 159 and count.note.endswith("per pass")
+    turn = np.isclose(split["alpha"], split["alpha"].max())
+    assert turn.sum() == 1 and 3920.0 < float(split.loc[turn, "Fz"].iloc[0]) < 4080.0
+    # every other point is one pass's: the up-going pass at 4080 N, 79 bins each way
+    assert (split["Fz"] == 4080.0).sum() == (split["Fz"] == 3920.0).sum() == 79
+    np.testing.assert_allclose(np.diff(np.rad2deg(split.loc[split["Fz"] == 4080.0, "alpha"])),
+                               0.25, atol=0.006)
+
+
+def test_a_fit_asks_for_bins_per_pass_through_its_settings():
+    from identify.fit.run import FitSettings
+    from identify.workflows.sweep_bins import segment_settings
+    assert segment_settings(FitSettings()).bin_passes is False  # the passes merged
+    assert segment_settings(FitSettings(bin_passes=True)).bin_passes is True

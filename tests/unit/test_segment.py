@@ -14,7 +14,7 @@ import pandas as pd
 import pytest
 
 from identify.segment import Segmentation, SegmentSettings, segment_trailer
-from identify.segment.filters import revolution_average
+from identify.segment.filters import revolution_average, sweep_passes
 from tests.segment_cases import check, segmented
 from tests.ttc_cases import session
 
@@ -119,6 +119,39 @@ def test_binning_gives_one_point_per_bin_and_sweep(sessions):
     bins = np.floor(a["alpha"] / np.deg2rad(0.5))
     assert not bins.groupby(a["segment"]).apply(lambda b: b.duplicated().any()).any()
     assert a.groupby("segment").size().between(40, 52).all()  # +-12 deg in 0.5 deg bins
+
+
+def test_binning_per_pass_gives_one_point_per_bin_and_pass(sessions):
+    _, table = segmented(sessions[12])
+    binned = segment_trailer(table, SegmentSettings(bin_alpha_deg=0.5, bin_kappa=0.005,
+                                                    bin_passes=True))
+    t = binned.table
+    count = {f.name: f for f in binned.segmentation.filters}["binning"]
+    assert count.applied and count.removed > 0.8 * (count.removed + count.remaining)
+    a = t[t.sweep == "alpha"].sort_values(["segment", "t"])
+    bins = np.floor(a["alpha"] / np.deg2rad(0.5)).to_numpy()
+    same = a["segment"].to_numpy()[1:] == a["segment"].to_numpy()[:-1]
+    # in time order a sweep's points step from bin to bin, a bin one point per pass; only at
+    # a turn may the extreme bin be seen twice in a row (the last pass's, and the next's
+    # where the sweep came back to it after a step back of less than PASS_TURN bins)
+    repeats = pd.Series((np.diff(bins) == 0) & same).groupby(a["segment"].to_numpy()[1:]).sum()
+    assert repeats.max() <= 2
+    # 0 -> +12 -> -12 -> 0 deg: three passes crossing 24 + 48 + 24 bins of 0.5 deg (a partial
+    # sweep fewer), not the 48 of merged passes
+    assert a.groupby("segment").size().between(76, 100).all()
+    assert a.groupby("segment").size().median() > 90
+
+
+def test_sweep_passes_split_a_sweep_where_it_turns_back():
+    up, down = np.arange(10.0), np.arange(9.0, -1.0, -1.0)
+    passes = sweep_passes(np.r_[up, down, up[1:5]])
+    # the extreme bin's samples end the pass; the samples after them start the next
+    np.testing.assert_array_equal(passes, np.r_[np.zeros(11), np.ones(9), np.full(4, 2)])
+    # a turn of one bin (jitter at a bin edge) is no pass; one of PASS_TURN bins is
+    jitter = np.array([0.0, 1, 0, 1, 2, 3, 2, 3, 4])
+    assert (sweep_passes(jitter) == 0).all()
+    assert sweep_passes(np.array([0.0, 1, 2, 3, 1])).tolist() == [0, 0, 0, 0, 1]
+    assert sweep_passes(np.zeros(0)).size == 0
 
 
 def test_revolution_average_fits_each_speed_step():
