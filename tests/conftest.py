@@ -8,7 +8,6 @@ from all three as ``tests.<name>``.
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 import pytest
@@ -32,35 +31,3 @@ def pytest_collection_modifyitems(config, items):
     for item in items:
         if TRIALS in Path(str(item.path)).resolve().parents:
             item.add_marker(pytest.mark.trials)
-
-
-#: A module-scoped fixture declared in a test module.
-_MODULE_FIXTURE = re.compile(r"""@pytest\.fixture\([^)]*scope=["']module["']""")
-
-
-def pytest_xdist_make_scheduler(config, log):
-    """``pytest -n N``: each test module that declares a module-scoped fixture (often a
-    simulated folder or a whole fit) runs on one worker, so the fixture is built once rather
-    than once per worker; those modules are handed out first (most tests first), the other
-    tests one at a time after them, which keeps the workers busy to the end. Other ``--dist``
-    modes keep pytest-xdist's own scheduling."""
-    if config.getoption("dist") != "load":
-        return None
-    from xdist.scheduler import LoadScopeScheduling
-
-    root = Path(str(config.rootpath))
-    shared: dict[str, bool] = {}
-
-    def pinned(module: str) -> bool:
-        if module not in shared:
-            path = root / module
-            shared[module] = path.suffix == ".py" and path.is_file() and bool(
-                _MODULE_FIXTURE.search(path.read_text(encoding="utf-8")))
-        return shared[module]
-
-    class ModuleFixtureScheduling(LoadScopeScheduling):
-        def _split_scope(self, nodeid: str) -> str:
-            module = nodeid.split("::", 1)[0]
-            return module if pinned(module) else nodeid
-
-    return ModuleFixtureScheduling(config, log)
