@@ -233,6 +233,18 @@ def test_a_converted_file_without_units_is_read_in_the_unit_its_magnitudes_show(
                                    rtol=1e-12, atol=1e-12)
 
 
+def test_a_spike_in_a_slip_angle_in_radians_does_not_hide_its_unit(tmp_path):
+    """A rig's spike (one sample of 5) in a slip angle the file holds in radians: still
+    radians."""
+    ch = _session()
+    sa = np.deg2rad(ch["SA"])
+    sa[100] = 5.0
+    warnings = []
+    read_trailer(_mat(tmp_path / "B1run1.mat", ch | {"SA": sa, "IA": np.deg2rad(ch["IA"])}),
+                 warnings=warnings)
+    assert {w.channels[0] for w in warnings if w.action == "unit taken as rad"} == {"SA", "IA"}
+
+
 def test_a_file_in_the_convention_units_takes_no_other_unit(tmp_path):
     """The same checks leave a file in the TTC SI convention as it is, a drive/brake run at a
     slip angle of zero included (SA within 0.35 deg, but no saturated lateral force)."""

@@ -85,7 +85,6 @@ class LevelHoldout(Serial):
     converged: bool
 
 
-
 @dataclass(frozen=True)
 class PressureHoldout(Serial):
     """Every pressure level of the MF fit predicted without it (fit.json ``pressure_holdout``).

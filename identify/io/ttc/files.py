@@ -373,8 +373,9 @@ def magnitude_units(data: Mapping[str, np.ndarray], units: Mapping[str, str]
     per such channel why (a file converted by a team script keeps the TTC names but may hold
     radians, metres or m/s):
 
-    - SA in rad: within :data:`RADIAN_SWEEP` while |FY| reaches :data:`SATURATED_FY` of |FZ|
-      (IA then in rad too: one script converts both angles; ``--units IA=deg`` says otherwise);
+    - SA in rad: 99.9 % of the loaded samples within :data:`RADIAN_SWEEP` (a spike does not
+      hide the unit) while |FY| reaches :data:`SATURATED_FY` of |FZ| (IA then in rad too: one
+      script converts both angles; ``--units IA=deg`` says otherwise);
     - RL and RE in m: a median of 0.1-1.5 (a tyre radius in metres, 1-15 mm in cm);
     - V in m/s: V / omega is a tyre radius (0.1-1.5 m) with V in m/s but not in the
       convention's km/h (needs the wheel speed N in rpm).
@@ -387,7 +388,8 @@ def magnitude_units(data: Mapping[str, np.ndarray], units: Mapping[str, str]
     sa, fy, fz = (np.asarray(data[k], float) if k in data else None for k in ("SA", "FY", "FZ"))
     if sa is not None and fy is not None and fz is not None and units.get("SA") == "deg":
         loaded = np.isfinite(sa) & np.isfinite(fy) & (np.abs(np.nan_to_num(fz)) > 50.0)
-        amplitude = float(np.max(np.abs(sa[loaded]))) if loaded.any() else np.inf
+        # the 99.9th percentile: a spike the cleaning removes later must not hide the unit
+        amplitude = float(np.quantile(np.abs(sa[loaded]), 0.999)) if loaded.any() else np.inf
         ratio = float(np.quantile(np.abs(fy[loaded] / fz[loaded]), 0.99)) if loaded.any() \
             else 0.0
         if amplitude <= RADIAN_SWEEP and ratio >= SATURATED_FY:
