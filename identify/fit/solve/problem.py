@@ -181,16 +181,30 @@ class FitProblem:
         object.__setattr__(self, "_weights", weights)
 
     # ----- parameter vectors -------------------------------------------------------------
+    def _read(self) -> tuple[tuple[str, ...], dict[str, float]]:
+        """(free names, every value) as the parameters stand at the problem's first
+        evaluation, read once: the objective asks for them at every evaluation, and reading
+        a few hundred lmfit parameters each time cost a large part of a constrained polish.
+        The parameters are never modified once the problem is evaluated (a change makes a
+        new problem: :func:`with_free`, :func:`with_fixed`)."""
+        read = self.__dict__.get("_read_once")
+        if read is None:
+            read = (tuple(n for n, p in self.parameters.items() if p.vary),
+                    {n: float(p.value) for n, p in self.parameters.items()})
+            object.__setattr__(self, "_read_once", read)
+        return read
+
     @property
     def free(self) -> tuple[str, ...]:
         """Names of the varying parameters, in declaration order."""
-        return tuple(n for n, p in self.parameters.items() if p.vary)
+        return self._read()[0]
 
     def values(self, x: np.ndarray | None = None) -> dict[str, float]:
         """All parameter values, with the free ones taken from ``x`` when given."""
-        vals = {n: float(p.value) for n, p in self.parameters.items()}
+        free, every = self._read()
+        vals = dict(every)
         if x is not None:
-            vals.update(zip(self.free, (float(v) for v in x)))
+            vals.update(zip(free, (float(v) for v in x)))
         return vals
 
     def x0(self) -> np.ndarray:
