@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from concurrent.futures import Executor, Future
 
 import numpy as np
 import pandas as pd
@@ -253,8 +254,20 @@ def _profiled(r: FitResult) -> list[str]:
     return [n for n in r.free if n not in why]
 
 
-def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | None = None
-                      ) -> MFFit:
+def _stage_ends(trailer: pd.DataFrame, params: dict, r: FitResult, names: list[str]
+                ) -> ProfileEnds | None:
+    """:func:`profile_ends` of the stage ``r`` at the staged fit's values ``params``; None when
+    its problem cannot be built again as it was fitted. A function of picklable arguments
+    alone, so that a worker process computes the same numbers (:func:`profile_intervals`)."""
+    sp = fitted_problem(trailer, params, r) if names else None
+    if sp is None or sp.problem.free != r.free:
+        return None
+    x = np.array([float(params[n]) for n in r.free])
+    return profile_ends(sp.problem, x, names, dict(r.stderr), {n: r.quantile(n) for n in names})
+
+
+def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | None = None, *,
+                      pool: Executor | None = None) -> MFFit:
     """``mf`` with the 95 % interval (FitResult.profile) of every identifiable coefficient of
     every converged stage (:func:`_profiled`), after its standard errors are final
     (identify.fit.mf.uncertainty.propagate).
@@ -267,17 +280,29 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
         The staged fit.
     progress : callable, optional
         Gets one line per stage.
+    pool : Executor, optional
+        Worker processes (identify.core.workers.process_pool) that take the stages'
+        profiles, which do not depend on each other, the longest first; the results are
+        those of the serial loop (each stage's profile is computed from its own arguments
+        alone), reported in stage order. None: one stage after the other, here.
     """
+    params = dict(mf.params)
+    names = [_profiled(r) if r.converged else [] for r in mf.results]
+    jobs: dict[int, Future] = {}
+    if pool is not None and sum(1 for n in names if n) > 1:
+        # the stages with the most profiled coefficients x points first: the pool takes
+        # them in this order, so the longest does not start last
+        order = sorted((i for i, n in enumerate(names) if n),
+                       key=lambda i: -len(names[i]) * mf.results[i].n_points)
+        jobs = {i: pool.submit(_stage_ends, trailer, params, mf.results[i], names[i])
+                for i in order}
     results = []
-    for r in mf.results:
-        names = _profiled(r) if r.converged else []
-        sp = fitted_problem(trailer, mf.params, r) if names else None
-        if sp is None or sp.problem.free != r.free:
+    for i, r in enumerate(mf.results):
+        found = (jobs[i].result() if i in jobs
+                 else _stage_ends(trailer, params, r, names[i]) if names[i] else None)
+        if found is None:
             results.append(r)
             continue
-        x = np.array([float(mf.params[n]) for n in r.free])
-        found = profile_ends(sp.problem, x, names, dict(r.stderr),
-                             {n: r.quantile(n) for n in names})
         ends = found.ends
         if progress is not None:
             wald = {n: r.wald_interval(n) for n in ends}
