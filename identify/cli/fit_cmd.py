@@ -314,7 +314,9 @@ def fit_command(
             pool = None
             if n_workers > 1:
                 pool = stack.enter_context(process_pool(n_workers))
-                warm_up(pool, n_workers, WORKER_MODULES)
+                # one worker now, while the stages fit on the other core; the profile
+                # intervals start the others when they need them
+                warm_up(pool, 1, WORKER_MODULES)
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
                 warnings.simplefilter("ignore", RuntimeWarning)
