@@ -60,7 +60,7 @@ def _numbers(fit_json: Path) -> dict:
     def strip(v):
         if isinstance(v, dict):
             return {k: strip(x) for k, x in v.items()
-                    if k not in ("seconds", "created", "command", "elapsed")}
+                    if k not in ("seconds", "command", "elapsed") and not k.startswith("created")}
         if isinstance(v, list):
             return [strip(x) for x in v]
         return v
