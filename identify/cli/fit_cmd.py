@@ -272,7 +272,8 @@ def fit_command(
         None, "--workers", min=1, metavar="N", envvar="MFID_WORKERS",
         help="Processes for the parts of the fit that do not depend on each other (the MF "
              "stages' profile intervals, the report's pages); the results are the same. "
-             "Default: the cores available, at most 2, divided by OMP_NUM_THREADS (or "
+             "Default: this process plus the cores other work leaves idle (the cores less "
+             "the load average), at most 2, divided by OMP_NUM_THREADS (or "
              "OPENBLAS_NUM_THREADS, MKL_NUM_THREADS) when set; 1: all in one process. "
              "Environment: MFID_WORKERS."),
     vehicle: str | None = typer.Option(

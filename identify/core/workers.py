@@ -7,7 +7,8 @@ can use a second core. The workers are fresh interpreters (``spawn``: the parent
 threads, which a forked child must not inherit), with one BLAS thread each, as the fit itself
 (identify.workflows.fit): the same numbers as in the parent, whichever process computes them.
 
-How many: ``--workers N`` of ``mfid fit``; by default :func:`default_workers`. A batch of fits
+How many: ``--workers N`` of ``mfid fit``; by default :func:`default_workers` (none on a machine
+whose cores are busy). A batch of fits
 (``mfid batch``, ``make -j``) already runs one fit per core and gives each fit one worker (the
 serial path, no extra process).
 """
@@ -50,11 +51,23 @@ def _threads_per_process() -> int:
     return max([1] + counts)
 
 
+def _busy() -> float:
+    """Runnable processes on the machine, averaged over the last minute (0 where the system
+    does not tell)."""
+    try:
+        return float(os.getloadavg()[0])
+    except (AttributeError, OSError):  # pragma: no cover - not Unix
+        return 0.0
+
+
 def default_workers() -> int:
-    """Processes for one fit: the cores available divided by the threads each process is told
-    to use (THREAD_ENV), at most MAX_WORKERS, at least 1. One core, or OMP_NUM_THREADS=2 on
-    two cores: 1 (everything in this process)."""
-    return max(1, min(MAX_WORKERS, _cores() // _threads_per_process()))
+    """Processes for one fit: this one, plus the cores that other work leaves idle (the cores
+    available less the load average, rounded), divided by the threads each process is told to
+    use (THREAD_ENV); at most MAX_WORKERS, at least 1. One core, OMP_NUM_THREADS=2 on two
+    cores, or a machine whose cores are all busy: 1 (everything in this process; a worker
+    there only takes time from the others and pays its start)."""
+    idle = max(0, int(_cores() - _busy() + 0.5))
+    return max(1, min(MAX_WORKERS, min(_cores(), 1 + idle) // _threads_per_process()))
 
 
 def _one_thread() -> None:

@@ -43,6 +43,7 @@ def test_profile_intervals_in_workers_are_the_serial_ones(truth, data, pool):
 def test_default_workers_follow_the_cores_and_the_thread_variables(monkeypatch):
     for name in workers.THREAD_ENV:
         monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(workers, "_busy", lambda: 0.0)
     monkeypatch.setattr(workers, "_cores", lambda: 2)
     assert workers.default_workers() == 2
     monkeypatch.setattr(workers, "_cores", lambda: 8)
@@ -54,6 +55,14 @@ def test_default_workers_follow_the_cores_and_the_thread_variables(monkeypatch):
     assert workers.default_workers() == 1
     monkeypatch.setenv("OMP_NUM_THREADS", "not a number")
     assert workers.default_workers() == 2
+    monkeypatch.delenv("OMP_NUM_THREADS")
+    # busy cores: the one fitting (load 1, its own last run) leaves one idle; load 1.6 none
+    monkeypatch.setattr(workers, "_busy", lambda: 1.0)
+    assert workers.default_workers() == 2
+    monkeypatch.setattr(workers, "_busy", lambda: 1.6)
+    assert workers.default_workers() == 1
+    monkeypatch.setattr(workers, "_busy", lambda: 12.0)
+    assert workers.default_workers() == 1
 
 
 def test_warm_up_imports_in_every_worker(pool):
