@@ -315,6 +315,8 @@ def fit_command(
             pool = None
             if n_workers > 1:
                 pool = stack.enter_context(process_pool(n_workers))
+                # interrupted: the jobs not started are dropped, not run before the exit
+                stack.callback(pool.shutdown, wait=False, cancel_futures=True)
                 # one worker now, while the stages fit on the other core; the profile
                 # intervals start the others when they need them
                 warm_up(pool, 1, WORKER_MODULES)
