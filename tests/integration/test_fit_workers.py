@@ -26,11 +26,11 @@ def pool():
 
 def test_profile_intervals_in_workers_are_the_serial_ones(truth, data, pool):
     noisy = add_noise(data, 0)
-    mf = fit_mf(noisy, truth, stages=("Fx0", "Fy0"), seed=1)
+    mf = fit_mf(noisy, truth, stages=("Fx0",), seed=1)
     serial = profile_intervals(noisy, mf)
     lines: list[str] = []
     parallel = profile_intervals(noisy, mf, lines.append, pool=pool)
-    assert sum(1 for r in serial.results if r.profile) >= 2
+    assert all(r.profile for r in serial.results)
     for a, b in zip(serial.results, parallel.results):
         assert dataclasses.replace(a, predicted=None, measured=None, pressure_bar=None) == \
             dataclasses.replace(b, predicted=None, measured=None, pressure_bar=None)
