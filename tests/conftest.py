@@ -8,9 +8,15 @@ from all three as ``tests.<name>``.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+# ``mfid fit`` in one process: the suite already runs one test per core (xdist), and the
+# worker processes' start (seconds of imports each) would cost more than they save on the
+# small test sessions; the tests of the workers ask for them with --workers
+os.environ.setdefault("MFID_WORKERS", "1")
 
 #: Test data shipped with the tests.
 DATA = Path(__file__).resolve().parent / "data"

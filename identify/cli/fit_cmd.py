@@ -15,7 +15,7 @@ import shlex
 import signal
 import time
 import warnings
-from contextlib import contextmanager
+from contextlib import ExitStack, contextmanager
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -37,6 +37,7 @@ from rich.text import Text
 from identify.cli import fit_options as shared
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, MfidError
+from identify.core.workers import default_workers, process_pool, warm_up
 from identify.fit.mcmc.steps import ChainProgress
 from identify.fit.status import POOR_FIT, POORLY_IDENTIFIED
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
@@ -51,6 +52,11 @@ from identify.workflows.vehicle import add_vehicle_to_fit
 if TYPE_CHECKING:  # pragma: no cover
     from identify.fit.run import FitRun
     from identify.report.pdf import Report
+
+
+WORKER_MODULES = ("identify.fit.mf.profile", "jax", "identify.report.pdf")
+"""What the worker processes import while the stages are fitted (identify.core.workers.warm_up):
+the profile intervals' and the report's modules."""
 
 
 def _clock(seconds: float) -> str:
@@ -262,6 +268,14 @@ def fit_command(
     no_revolution_average: shared.NoRevolutionAverageOption = False,
     pressure_holdout: shared.PressureHoldoutOption = False,
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
+    workers: int | None = typer.Option(
+        None, "--workers", min=1, metavar="N", envvar="MFID_WORKERS",
+        help="Processes for the parts of the fit that do not depend on each other (the MF "
+             "stages' profile intervals, the report's pages); the results are the same. "
+             "Default: this process plus the cores other work leaves idle (the cores less "
+             "the load average), at most 2, divided by OMP_NUM_THREADS (or "
+             "OPENBLAS_NUM_THREADS, MKL_NUM_THREADS) when set; 1: all in one process. "
+             "Environment: MFID_WORKERS."),
     vehicle: str | None = typer.Option(
         None, "--vehicle", metavar="FILE.toml",
         help="Also put the fitted tyre on a car: a vehicle file (docs/vehicle.md) or "
@@ -295,7 +309,17 @@ def fit_command(
         check_folder_output(out, inputs, key="--out")
         if not no_report:
             check_folder_output(reports, inputs, key="--reports")
-        with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress:
+        n_workers = default_workers() if workers is None else workers
+        with warnings.catch_warnings(), _sigterm_interrupts(), StageProgress() as progress, \
+                ExitStack() as stack:
+            pool = None
+            if n_workers > 1:
+                pool = stack.enter_context(process_pool(n_workers))
+                # interrupted: the jobs not started are dropped, not run before the exit
+                stack.callback(pool.shutdown, wait=False, cancel_futures=True)
+                # one worker now, while the stages fit on the other core; the profile
+                # intervals start the others when they need them
+                warm_up(pool, 1, WORKER_MODULES)
             if not _STATE.get("debug"):
                 # numerical warnings from trial points are expected; failures are reported
                 warnings.simplefilter("ignore", RuntimeWarning)
@@ -307,7 +331,8 @@ def fit_command(
                              chain_progress=progress.chain,
                              check_outputs=partial(check_fit_outputs, out,
                                                    None if no_report else reports,
-                                                   inputs=inputs))
+                                                   inputs=inputs),
+                             pool=pool)
             if vehicle_spec is not None:
                 progress("vehicle: handling and ride of the fitted tyre")
                 add_vehicle_to_fit(run.fit_dir, run.tir_path, vehicle_spec)
@@ -315,7 +340,7 @@ def fit_command(
             if not no_report:
                 progress("report: PDF")
                 report = write_report(run.fit_dir, reports / f"{run.fit_dir.name}.pdf",
-                                      progress=progress)
+                                      progress=progress, pool=pool)
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, Terminated) else "interrupted"
         err_console.print(f"{what}: no partial output was left (files are written to a "

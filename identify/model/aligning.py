@@ -31,9 +31,24 @@ class AligningMoment:
     mzr: np.ndarray
 
 
+def residual_slip(s: OperatingState, fy_pure: PureLateral, kxk: np.ndarray, xp=np
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """(r2, alpha_r,eq) of :func:`mz`: (Kxk / Kya')^2 kappa^2 [-] and the equivalent slip
+    angle of the residual moment [rad] (4.E77, 4.E78). They read the operating points and the
+    forces' Kya, Kxk and shifts, no Mz coefficient: a fit of Mz coefficients with the forces
+    held computes them once and passes them to every evaluation (``slip``), the same numbers
+    as computed there."""
+    kya = fy_pure.kya
+    kya_p = kya + EPS * sgn1(kya, xp)
+    alpha_r = s.alpha_star + fy_pure.shy + fy_pure.svy / kya_p
+    r2 = (kxk / kya_p) ** 2 * s.kappa ** 2
+    return r2, xp.arctan(xp.sqrt(xp.tan(alpha_r) ** 2 + r2)) * xp.sign(alpha_r)
+
+
 def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
        fy_pure_zero_camber: PureLateral, fy: CombinedLateral, fx: np.ndarray,
-       kxk: np.ndarray, xp=np) -> AligningMoment:
+       kxk: np.ndarray, xp=np, slip: tuple[np.ndarray, np.ndarray] | None = None
+       ) -> AligningMoment:
     """Combined aligning moment Mz [N m].
 
     Parameters
@@ -43,6 +58,8 @@ def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
     fy : CombinedLateral           combined Fy and Gyk
     fx : ndarray [N]               combined Fx
     kxk : ndarray [N]              longitudinal slip stiffness
+    slip : (ndarray, ndarray), optional
+        :func:`residual_slip` of the same points and forces, computed once by the caller.
     """
     dfz, dpi, g, a, gamma = s.dfz, s.dpi, s.gamma_star, s.alpha_star, s.gamma
     r0, fz0p = P["UNLOADED_RADIUS"], s.fz0p
@@ -50,10 +67,7 @@ def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
         fz_m = xp.where(s.fz <= 0, 0.0, s.fz_low)
     else:
         fz_m = s.fz
-    kya = fy_pure.kya
-    kya_p = kya + EPS * sgn1(kya, xp)
     sht = P["QHZ1"] + P["QHZ2"] * dfz + (P["QHZ3"] + P["QHZ4"] * dfz) * g
-    alpha_r = a + fy_pure.shy + fy_pure.svy / kya_p
     alpha_t = a + sht
     dt = ((P["QDZ1"] + P["QDZ2"] * dfz) * (1 - P["PPZ1"] * dpi)
           * (1 + P["QDZ3"] * gamma + P["QDZ4"] * gamma ** 2)
@@ -71,8 +85,7 @@ def mz(P: Mapping[str, float], s: OperatingState, fy_pure: PureLateral,
           * P["LMUY"] * xp.sign(s.vx_u) * xp.cos(a))
     br = P["QBZ9"] * P["LKY"] / P["LMUY"] + P["QBZ10"] * fy_pure.by * fy_pure.cy
 
-    r2 = (kxk / kya_p) ** 2 * s.kappa ** 2
-    alpha_r_eq = xp.arctan(xp.sqrt(xp.tan(alpha_r) ** 2 + r2)) * xp.sign(alpha_r)
+    r2, alpha_r_eq = residual_slip(s, fy_pure, kxk, xp) if slip is None else slip
     alpha_t_eq = xp.arctan(xp.sqrt(xp.tan(alpha_t) ** 2 + r2)) * xp.sign(alpha_t)
     arm = r0 * (P["SSZ1"] + P["SSZ2"] * (fy.fy / P["FNOMIN"])
                 + (P["SSZ3"] + P["SSZ4"] * dfz) * gamma) * P["LS"]

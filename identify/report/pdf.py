@@ -16,11 +16,14 @@ for this) adds one bookmark per page, titled as the page, and opens the file wit
 shown; pypdf writes the same bytes for the same input, and keeps the metadata. The file is
 written to a temporary name in the target's folder and renamed, so an interrupted run leaves no
 partial PDF. The metadata's CreationDate is the fit's creation time from fit.json, so the same
-fit directory gives the same PDF.
+fit directory gives the same PDF. Given worker processes, one of them draws the cover and the
+first fits' pages (about half the drawing) into a PDF of their own while this process draws
+the rest; the two are then joined, in the same order, with the same titles and notes.
 """
 from __future__ import annotations
 
 import io
+from concurrent.futures import Executor, wait
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -104,22 +107,63 @@ def _per_fit(fd: FitDir, fits, make, label: str, progress: Progress | None, note
 
 def build_pages(fd: FitDir, progress: Progress | None = None):
     """Yield (title, Figure) for every page, and collect notes in the generator's return."""
+    notes = yield from _first_pages(fd, len(fd.results), progress)
+    return (yield from _last_pages(fd, len(fd.results), progress, lambda: notes))
+
+
+def _first_pages(fd: FitDir, split: int, progress: Progress | None = None):
+    """The cover and the pages of the first ``split`` fits (:func:`build_pages`' first part);
+    their notes in the generator's return."""
     notes: list[str] = []
     yield from cover(fd)
-    yield from _per_fit(fd, fd.results, fit_pages, "", progress, notes)
+    yield from _per_fit(fd, fd.results[:split], fit_pages, "", progress, notes)
+    return notes
+
+
+def _last_pages(fd: FitDir, split: int, progress: Progress | None, earlier):
+    """Every page after the first part's (:func:`build_pages`' second part): the pages of the
+    fits from ``split`` on, then the rest. ``earlier()``: the notes of the first part, asked
+    for when the data-quality page, which lists every note, is drawn; the report's notes (the
+    first part's, then these) in the generator's return."""
+    own: list[str] = []
+    yield from _per_fit(fd, fd.results[split:], fit_pages, "", progress, own)
     slip, slip_notes = mf_slip_pages(fd)
-    notes += slip_notes
+    own += slip_notes
     if slip and progress:
         progress("report: MF slip pages")
     yield from slip_pages(fd, slip)
     yield from pressure_pages(fd)
     yield from _per_fit(fd, [f for f in fd.results if f.mcmc is not None], mcmc_pages, "MCMC ",
-                        progress, notes)
+                        progress, own)
+    notes = list(earlier()) + own
     yield from quality_pages(fd, notes)
     yield from trailer_pages(fd)
     yield from fit_vehicle_pages(fd)  # fits/<id>/vehicle/vehicle.json (mfid fit --vehicle)
     yield from inputs_appendix(fd)
     return notes
+
+
+FIT_PAGE_POINTS = 3_000
+"""What a fit's pages cost to draw beyond their points, in points (:func:`halves`)."""
+LATER_PAGES_POINTS = 75_000
+"""What the pages after the fits' cost to draw (slip pages: the model on its grids; trailer
+pages: every sample), in points of a fit's pages (:func:`halves`)."""
+
+
+def halves(fd: FitDir) -> int:
+    """How many fits' pages go with the cover to the second process of
+    :func:`_render_in_two`: the first fits whose drawing, counted as each fit's points plus
+    FIT_PAGE_POINTS, comes nearest to half of all of it with the later pages'
+    (LATER_PAGES_POINTS); the drawing of a fit's page grows with its points (every measured
+    point is a marker), the rest with the session."""
+    cost = [fit.n_points + FIT_PAGE_POINTS for fit in fd.results]
+    half = (sum(cost) + LATER_PAGES_POINTS) / 2
+    done, split = 0.0, 0
+    for c in cost:
+        if abs(done + c - half) > abs(done - half):
+            break
+        done, split = done + c, split + 1
+    return split
 
 
 def bookmark_titles(titles: list[str]) -> list[str]:
@@ -146,7 +190,7 @@ def add_outline(path: str | Path, titles: list[str]) -> None:
 
 
 def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None, *,
-                 progress: Progress | None = None) -> Report:
+                 progress: Progress | None = None, pool: Executor | None = None) -> Report:
     """Write the PDF report of a fit directory.
 
     Parameters
@@ -157,6 +201,10 @@ def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None,
         The PDF (default ``reports/<tyre id>.pdf``); its folder is created.
     progress : callable, optional
         Called with a short text per stage.
+    pool : Executor, optional
+        Worker processes (identify.core.workers.process_pool): one of them draws the cover
+        and the first fits' pages meanwhile (:func:`_render_in_two`; the same pages, titles
+        and notes). None: every page here.
 
     Raises
     ------
@@ -169,19 +217,57 @@ def write_report(fit_dir: str | Path | FitDir, output: str | Path | None = None,
         out.parent.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
         raise InputError(out.parent, f"cannot create folder: {exc.strerror or exc}") from None
-    titles: list[str] = []
-    notes: list[str] = []
     with atomic_path(out) as tmp:
-        with PdfPages(tmp, metadata=metadata(fd)) as pdf:
-            gen = build_pages(fd, progress)
-            while True:
-                try:
-                    title, fig = next(gen)
-                except StopIteration as stop:
-                    notes = list(stop.value or [])
-                    break
-                pdf.savefig(fig)
-                fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
-                titles.append(title)
+        if pool is not None:
+            titles, notes = _render_in_two(fd, tmp, progress, pool)
+        else:
+            titles, notes = _render(fd, tmp, build_pages(fd, progress))
         add_outline(tmp, titles)
     return Report(out, tuple(titles), tuple(notes))
+
+
+def _render(fd: FitDir, path: str | Path, pages) -> tuple[list[str], list[str]]:
+    """Save the (title, Figure) pages of the generator ``pages`` to the PDF ``path``: their
+    titles and the generator's notes."""
+    titles: list[str] = []
+    with PdfPages(path, metadata=metadata(fd)) as pdf:
+        while True:
+            try:
+                title, fig = next(pages)
+            except StopIteration as stop:
+                notes = list(stop.value or [])
+                break
+            pdf.savefig(fig)
+            fig.clear()  # release the page's artists (Figure objects: no pyplot registry)
+            titles.append(title)
+    return titles, notes
+
+
+def _render_first(fd: FitDir, path: str, split: int) -> tuple[list[str], list[str]]:
+    """The second process of :func:`_render_in_two`: the cover and the first ``split`` fits'
+    pages to ``path``."""
+    return _render(fd, path, _first_pages(fd, split))
+
+
+def _render_in_two(fd: FitDir, path: str | Path, progress: Progress | None, pool: Executor
+                   ) -> tuple[list[str], list[str]]:
+    """:func:`_render` of every page, in two processes: the cover and the first fits' pages
+    in a second process, the rest here (about half the drawing each: :func:`halves`), each
+    to its own PDF; this one's pages are then appended to the second's. The pages, their
+    order, titles and notes are those of the serial report."""
+    first, split = Path(f"{path}.part1"), halves(fd)
+    job = pool.submit(_render_first, fd, str(first), split)
+    try:
+        if progress:
+            progress("report: the cover and the first fits' pages (drawn in a second process)")
+        titles, notes = _render(fd, path, _last_pages(fd, split, progress,
+                                                      lambda: job.result()[1]))
+        first_titles = job.result()[0]
+        writer = PdfWriter(clone_from=PdfReader(io.BytesIO(first.read_bytes())))
+        writer.append(PdfReader(io.BytesIO(Path(path).read_bytes())))
+        with open(path, "wb") as f:
+            writer.write(f)
+    finally:
+        wait([job])  # the worker writes ``first``: it is never left behind
+        first.unlink(missing_ok=True)
+    return first_titles + titles, notes

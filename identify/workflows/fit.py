@@ -12,6 +12,7 @@ import dataclasses
 import math
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import Executor
 from contextlib import ExitStack
 from functools import partial
 from pathlib import Path
@@ -257,7 +258,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
                settings: FitSettings = FitSettings(), progress: Progress | None = None,
                nominal_pressure_Pa: float | None = None, nominal_load_N: float | None = None,
                command: str = "", chain_progress: ChainProgressFn | None = None,
-               check_outputs: Callable[[str], None] | None = None) -> FitRun:
+               check_outputs: Callable[[str], None] | None = None,
+               pool: Executor | None = None) -> FitRun:
     """Fit a measurement folder (or a single characteristics CSV) and write the outputs.
 
     ``check_outputs`` is called with the tyre id as soon as it is known, before any fit: the
@@ -268,6 +270,10 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     ``progress`` is called with a line per step; ``chain_progress`` with each MCMC chain's name
     and a :class:`identify.fit.mcmc.steps.ChainProgress` about once a second while it runs and when
     it stops.
+
+    ``pool``: worker processes (identify.core.workers.process_pool) for the parts that do not
+    depend on each other (the MF stages' profile intervals); the same results as without
+    (one process, the default).
 
     Returns
     -------
@@ -284,7 +290,8 @@ def fit_folder(source: str | Path, *, out_root: str | Path = "fits",
     """
     with _Chains(settings, out_root, chain_progress) as chains, _one_blas_thread():
         run = _fit_folder(source, settings, progress, nominal_pressure_Pa, nominal_load_N,
-                          command, chains, out_root=out_root, check_outputs=check_outputs)
+                          command, chains, out_root=out_root, check_outputs=check_outputs,
+                          pool=pool)
         _say(progress, f"write: {Path(out_root) / run.tyre.id} ({len(run.points)} points)")
         return write_fit_dir(run, Path(out_root) / run.tyre.id, points=run.points,
                              extraction=run.extraction)
@@ -320,7 +327,8 @@ def _one_blas_thread():
 
 def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                 nominal_pressure_Pa, nominal_load_N, command: str, chains: _Chains, *,
-                out_root, check_outputs: Callable[[str], None] | None = None) -> FitRun:
+                out_root, check_outputs: Callable[[str], None] | None = None,
+                pool: Executor | None = None) -> FitRun:
     unknown = [n for n in settings.only if n not in RELATION_NAMES]
     if unknown:
         raise InputError(None, f"unknown relation(s) {', '.join(unknown)}; choose from "
@@ -403,7 +411,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
             mf = propagate(trailer, mf)
             _say(progress, "MF 95 % intervals: profiles of the objective (refits with each "
                            "coefficient held)")
-            mf = profile_intervals(trailer, mf, progress)
+            mf = profile_intervals(trailer, mf, progress, pool=pool)
             if settings.pressure_holdout:
                 holdout = pressure_holdout(trailer, mf, progress=progress).to_dict()
             fitted_mf = True

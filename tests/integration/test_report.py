@@ -368,3 +368,22 @@ def test_outline_has_one_bookmark_per_page(full_report):
     assert "data quality" in titles
     assert reader.page_mode == "/UseOutlines"
     assert reader.metadata["/Title"].startswith("mfid fit report: ")
+
+
+def test_the_report_drawn_in_two_processes_is_the_serial_one(full_fit, full_report, tmp_path):
+    """write_report with worker processes (the cover and the fits' pages drawn in one of
+    them): the same pages in the same order, titles, notes (the data-quality page lists the
+    fits' notes too), page texts, outline and metadata."""
+    from pypdf import PdfReader
+
+    from identify.core.workers import process_pool
+
+    with process_pool(1) as pool:
+        two = write_report(full_fit, tmp_path / "two.pdf", pool=pool)
+    assert two.pages == full_report.pages and two.notes == full_report.notes
+    assert full_report.notes  # something for the data-quality page to list
+    a, b = PdfReader(full_report.path), PdfReader(two.path)
+    assert [o.title for o in a.outline] == [o.title for o in b.outline]
+    assert a.metadata == b.metadata and b.page_mode == "/UseOutlines"
+    assert [p.extract_text() for p in a.pages] == [p.extract_text() for p in b.pages]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["two.pdf"]  # no part left behind

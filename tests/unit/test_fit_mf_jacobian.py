@@ -16,6 +16,7 @@ import json
 
 import numpy as np
 import pytest
+from scipy.optimize import approx_fprime
 
 from identify.fit.mf import jacobian as mf_jacobian
 from identify.fit.mf import jax_cache as mf_jax_cache
@@ -386,6 +387,35 @@ def test_constraint_jacobian_near_the_minimum_equals_the_whole_grid(stage, truth
     # steps of 1e-8 relative, as SLSQP's in its whitened variables
     eps = 1e-8 * np.maximum(np.abs(x), 1e-3)
     np.testing.assert_array_equal(approx_fprime(x, local, eps), approx_fprime(x, whole, eps))
+
+
+@pytest.mark.parametrize("stage", ["Fy0", "Mz0", "Fx0", "Fx"])
+def test_batched_constraint_jacobian_is_approx_fprime_to_the_last_bit(stage, truth, data):
+    """The polish's forward differences of the validity margins with every step evaluated in
+    one batched call (Constraint.batched, engine._forward_differences) are scipy's
+    approx_fprime point by point, bit for bit: the fitted numbers do not depend on it. In the
+    polish's whitened variables (x = x1 + T z), at a point off the truth."""
+    start = _perturb(truth, STAGES[stage].coefficients, seed=5)
+    if stage == "Fx":  # its conditions are on only with a combined-slip term
+        start.update(RBX1=12.0, RBX3=0.5)
+    p = stage_problem(stage, data, start, screen=False).problem
+    assert p.constraints and all(c.batched for c in p.constraints)
+    x1 = p.x0()
+    T = np.diag(np.maximum(np.abs(x1), 1e-3)) @ np.linalg.qr(
+        np.random.default_rng(2).normal(size=(x1.size, x1.size)))[0]
+
+    def to_x(z):
+        return x1 + T @ z
+    z = np.random.default_rng(3).normal(scale=0.05, size=x1.size)
+    near = p.local_constraints(to_x(z))
+    assert callable(getattr(near, "batch", None))
+
+    def fun(z1):
+        return near(to_x(z1))
+    got = engine._forward_differences(fun, z, near.batch, to_x)
+    ref = np.atleast_2d(approx_fprime(z, fun, engine._SLSQP_STEP))
+    assert got.shape == ref.shape and np.any(ref != 0)
+    np.testing.assert_array_equal(got, ref)
 
 
 def test_upstream_jacobian_equals_central_differences_one_name_at_a_time(truth, data):

@@ -451,3 +451,23 @@ def test_a_zero_sweep_off_zero_is_no_second_sign(truth):
     a = np.deg2rad(np.r_[np.full(500, 3.0), np.full(500, 6.0), -5.0])
     assert not both_signs(a, np.deg2rad(0.25))
     assert both_signs(np.r_[a, np.deg2rad(np.full(60, -2.0))], np.deg2rad(0.25))
+
+
+@pytest.mark.parametrize("stage", ["Mz0", "Mz"])
+def test_mz_stage_model_with_the_slip_computed_once_is_the_inline_one(stage, truth, data):
+    """The Mz stages' numpy models take the residual moment's slip computed once
+    (identify.model.aligning.residual_slip): the same predictions, bit for bit, as computing it
+    in every evaluation, at scalar and at batched (walker) values."""
+    from identify.fit.mf import stage_specs as specs
+
+    sp = stage_problem(stage, data, truth, screen=False)
+    p = sp.problem
+    inputs = specs._model_inputs(stage, sp.params, sp.state, sp.omega)
+    assert "mz_slip" in inputs
+    inline = {k: v for k, v in inputs.items() if k != "mz_slip"}
+    rng = np.random.default_rng(0)
+    X = p.x0() * (1 + 0.3 * rng.standard_normal((5, p.x0().size)))
+    for values in [p.values(x) for x in X] + [p.values_batch(X)]:
+        P = {**sp.params, **values}
+        np.testing.assert_array_equal(specs.stage_predict(stage, P, sp.state, inputs),
+                                      specs.stage_predict(stage, P, sp.state, inline))

@@ -197,11 +197,11 @@ def _make(name: str, merge: Merge, s: OperatingState, margin) -> Constraint:
 
         def near_fun(values1):
             v = margins(values1, at)
-            out = np.full(GRID_POINTS, np.inf)
-            np.minimum.at(out, load, v)
+            out = np.full(v.shape[:-1] + (GRID_POINTS,), np.inf)
+            np.minimum.at(out, (..., load), v)
             return out
         return near_fun
-    return Constraint(name, fun, local)
+    return Constraint(name, fun, local, batched=True)
 
 
 def stage_constraints(stage: str, base: Mapping[str, float], merge: Merge,

@@ -38,6 +38,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Sequence
+from concurrent.futures import Executor, Future
 
 import numpy as np
 import pandas as pd
@@ -179,7 +180,7 @@ class ProfileEnds:
 
 def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
                  stderr: dict[str, float], quantile: dict[str, float],
-                 budget: int = STAGE_REFITS) -> ProfileEnds:
+                 budget: int = STAGE_REFITS, screened=None) -> ProfileEnds:
     """The 95 % profile intervals of ``names`` (free coefficients of ``problem``) at its
     optimum ``x`` (see module), from their standard errors and t quantiles.
 
@@ -200,6 +201,8 @@ def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
         FitResult.quantile).
     budget : int
         Refits allowed in all (:data:`STAGE_REFITS`).
+    screened : callable, optional
+        Called with the screen (:class:`_Screen`) before any refit.
     """
     J = engine.residual_jacobian(problem, x)
     Js, scale = engine.column_scaled(J)
@@ -228,17 +231,45 @@ def profile_ends(problem: FitProblem, x: np.ndarray, names: Sequence[str],
                            threshold)
             if g < 1.0 - QUADRATIC:
                 flatter.append((g, name, k, j, half, threshold, direction))
+    screen = _Screen(ends, sorted(flatter, key=lambda e: e[0]), base)
+    if screened is not None:
+        screened(screen)
+    return _spend(screen, lambda i, flat: _refit_flatter(problem, x, flat, base), budget)
+
+
+@dataclasses.dataclass(frozen=True)
+class _Screen:
+    """:func:`profile_ends` before its refits: the linearised ends (at a bound where one is
+    passed), the ends found flatter, flattest first, as (steepness, name, side index, j,
+    half-width, threshold, direction), and the cost at the optimum."""
+
+    ends: dict
+    flatter: list
+    base: float
+
+
+def _refit_flatter(problem: FitProblem, x: np.ndarray, flat: tuple, base: float
+                   ) -> tuple[float | None, int]:
+    """:func:`_refit_end` of one flatter end of a :class:`_Screen`."""
+    _g, _name, k, j, half, threshold, direction = flat
+    return _refit_end(problem, x, j, 2 * k - 1, half, threshold, direction, base)
+
+
+def _spend(screen: _Screen, refit, budget: int) -> ProfileEnds:
+    """The refits of :func:`profile_ends` within ``budget``: ``refit(i, flat)`` is
+    :func:`_refit_flatter` of the i-th flatter end."""
+    ends = {n: list(v) for n, v in screen.ends.items()}
     unconverged = over_budget = refits = 0
-    for _g, name, k, j, half, threshold, direction in sorted(flatter, key=lambda e: e[0]):
+    for i, flat in enumerate(screen.flatter):
         if refits + MAX_REFITS > budget:  # an end may take MAX_REFITS: never over budget
             over_budget += 1
             continue
-        end, used = _refit_end(problem, x, j, 2 * k - 1, half, threshold, direction, base)
+        end, used = refit(i, flat)
         refits += used
         if end is None:
             unconverged += 1
         else:
-            ends[name][k] = float(end)
+            ends[flat[1]][flat[2]] = float(end)
     return ProfileEnds({n: (a, b) for n, (a, b) in ends.items()}, unconverged, over_budget,
                        refits)
 
@@ -253,8 +284,39 @@ def _profiled(r: FitResult) -> list[str]:
     return [n for n in r.free if n not in why]
 
 
-def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | None = None
-                      ) -> MFFit:
+def _stage_problem(trailer: pd.DataFrame, params: dict, r: FitResult
+                   ) -> tuple[FitProblem, np.ndarray] | None:
+    """The problem of stage ``r`` built again at the staged fit's values ``params`` and its
+    optimum; None when it cannot be built as it was fitted. From picklable arguments alone,
+    so that a worker process builds the same problem (:func:`profile_intervals`)."""
+    sp = fitted_problem(trailer, params, r)
+    if sp is None or sp.problem.free != r.free:
+        return None
+    return sp.problem, np.array([float(params[n]) for n in r.free])
+
+
+def _stage_screen(trailer: pd.DataFrame, params: dict, r: FitResult, names: list[str]
+                  ) -> _Screen | None:
+    """:func:`profile_ends`' screen of stage ``r`` (a job of :func:`profile_intervals`)."""
+    built = _stage_problem(trailer, params, r)
+    if built is None:
+        return None
+    problem, x = built
+    screen: list[_Screen] = []
+    profile_ends(problem, x, names, dict(r.stderr), {n: r.quantile(n) for n in names},
+                 budget=0, screened=screen.append)
+    return screen[0]
+
+
+def _stage_refit(trailer: pd.DataFrame, params: dict, r: FitResult, flat: tuple, base: float
+                 ) -> tuple[float | None, int]:
+    """:func:`_refit_flatter` of one end of stage ``r`` (a job of :func:`profile_intervals`)."""
+    problem, x = _stage_problem(trailer, params, r)
+    return _refit_flatter(problem, x, flat, base)
+
+
+def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | None = None, *,
+                      pool: Executor | None = None) -> MFFit:
     """``mf`` with the 95 % interval (FitResult.profile) of every identifiable coefficient of
     every converged stage (:func:`_profiled`), after its standard errors are final
     (identify.fit.mf.uncertainty.propagate).
@@ -267,26 +329,70 @@ def profile_intervals(trailer: pd.DataFrame, mf: MFFit, progress: Progress | Non
         The staged fit.
     progress : callable, optional
         Gets one line per stage.
+    pool : Executor, optional
+        Worker processes (identify.core.workers.process_pool) that take the stages' screens
+        and refits, which do not depend on each other (:func:`_pooled`); the results are
+        those of the serial loop (each screen and refit is computed from its own picklable
+        arguments alone), reported in stage order. None: one stage after the other, here.
     """
+    params = dict(mf.params)
+    names = [_profiled(r) if r.converged else [] for r in mf.results]
+    found: dict[int, ProfileEnds | None] = {}
+    if pool is not None and any(names):
+        found = _pooled(pool, trailer, params, mf.results, names)
     results = []
-    for r in mf.results:
-        names = _profiled(r) if r.converged else []
-        sp = fitted_problem(trailer, mf.params, r) if names else None
-        if sp is None or sp.problem.free != r.free:
+    for i, r in enumerate(mf.results):
+        if i in found:
+            ends_found = found[i]
+        elif names[i] and (built := _stage_problem(trailer, params, r)) is not None:
+            problem, x = built
+            ends_found = profile_ends(problem, x, names[i], dict(r.stderr),
+                                      {n: r.quantile(n) for n in names[i]})
+        else:
+            ends_found = None
+        if ends_found is None:
             results.append(r)
             continue
-        x = np.array([float(mf.params[n]) for n in r.free])
-        found = profile_ends(sp.problem, x, names, dict(r.stderr),
-                             {n: r.quantile(n) for n in names})
-        ends = found.ends
+        ends = ends_found.ends
         if progress is not None:
             wald = {n: r.wald_interval(n) for n in ends}
             moved = sum(1 for n, (a, b) in ends.items() if a < wald[n][0] or b > wald[n][1])
             progress(f"MF [{r.form}]: 95 % intervals of {len(ends)} coefficients, {moved} "
-                     f"widened to the objective's profile ({found.refits} refits)"
-                     + (f", {found.unconverged} end(s) left linearised (refit did not "
-                        "converge)" if found.unconverged else "")
-                     + (f", {found.over_budget} flatter end(s) left linearised (the stage's "
-                        f"{STAGE_REFITS} refits spent)" if found.over_budget else ""))
+                     f"widened to the objective's profile ({ends_found.refits} refits)"
+                     + (f", {ends_found.unconverged} end(s) left linearised (refit did not "
+                        "converge)" if ends_found.unconverged else "")
+                     + (f", {ends_found.over_budget} flatter end(s) left linearised (the "
+                        f"stage's {STAGE_REFITS} refits spent)" if ends_found.over_budget
+                        else ""))
         results.append(dataclasses.replace(r, profile=ends))
     return dataclasses.replace(mf, results=tuple(results))
+
+
+def _pooled(pool: Executor, trailer: pd.DataFrame, params: dict, results, names
+            ) -> dict[int, ProfileEnds | None]:
+    """Every stage's :func:`profile_ends` with the work in ``pool``: the stages' screens, then
+    every refit the budget is sure to spend (the first STAGE_REFITS // MAX_REFITS flatter ends
+    of a stage, whatever the refits before them take), each a job, so that a stage with many
+    flatter ends does not run alone; the budget is then spent in order as
+    :func:`profile_ends` spends it, the rest of it here. The same intervals as one process."""
+    screens = {i: pool.submit(_stage_screen, trailer, params, results[i], names[i])
+               for i in range(len(results)) if names[i]}
+    sure = STAGE_REFITS // MAX_REFITS
+    jobs: dict[int, tuple[_Screen | None, list[Future]]] = {}
+    for i, job in screens.items():
+        screen = job.result()
+        jobs[i] = (screen, [] if screen is None else [
+            pool.submit(_stage_refit, trailer, params, results[i], flat, screen.base)
+            for flat in screen.flatter[:sure]])
+    found: dict[int, ProfileEnds | None] = {}
+    for i, (screen, refits) in jobs.items():
+        if screen is None:
+            found[i] = None
+            continue
+
+        def refit(k, flat, i=i, screen=screen, refits=refits):
+            if k < len(refits):
+                return refits[k].result()
+            return _stage_refit(trailer, params, results[i], flat, screen.base)
+        found[i] = _spend(screen, refit, STAGE_REFITS)
+    return found

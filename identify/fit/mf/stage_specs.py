@@ -329,7 +329,7 @@ def stage_predict(stage: str, P: Values, s: OperatingState, inputs: Mapping[str,
         return lateral.fy_combined(P, s, inputs["pure"], xp).fy
     if stage in ("Mz0", "Mz"):
         return aligning.mz(P, s, inputs["pure"], inputs["pure0"], inputs["fy"], inputs["fx"],
-                           inputs["kxk"], xp).mz
+                           inputs["kxk"], xp, slip=inputs.get("mz_slip")).mz
     if stage == "Mx":
         return moments.mx(P, s, inputs["fy"], xp)
     if stage == "My":
@@ -368,11 +368,14 @@ def stage_model(stage: str, base: Values, s: OperatingState,
 
 def _model_inputs(stage: str, base: Values, s: OperatingState,
                   omega: np.ndarray | None) -> dict[str, object]:
-    """:func:`stage_inputs`, and for Fy0 the points with kappa != 0 (see stage_predict)."""
+    """:func:`stage_inputs`, for Fy0 the points with kappa != 0 (see stage_predict), for Mz0
+    and Mz the residual moment's slip (identify.model.aligning.residual_slip)."""
     inputs = stage_inputs(stage, base, s, omega)
     if stage == "Fy0":
         slip = np.flatnonzero(s.kappa != 0)
         inputs = {"slip": slip, "s_slip": subset_state(s, slip)}
+    if stage in ("Mz0", "Mz"):  # the residual moment's slip reads no coefficient of these
+        inputs = {**inputs, "mz_slip": aligning.residual_slip(s, inputs["pure"], inputs["kxk"])}
     return inputs
 
 

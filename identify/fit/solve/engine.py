@@ -34,6 +34,11 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import optimize
 
+try:  # the engine of scipy.optimize.approx_fprime, which takes a vectorised map (workers)
+    from scipy.optimize._numdiff import approx_derivative as _approx_derivative
+except ImportError:  # pragma: no cover - a scipy without it: approx_fprime point by point
+    _approx_derivative = None
+
 from identify.fit.solve.covariance import (
     CLUSTER_KINDS,
     ESSENTIAL_RTOL,
@@ -579,8 +584,8 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
             if local_constraints is not None:
                 def con_jac(z):
                     near = local_constraints(to_x(z))
-                    return np.atleast_2d(optimize.approx_fprime(
-                        z, lambda z1: near(to_x(z1)), _SLSQP_STEP))
+                    return _forward_differences(lambda z1: near(to_x(z1)), z,
+                                                getattr(near, "batch", None), to_x)
                 con["jac"] = con_jac
             cons.append(con)
         grad = ((lambda z: T.T @ np.asarray(gradient(to_x(z)))) if gradient is not None
@@ -610,6 +615,25 @@ def polish(objective: Callable[[np.ndarray], float], x1: np.ndarray,
 
 _SLSQP_STEP = float(np.sqrt(np.finfo(float).eps))
 """SLSQP's finite-difference step in its variables (scipy's default ``eps``)."""
+
+
+def _forward_differences(fun: Callable[[np.ndarray], np.ndarray], z: np.ndarray,
+                         batch: Callable[[np.ndarray], np.ndarray] | None,
+                         to_x: Callable[[np.ndarray], np.ndarray]) -> np.ndarray:
+    """scipy.optimize.approx_fprime(z, fun, _SLSQP_STEP) as a 2-D array: the same steps and
+    differences (scipy's own), with the stepped points evaluated in one call of ``batch``
+    (x rows (m, k) -> (m, constraints), equal to ``fun`` row by row: Constraint.batched)
+    when there is one. ``to_x`` maps each stepped z to the x that ``batch`` takes, the map
+    ``fun`` applies, point by point, so that every x is the one ``fun`` would see."""
+    if batch is None or _approx_derivative is None:
+        return np.atleast_2d(optimize.approx_fprime(z, fun, _SLSQP_STEP))
+
+    def every_step(_fun, steps):
+        return list(batch(np.array([to_x(z1) for z1 in steps])))
+
+    z = np.asarray(z, dtype=float)
+    return np.atleast_2d(_approx_derivative(fun, z, method="2-point", abs_step=_SLSQP_STEP,
+                                            f0=fun(z), workers=every_step))
 
 
 def _whitening(metric: np.ndarray) -> np.ndarray | None:

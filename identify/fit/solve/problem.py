@@ -67,12 +67,18 @@ class Constraint:
         minimum over a grid evaluated only on the grid points near the minimum at
         ``values``: identify.fit.mf.constraints), for the finite-difference Jacobian of the
         constrained polish; None: ``fun`` itself.
+    batched : bool
+        ``fun`` and the functions ``local`` returns also take values whose free parameters are
+        arrays of shape (m, 1) (:meth:`FitProblem.values_batch`) and then return (m, ...),
+        row i the same numbers as a call with row i alone: the polish's finite differences
+        then evaluate all their steps in one call.
     """
 
     name: str
     fun: Callable[[Mapping[str, float]], np.ndarray]
     local: Callable[[Mapping[str, float]], Callable[[Mapping[str, float]], np.ndarray]] | None \
         = None
+    batched: bool = False
 
 
 @dataclass(frozen=True)
@@ -181,16 +187,40 @@ class FitProblem:
         object.__setattr__(self, "_weights", weights)
 
     # ----- parameter vectors -------------------------------------------------------------
+    def _read(self) -> tuple[tuple[str, ...], dict[str, float]]:
+        """(free names, every value) as the parameters stand at the problem's first
+        evaluation, read once: the objective asks for them at every evaluation, and reading
+        a few hundred lmfit parameters each time cost a large part of a constrained polish.
+        The parameters are never modified once the problem is evaluated (a change makes a
+        new problem: :func:`with_free`, :func:`with_fixed`)."""
+        read = self.__dict__.get("_read_once")
+        if read is None:
+            read = (tuple(n for n, p in self.parameters.items() if p.vary),
+                    {n: float(p.value) for n, p in self.parameters.items()})
+            object.__setattr__(self, "_read_once", read)
+        return read
+
     @property
     def free(self) -> tuple[str, ...]:
         """Names of the varying parameters, in declaration order."""
-        return tuple(n for n, p in self.parameters.items() if p.vary)
+        return self._read()[0]
 
     def values(self, x: np.ndarray | None = None) -> dict[str, float]:
         """All parameter values, with the free ones taken from ``x`` when given."""
-        vals = {n: float(p.value) for n, p in self.parameters.items()}
+        free, every = self._read()
+        vals = dict(every)
         if x is not None:
-            vals.update(zip(self.free, (float(v) for v in x)))
+            vals.update(zip(free, (float(v) for v in x)))
+        return vals
+
+    def values_batch(self, X: np.ndarray) -> dict[str, float | np.ndarray]:
+        """All parameter values for the rows of ``X`` (m, free) at once: each free one an
+        array of shape (m, 1), the held ones floats (the broadcasting form of the vectorised
+        models and constraints, :data:`ModelFn`)."""
+        free, every = self._read()
+        X = np.asarray(X, dtype=float)
+        vals: dict[str, float | np.ndarray] = dict(every)
+        vals.update((n, X[:, j:j + 1]) for j, n in enumerate(free))
         return vals
 
     def x0(self) -> np.ndarray:
@@ -357,6 +387,20 @@ class FitProblem:
             v = self.values(x1)
             return np.concatenate([np.atleast_1d(np.asarray(f(v), dtype=float))
                                    for f in funs])
+
+        if funs and all(c.batched for c in self.constraints):
+            def batch(X: np.ndarray) -> np.ndarray:
+                """``local`` at each row of X (m, free) in one call: (m, constraints)."""
+                m = np.asarray(X).shape[0]
+                v = self.values_batch(X)
+                parts = []
+                for f in funs:
+                    g = np.asarray(f(v), dtype=float)
+                    # a condition that reads no free parameter is the same in every row
+                    parts.append(g.reshape(m, -1) if g.ndim == 2 else
+                                 np.broadcast_to(np.atleast_1d(g), (m, g.size)))
+                return np.concatenate(parts, axis=1)
+            local.batch = batch  # type: ignore[attr-defined]
         return local
 
 
