@@ -18,6 +18,12 @@ is the properly scaled gradient of the objective at the neutral value:
                           sweeps; d: Satterthwaite degrees of freedom of V_k, the number of
                           sweeps that effectively carry the candidate
                           (:func:`left_out_score_variance`)
+    cluster, pooled:      F_k = s_k^2 / (kappa A_k),  ~ F(1, d_h)     (a pressure candidate)
+                          kappa = sum_c (H~_c^T r_c)^2 / sum_c H~_c^T H~_c: the variance per
+                          unit norm of a sweep's score along the candidate's shape H (its
+                          column at one common pressure for every point), pooled over EVERY
+                          sweep, those at the nominal pressure included; d_h: Satterthwaite
+                          degrees of freedom of that pooled sum (:func:`pooled_score_variance`)
 
 The statistic used is the one-step F form of the LM test (sigma^2 estimated with the candidate
 added in one Gauss-Newton step): asymptotically the chi^2(q) LM test, and exact for linear
@@ -36,6 +42,7 @@ from identify.discover.noise import Sweeps
 from identify.fit.solve.engine import pseudo_solve
 
 __all__ = ["Score", "project_basis", "score_candidates", "left_out_score_variance",
+           "pooled_score_variance",
            "canonical_cosines",
            "ambiguity_groups", "holm", "TESTABLE_REL_NORM", "AMBIGUITY_COS"]
 
@@ -85,6 +92,7 @@ def _project(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
 
 def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray], *,
                      kind: str = "independent", clusters=None,
+                     shapes: dict[str, np.ndarray] | None = None,
                      ) -> tuple[dict[str, Score], dict[str, np.ndarray]]:
     """Score every candidate.
 
@@ -95,6 +103,10 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
     columns : name -> (n, q) candidate columns
     kind : ``"independent"``, ``"ar1"`` (already prewhitened) or ``"cluster"``
     clusters : Sweeps (or index arrays) of the sweeps (``"cluster"`` only)
+    shapes : name -> (n,) shape column of a one-coefficient pressure candidate: its column
+        with every point at one common pressure (transformed like the columns). With
+        ``"cluster"`` such a candidate's score variance is pooled over every sweep
+        (:func:`pooled_score_variance`) instead of resting on the sweeps that carry it.
 
     Returns
     -------
@@ -127,7 +139,15 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
         z = pseudo_solve(A, s)
         drop = float(s @ z)
         step = tuple(float(v) for v in -z)
-        if kind == "cluster" and clusters is not None and len(clusters):
+        shape = (shapes or {}).get(name)
+        pooled = (pooled_score_variance(_project(Q, shape.reshape(n, 1))[:, 0], r, clusters)
+                  if shape is not None and q == 1 and kind == "cluster"
+                  and clusters is not None and len(clusters) else None)
+        if pooled is not None:
+            kappa, d = pooled
+            stat = float(s[0] ** 2 / (kappa * A[0, 0]))
+            log_p = _log_sf("f", stat, 1, d)
+        elif kind == "cluster" and clusters is not None and len(clusters):
             V, d = left_out_score_variance(Gt, r, clusters, A)
             # Hotelling's small-sample form for a q x q variance with d degrees of freedom
             d2 = max(d - q + 1.0, 1.0)
@@ -199,6 +219,51 @@ def left_out_score_variance(Gt: np.ndarray, r: np.ndarray, clusters: Sweeps,
     with np.errstate(invalid="ignore", divide="ignore"):
         dof = np.where(squares > 0, total ** 2 / squares, C - 1.0)
     return e.T @ e, float(np.clip(dof.min(), 1.0, max(C - 1.0, 1.0)))
+
+
+def pooled_score_variance(Ht: np.ndarray, r: np.ndarray, clusters: Sweeps
+                          ) -> tuple[float, float] | None:
+    """Variance per unit norm of a sweep's score along a candidate's shape, pooled over every
+    sweep, and its degrees of freedom; None when no sweep holds the shape.
+
+    A pressure candidate's column is its shape H times a power of dpi: zero on the sweeps at
+    the nominal pressure. In the usual trailer session most sweeps run at the nominal
+    pressure and two or three at each other one, so the sweep-robust variance
+    (:func:`left_out_score_variance`) rests on those few sweeps and its degrees of freedom
+    fall to about three, whatever the effect's size and consistency. The nominal sweeps still
+    say how far a sweep's own misfit (its shape error, its offset, its correlated noise) leans
+    along H when pressure plays no part: with the projected shape H~ and each sweep's score
+    h_c = H~_c^T r_c and norm a_c = H~_c^T H~_c,
+
+        kappa = sum_c h_c^2 / sum_c a_c,      Var(G~^T r) = kappa G~^T G~,
+
+    the variance of the candidate's score when every sweep's misfit along its shape has the
+    same size per unit norm, whatever its pressure (the control-group argument of inference
+    with few treated clusters). The off-nominal sweeps' h_c hold the effect, if there is
+    one, and only make kappa larger. Degrees of freedom: Satterthwaite's for a sum of squares
+    weighted by a_c, (sum a_c)^2 / sum a_c^2, the number of sweeps that effectively hold
+    the shape, less one for what the base fit's projection takes from every sweep's score.
+
+    Parameters
+    ----------
+    Ht : (n,) projected shape column (prewhitened like the residuals)
+    r : (n,) residuals of the base fit
+    clusters : Sweeps
+
+    Returns
+    -------
+    (kappa, dof) or None
+    """
+    h_c = np.asarray(clusters.sums(Ht * r), dtype=float).ravel()
+    a_c = np.asarray(clusters.sums(Ht * Ht), dtype=float).ravel()
+    total = float(a_c.sum())
+    if not total > 0:
+        return None
+    kappa = float(h_c @ h_c) / total
+    dof = total ** 2 / float(a_c @ a_c)
+    if not kappa > 0:
+        return None
+    return kappa, float(max(dof - 1.0, 1.0))
 
 
 def _log_sf(dist: str, x: float, d1: int, d2: int = 1) -> float:
