@@ -19,7 +19,7 @@ is the properly scaled gradient of the objective at the neutral value:
                           sweeps that effectively carry the candidate
                           (:func:`left_out_score_variance`)
     cluster, pooled:      F_k = s_k^2 / (kappa A_k),  ~ F(1, d_h)     (a pressure candidate)
-                          kappa = sum_c (H~_c^T r_c)^2 / sum_c H~_c^T H~_c: the variance per
+                          kappa = sum_c (H_c^T r_c)^2 / sum_c H_c^T H_c: the variance per
                           unit norm of a sweep's score along the candidate's shape H (its
                           column at one common pressure for every point), pooled over EVERY
                           sweep, those at the nominal pressure included; d_h: Satterthwaite
@@ -140,7 +140,7 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
         drop = float(s @ z)
         step = tuple(float(v) for v in -z)
         shape = (shapes or {}).get(name)
-        pooled = (pooled_score_variance(_project(Q, shape.reshape(n, 1))[:, 0], r, clusters)
+        pooled = (pooled_score_variance(np.asarray(shape, dtype=float).reshape(n), r, clusters)
                   if shape is not None and q == 1 and kind == "cluster"
                   and clusters is not None and len(clusters) else None)
         if pooled is not None:
@@ -221,7 +221,7 @@ def left_out_score_variance(Gt: np.ndarray, r: np.ndarray, clusters: Sweeps,
     return e.T @ e, float(np.clip(dof.min(), 1.0, max(C - 1.0, 1.0)))
 
 
-def pooled_score_variance(Ht: np.ndarray, r: np.ndarray, clusters: Sweeps
+def pooled_score_variance(H: np.ndarray, r: np.ndarray, clusters: Sweeps
                           ) -> tuple[float, float] | None:
     """Variance per unit norm of a sweep's score along a candidate's shape, pooled over every
     sweep, and its degrees of freedom; None when no sweep holds the shape.
@@ -232,21 +232,24 @@ def pooled_score_variance(Ht: np.ndarray, r: np.ndarray, clusters: Sweeps
     (:func:`left_out_score_variance`) rests on those few sweeps and its degrees of freedom
     fall to about three, whatever the effect's size and consistency. The nominal sweeps still
     say how far a sweep's own misfit (its shape error, its offset, its correlated noise) leans
-    along H when pressure plays no part: with the projected shape H~ and each sweep's score
-    h_c = H~_c^T r_c and norm a_c = H~_c^T H~_c,
+    along H when pressure plays no part: with each sweep's score h_c = H_c^T r_c and norm
+    a_c = H_c^T H_c,
 
         kappa = sum_c h_c^2 / sum_c a_c,      Var(G~^T r) = kappa G~^T G~,
 
     the variance of the candidate's score when every sweep's misfit along its shape has the
     same size per unit norm, whatever its pressure (the control-group argument of inference
     with few treated clusters). The off-nominal sweeps' h_c hold the effect, if there is
-    one, and only make kappa larger. Degrees of freedom: Satterthwaite's for a sum of squares
+    one, and only make kappa larger. The shape is not projected on the fitted parameters'
+    complement: at one pressure a pressure coefficient's shape is a base coefficient's column
+    (PPY3's is PDY1's, PPY1's PKY1's), which the projection would remove whole; the base fit
+    only makes the h_c sum to zero. Degrees of freedom: Satterthwaite's for a sum of squares
     weighted by a_c, (sum a_c)^2 / sum a_c^2, the number of sweeps that effectively hold
-    the shape, less one for what the base fit's projection takes from every sweep's score.
+    the shape, less one for that constraint.
 
     Parameters
     ----------
-    Ht : (n,) projected shape column (prewhitened like the residuals)
+    H : (n,) shape column (prewhitened like the residuals, not projected)
     r : (n,) residuals of the base fit
     clusters : Sweeps
 
@@ -254,8 +257,8 @@ def pooled_score_variance(Ht: np.ndarray, r: np.ndarray, clusters: Sweeps
     -------
     (kappa, dof) or None
     """
-    h_c = np.asarray(clusters.sums(Ht * r), dtype=float).ravel()
-    a_c = np.asarray(clusters.sums(Ht * Ht), dtype=float).ravel()
+    h_c = np.asarray(clusters.sums(H * r), dtype=float).ravel()
+    a_c = np.asarray(clusters.sums(H * H), dtype=float).ravel()
     total = float(a_c.sum())
     if not total > 0:
         return None
