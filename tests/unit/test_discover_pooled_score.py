@@ -14,7 +14,7 @@ import pytest
 from identify.discover.noise import Sweeps
 from identify.discover.problems import trailer_problems
 from identify.discover.scenarios import base_tir, make_session
-from identify.discover.score import pooled_score_variance, score_candidates
+from identify.discover.score import pooled_score_variance, project_basis, score_candidates
 from identify.fit.relations.problems import Context
 from tests.unit.test_discover_cluster_score import _session
 
@@ -42,14 +42,14 @@ def test_pooled_variance_of_independent_noise_is_its_variance():
     """Independent N(0, sigma^2) residuals: every sweep's score along a unit shape has the
     variance sigma^2 per unit norm; 200 sweeps of 50 points give kappa near it (relative
     standard error sqrt(2 / 200) = 10 %: within three of them), and the degrees of freedom
-    count the sweeps (equal norms: 200, less one)."""
+    count the sweeps (equal norms: 200)."""
     rng = np.random.default_rng(4)
     sigma, C, m = 0.3, 200, 50
     sweeps = Sweeps(np.repeat(np.arange(C), m))
     h = np.tile(np.sin(np.linspace(0.0, np.pi, m)), C)
     kappa, dof = pooled_score_variance(h, sigma * rng.standard_normal(C * m), sweeps)
     assert kappa == pytest.approx(sigma ** 2, rel=3 * np.sqrt(2.0 / C))
-    assert dof == pytest.approx(C - 1.0)
+    assert dof == pytest.approx(C)
     assert pooled_score_variance(np.zeros(C * m), np.ones(C * m), sweeps) is None
 
 
@@ -95,3 +95,21 @@ def test_shape_is_the_candidate_column_at_one_pressure():
                                rtol=1e-6, atol=1e-9 * np.abs(shape).max())
     assert np.abs(col[~off]).max() < 1e-9 * np.abs(shape).max()
     assert np.abs(shape[~off]).max() > 0.1 * np.abs(shape).max()
+
+
+def test_sweeps_that_carry_the_effect_are_not_controls():
+    """A strong pressure law: the off-nominal sweeps' scores along the shape hold it. Pooled
+    over the controls only (the nominal sweeps, where the column vanishes) kappa is what the
+    nominal sweeps alone give, and the statistic keeps the effect's size; pooled over every
+    sweep, the effect inflates kappa and the statistic falls."""
+    r, J, cols, sweeps = _session(np.random.default_rng(7), c1=2.0, per=4)
+    x = np.tile(np.linspace(-1.0, 1.0, 60), len(sweeps))
+    shape, g1 = x * J[:, 3], cols["G1"][:, 0]
+    Q = project_basis(J)
+    with_g = pooled_score_variance(shape, r, sweeps, g1, Q)
+    nominal = np.repeat(np.arange(len(sweeps)) < 30, 60)  # _session puts them first
+    alone = pooled_score_variance(shape[nominal], r[nominal],
+                                  Sweeps(np.repeat(np.arange(30), 60)), None, Q[nominal])
+    assert with_g[0] == pytest.approx(alone[0], rel=1e-12)
+    every = pooled_score_variance(shape, r, sweeps, None, Q)
+    assert every[0] > 10 * with_g[0]
