@@ -18,7 +18,8 @@ is the properly scaled gradient of the objective at the neutral value:
                           sweeps; d: Satterthwaite degrees of freedom of V_k, the number of
                           sweeps that effectively carry the candidate
                           (:func:`left_out_score_variance`)
-    cluster, pooled:      F_k = s_k^2 / (kappa A_k),  ~ F(1, d_h)     (a pressure candidate)
+    cluster, pooled:      F_k = s_k^2 / (kappa A_k),  ~ F(1, d_h)     (a pressure candidate,
+                          where d_h > d)
                           kappa = sum_c (H_c^T r_c)^2 / sum_c H_c^T H_c over the control
                           sweeps (those at the nominal pressure, where the candidate's column
                           vanishes): the variance per unit norm of a sweep's score along the
@@ -112,8 +113,9 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
     clusters : Sweeps (or index arrays) of the sweeps (``"cluster"`` only)
     shapes : name -> (n,) shape column of a one-coefficient pressure candidate: its column
         with every point at one common pressure (transformed like the columns). With
-        ``"cluster"`` such a candidate's score variance is pooled over every sweep
-        (:func:`pooled_score_variance`) instead of resting on the sweeps that carry it.
+        ``"cluster"`` such a candidate's score variance is pooled over the control sweeps
+        (:func:`pooled_score_variance`) where that estimate has more degrees of freedom than
+        the sweep-robust one, which rests on the sweeps that carry the candidate.
 
     Returns
     -------
@@ -151,16 +153,18 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
                                         G[:, 0], Q)
                   if shape is not None and q == 1 and kind == "cluster"
                   and clusters is not None and len(clusters) else None)
-        if pooled is not None:
-            kappa, d = pooled
-            stat = float(s[0] ** 2 / (kappa * A[0, 0]))
-            log_p = _log_sf("f", stat, 1, d)
-        elif kind == "cluster" and clusters is not None and len(clusters):
+        if kind == "cluster" and clusters is not None and len(clusters):
             V, d = left_out_score_variance(Gt, r, clusters, A)
             # Hotelling's small-sample form for a q x q variance with d degrees of freedom
             d2 = max(d - q + 1.0, 1.0)
             stat = float(s @ pseudo_solve(V, s)) / q * d2 / d
             log_p = _log_sf("f", stat, q, d2)
+            if pooled is not None and pooled[1] > d:
+                # the variance estimate with more degrees of freedom: a choice made from the
+                # design (which sweeps hold the column and the shape), not from the residuals
+                kappa, d = pooled
+                stat = float(s[0] ** 2 / (kappa * A[0, 0]))
+                log_p = _log_sf("f", stat, 1, d)
         else:
             dof = max(n - Q.shape[1] - q, 1)
             rest = max(float(r @ r) - drop, 1e-300)

@@ -11,6 +11,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from identify.discover.final_accepted import taken_over_note
+from identify.discover.library import Candidate
 from identify.discover.noise import Sweeps
 from identify.discover.problems import trailer_problems
 from identify.discover.scenarios import base_tir, make_session
@@ -113,3 +115,17 @@ def test_sweeps_that_carry_the_effect_are_not_controls():
     assert with_g[0] == pytest.approx(alone[0], rel=1e-12)
     every = pooled_score_variance(shape, r, sweeps, None, Q)
     assert every[0] > 10 * with_g[0]
+
+
+def test_an_effect_later_additions_took_over_says_so():
+    """The drift named first on a session whose pressure blocks follow in time, then the
+    pressure terms: its final coefficient 0.002 +- 0.019 is within two standard errors of
+    neutral, and the report says the later effects took it over; at 0.12 +- 0.016 it does
+    not."""
+    drift = Candidate(name="DRIFT", coefficients={"MFID_DRIFT": 0.0},
+                      bounds={"MFID_DRIFT": (-1.0, 1.0)}, relations=("MF/*",),
+                      equation="F = F_MF (1 + MFID_DRIFT tau)", description="a drift")
+    assert "took it over" in taken_over_note(drift, {"MFID_DRIFT": 0.002},
+                                             {"MFID_DRIFT": 0.019})
+    assert taken_over_note(drift, {"MFID_DRIFT": 0.12}, {"MFID_DRIFT": 0.016}) == ""
+    assert taken_over_note(drift, {"MFID_DRIFT": 0.002}, {"MFID_DRIFT": float("nan")}) == ""
