@@ -8,7 +8,11 @@ import numpy as np
 from identify.discover.library import Candidate
 from identify.discover.result import Accepted, ProblemSummary, excess_explained
 
-__all__ = ["sign_note", "final_accepted", "headline"]
+__all__ = ["sign_note", "taken_over_note", "final_accepted", "headline", "TAKEN_OVER_SE"]
+
+TAKEN_OVER_SE = 2.0
+"""An accepted effect whose every final coefficient lies within this many standard errors of
+its neutral value is reported as taken over by the effects added after it."""
 
 
 def sign_note(cand: Candidate, values: dict) -> str:
@@ -19,6 +23,18 @@ def sign_note(cand: Candidate, values: dict) -> str:
     if (cand.expected_sign == "+" and dev < 0) or (cand.expected_sign == "-" and dev > 0):
         return f"sign opposite to the physically expected one ({cand.expected_sign})"
     return ""
+
+
+def taken_over_note(cand: Candidate, values: dict, stderr: dict) -> str:
+    """A note when every final coefficient of ``cand`` is within :data:`TAKEN_OVER_SE` standard
+    errors of its neutral value (an effect named early, then explained by later additions:
+    the drift of a session whose pressure blocks follow each other in time), else ''."""
+    devs = [abs(values[k] - v) / stderr[k] for k, v in cand.coefficients.items()
+            if k in values and np.isfinite(stderr.get(k, np.nan)) and stderr[k] > 0]
+    if not devs or max(devs) >= TAKEN_OVER_SE:
+        return ""
+    return ("the effects added after it took it over: its final value is within "
+            f"{TAKEN_OVER_SE:g} standard errors of neutral")
 
 
 def final_accepted(accepted: list[Accepted], probs: tuple[ProblemSummary, ...],
@@ -34,10 +50,14 @@ def final_accepted(accepted: list[Accepted], probs: tuple[ProblemSummary, ...],
         coefs = {k: float(s.parameters.get(k, v)) for k, v in a.coefficients.items()}
         se = {k: float(s.stderr.get(k, a.stderr.get(k, float("nan")))) for k in coefs}
         cand = candidates.get(a.name)
+        note = a.note
+        if cand is not None:
+            note = "; ".join(n for n in (sign_note(cand, coefs),
+                                         taken_over_note(cand, coefs, se)) if n)
         out.append(dataclasses.replace(
             a, coefficients=coefs, stderr=se, noise_floor_pct=f,
             excess_explained=excess_explained(a.error_before_pct, a.error_after_pct, f),
-            note=sign_note(cand, coefs) if cand is not None else a.note))
+            note=note))
     return out
 
 

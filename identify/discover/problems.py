@@ -188,7 +188,9 @@ def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
     """MF stage problems (and rolling resistance) of the trailer sweeps, in model-state order
     (Fx, Fy, then Mx and Mz, which use the lateral force of the Fy stage). Each carries
     ``extra["rebuild"]``: discovery rebuilds Mx and Mz from the fitted Fy coefficients
-    (:mod:`identify.discover.state`) instead of a separate pre-fit here."""
+    (:mod:`identify.discover.state`) instead of a separate pre-fit here; and
+    ``extra["at_pressure"]``: the same problem with every point at one pressure
+    (:mod:`identify.discover.pressure_shape`)."""
     if trailer is None or trailer.empty:
         return []
     frame = label_sweeps(trailer, tests)
@@ -198,7 +200,10 @@ def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
         p = stage_problem(name, frame, base)
         if p is not None:
             out.append(_named(p, f"MF/{name}", rebuild=lambda v, name=name: stage_problem(
-                name, frame, {**base, **v}), depends_on=STAGE_INPUTS[name]))
+                name, frame, {**base, **v}), depends_on=STAGE_INPUTS[name],
+                at_pressure=lambda v, dpi, name=name: stage_problem(
+                    name, frame.assign(p=float(base["NOMPRES"]) * (1.0 + dpi)),
+                    {**base, **v})))
     if with_rr:
         rr = _rr_from_sweeps(frame, ctx)
         if rr is not None:

@@ -18,6 +18,14 @@ is the properly scaled gradient of the objective at the neutral value:
                           sweeps; d: Satterthwaite degrees of freedom of V_k, the number of
                           sweeps that effectively carry the candidate
                           (:func:`left_out_score_variance`)
+    cluster, pooled:      F_k = s_k^2 / (kappa A_k),  ~ F(1, d_h)     (a pressure candidate,
+                          where d_h > d)
+                          kappa = sum_c (H_c^T r_c)^2 / sum_c H_c^T H_c over the control
+                          sweeps (those at the nominal pressure, where the candidate's column
+                          vanishes): the variance per unit norm of a sweep's score along the
+                          candidate's shape H (its column at one common pressure for every
+                          point); d_h: Satterthwaite degrees of freedom of that pooled sum
+                          (:func:`pooled_score_variance`)
 
 The statistic used is the one-step F form of the LM test (sigma^2 estimated with the candidate
 added in one Gauss-Newton step): asymptotically the chi^2(q) LM test, and exact for linear
@@ -36,13 +44,20 @@ from identify.discover.noise import Sweeps
 from identify.fit.solve.engine import pseudo_solve
 
 __all__ = ["Score", "project_basis", "score_candidates", "left_out_score_variance",
-           "canonical_cosines",
+           "pooled_score_variance",
+           "canonical_cosines", "CONTROL_SHARE", "MIN_CONTROLS",
            "ambiguity_groups", "holm", "TESTABLE_REL_NORM", "AMBIGUITY_COS"]
 
 TESTABLE_REL_NORM = 1e-3
 """A candidate whose projected column keeps less than this fraction of its norm is untestable."""
 AMBIGUITY_COS = 0.95
 """|cos| above which two candidates form an ambiguity group."""
+CONTROL_SHARE = 0.01
+"""A sweep is a control of a pressure candidate when its column, per unit norm of the shape,
+holds less than this share of the largest sweep's (linear in dpi: |dpi| below a tenth of the
+farthest level's)."""
+MIN_CONTROLS = 10
+"""Fewest control sweeps for the pooled variance (else the sweep-robust one)."""
 
 
 @dataclass(frozen=True)
@@ -85,6 +100,7 @@ def _project(Q: np.ndarray, G: np.ndarray) -> np.ndarray:
 
 def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray], *,
                      kind: str = "independent", clusters=None,
+                     shapes: dict[str, np.ndarray] | None = None,
                      ) -> tuple[dict[str, Score], dict[str, np.ndarray]]:
     """Score every candidate.
 
@@ -95,6 +111,11 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
     columns : name -> (n, q) candidate columns
     kind : ``"independent"``, ``"ar1"`` (already prewhitened) or ``"cluster"``
     clusters : Sweeps (or index arrays) of the sweeps (``"cluster"`` only)
+    shapes : name -> (n,) shape column of a one-coefficient pressure candidate: its column
+        with every point at one common pressure (transformed like the columns). With
+        ``"cluster"`` such a candidate's score variance is pooled over the control sweeps
+        (:func:`pooled_score_variance`) where that estimate has more degrees of freedom than
+        the sweep-robust one, which rests on the sweeps that carry the candidate.
 
     Returns
     -------
@@ -127,12 +148,23 @@ def score_candidates(r: np.ndarray, J: np.ndarray, columns: dict[str, np.ndarray
         z = pseudo_solve(A, s)
         drop = float(s @ z)
         step = tuple(float(v) for v in -z)
+        shape = (shapes or {}).get(name)
+        pooled = (pooled_score_variance(np.asarray(shape, dtype=float).reshape(n), r, clusters,
+                                        G[:, 0], Q)
+                  if shape is not None and q == 1 and kind == "cluster"
+                  and clusters is not None and len(clusters) else None)
         if kind == "cluster" and clusters is not None and len(clusters):
             V, d = left_out_score_variance(Gt, r, clusters, A)
             # Hotelling's small-sample form for a q x q variance with d degrees of freedom
             d2 = max(d - q + 1.0, 1.0)
             stat = float(s @ pseudo_solve(V, s)) / q * d2 / d
             log_p = _log_sf("f", stat, q, d2)
+            if pooled is not None and pooled[1] > d:
+                # the variance estimate with more degrees of freedom: a choice made from the
+                # design (which sweeps hold the column and the shape), not from the residuals
+                kappa, d = pooled
+                stat = float(s[0] ** 2 / (kappa * A[0, 0]))
+                log_p = _log_sf("f", stat, 1, d)
         else:
             dof = max(n - Q.shape[1] - q, 1)
             rest = max(float(r @ r) - drop, 1e-300)
@@ -199,6 +231,75 @@ def left_out_score_variance(Gt: np.ndarray, r: np.ndarray, clusters: Sweeps,
     with np.errstate(invalid="ignore", divide="ignore"):
         dof = np.where(squares > 0, total ** 2 / squares, C - 1.0)
     return e.T @ e, float(np.clip(dof.min(), 1.0, max(C - 1.0, 1.0)))
+
+
+def pooled_score_variance(H: np.ndarray, r: np.ndarray, clusters: Sweeps,
+                          G: np.ndarray | None = None, Q: np.ndarray | None = None
+                          ) -> tuple[float, float] | None:
+    """Variance per unit norm of a sweep's score along a candidate's shape, pooled over the
+    control sweeps, and its degrees of freedom; None without :data:`MIN_CONTROLS` controls.
+
+    A pressure candidate's column G is its shape H times a power of dpi: zero on the sweeps at
+    the nominal pressure. In the usual trailer session most sweeps run at the nominal
+    pressure and two or three at each other one, so the sweep-robust variance
+    (:func:`left_out_score_variance`) rests on those few sweeps and its degrees of freedom
+    fall to about three, whatever the effect's size and consistency. The nominal sweeps still
+    say how far a sweep's own misfit (its shape error, its offset, its correlated noise) leans
+    along H when pressure plays no part: with each control sweep's score h_c = H_c^T r_c,
+    norm a_c = H_c^T H_c and the part l_c = ||Q_c^T H_c||^2 of it that the base fit's
+    projection takes (Q: orthonormal basis of the fitted parameters' columns),
+
+        kappa = sum_c h_c^2 / sum_c (a_c - l_c),      Var(G~^T r) = kappa G~^T G~,
+
+    the variance of the candidate's score when every sweep's misfit along its shape has the
+    same size per unit norm, whatever its pressure: the control-group argument of inference
+    with few treated clusters. The residuals are those of the base fit, r = M e, so
+    E h_c^2 = sigma^2 (a_c - l_c) for independent errors of variance sigma^2: without l_c
+    kappa came short by about the share of the fitted parameters in the sweeps' degrees of
+    freedom, and the test rejected a true null above its level. Controls are the sweeps whose
+    column per unit norm of the shape, G_c^T G_c / a_c, is below :data:`CONTROL_SHARE` of the
+    largest sweep's; the sweeps that carry the candidate are left out, since their h_c would
+    hold the effect itself (a session at two pressures, half its sweeps off the nominal one,
+    lost most of its power with them). Without G every sweep is a control. The shape is not
+    projected on the fitted parameters' complement: at one pressure a pressure coefficient's
+    shape is a base coefficient's column (PPY3's is PDY1's, PPY1's PKY1's), which the
+    projection would remove whole. Degrees of freedom: Satterthwaite's for a sum of squares
+    weighted by a_c - l_c, (sum (a_c - l_c))^2 / sum (a_c - l_c)^2, the number of control
+    sweeps that effectively hold the shape.
+
+    Parameters
+    ----------
+    H : (n,) shape column (prewhitened like the residuals, not projected)
+    r : (n,) residuals of the base fit
+    clusters : Sweeps
+    G : (n,) the candidate's column (unprojected), to tell the controls
+    Q : (n, p) orthonormal basis of the fitted parameters' columns (:func:`project_basis`);
+        None: no correction for the base fit
+
+    Returns
+    -------
+    (kappa, dof) or None
+    """
+    h_c = np.asarray(clusters.sums(H * r), dtype=float).ravel()
+    a_c = np.asarray(clusters.sums(H * H), dtype=float).ravel()
+    control = a_c > 0
+    if G is not None:
+        g_c = np.asarray(clusters.sums(G * G), dtype=float).ravel()
+        ratio = np.divide(g_c, a_c, out=np.full_like(g_c, np.inf), where=control)
+        control &= ratio <= CONTROL_SHARE * float(ratio[a_c > 0].max(initial=0.0))
+    if control.sum() < MIN_CONTROLS:
+        return None
+    w_c = a_c.copy()
+    if Q is not None and Q.shape[1]:
+        b = np.asarray(clusters.sums(Q * H[:, None]), dtype=float).reshape(-1, Q.shape[1])
+        w_c = np.maximum(a_c - np.einsum("cj,cj->c", b, b), 0.0)
+    h_c, w_c = h_c[control], w_c[control]
+    if not w_c.sum() > 0:
+        return None
+    kappa = float(h_c @ h_c) / float(w_c.sum())
+    if not kappa > 0:
+        return None
+    return kappa, float(w_c.sum()) ** 2 / float(w_c @ w_c)
 
 
 def _log_sf(dist: str, x: float, d1: int, d2: int = 1) -> float:

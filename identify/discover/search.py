@@ -31,6 +31,7 @@ from identify.discover.joint import try_blocks
 from identify.discover.library import Candidate, Library
 from identify.discover.objective import problem_name
 from identify.discover.prepared_problem import Working, prepare, refresh, renoise
+from identify.discover.pressure_shape import pressure_shapes
 from identify.discover.result import Accepted, CandidateRow, Discovery, Step, excess_explained
 from identify.discover.score import ambiguity_groups, canonical_cosines, holm, score_candidates
 from identify.discover.state import ModelState
@@ -78,7 +79,8 @@ def _score(w: Working) -> tuple[dict, dict, list]:
             for c in w.candidates}
     kind = w.noise.kind if w.noise.kind == "cluster" else "independent"
     scores, projected = score_candidates(w.sol.r, w.sol.jac, cols, kind=kind,
-                                         clusters=w.objective.index)
+                                         clusters=w.objective.index,
+                                         shapes=pressure_shapes(w, w.candidates))
     w.columns = cols  # for the joint blocks of this step
     testable = [n for n in scores if scores[n].testable]
     cos = canonical_cosines({n: projected[n] for n in testable})
