@@ -380,7 +380,8 @@ _PARSE_ERRORS = (ValueError, pd.errors.ParserError, pd.errors.ParserWarning, Uni
 
 def _parse_floats(path: Path) -> tuple[pd.DataFrame, int]:
     """The whole CSV as float64 columns: pandas' C parser, :data:`BLOCK_ROWS` rows at a time,
-    each block copied into one preallocated array per column.
+    each block copied into one preallocated array per column (a file of one block at most,
+    such as a Flatplank run, is read in one call).
 
     One ``pd.read_csv`` of the whole file holds its parsed blocks and their concatenation at
     the same time (1.8 GB for a 5e6 x 13 table of 0.52 GB); here the only transient memory is
@@ -391,13 +392,15 @@ def _parse_floats(path: Path) -> tuple[pd.DataFrame, int]:
     Returns the table and the line count (:func:`_count_lines`).
     """
     capacity = _count_lines(path)
+    options = dict(header=0, dtype=np.float64, index_col=False, skipinitialspace=True,
+                   encoding="utf-8-sig", na_values=BOOLEAN_CELLS,
+                   compression="gzip" if is_gzip(path) else None)
+    if capacity <= BLOCK_ROWS:  # one block: read it as it is (no copy, no reader per block)
+        return pd.read_csv(path, **options), capacity
     columns: list[np.ndarray] = []
     names: list[str] = []
     rows = 0
-    with pd.read_csv(path, header=0, dtype=np.float64, index_col=False,
-                     skipinitialspace=True, encoding="utf-8-sig", na_values=BOOLEAN_CELLS,
-                     compression="gzip" if is_gzip(path) else None,
-                     chunksize=BLOCK_ROWS) as reader:
+    with pd.read_csv(path, **options, chunksize=BLOCK_ROWS) as reader:
         for block in reader:
             if not names:
                 names = [str(c) for c in block.columns]

@@ -338,13 +338,24 @@ def test_make_fits_batch(tmp_path):
     assert _make("-q", "fits", *var).returncode == 0
 
 
+@pytest.fixture(scope="module")
+def small_folder(tmp_path_factory) -> Path:
+    """A small simulated folder (Flatplank and trailer runs, seed 1)."""
+    from identify.io.tir import read_tir
+    from identify.simulate import default_tir_path, simulate_folder
+
+    folder = tmp_path_factory.mktemp("small") / "s1"
+    simulate_folder(read_tir(default_tir_path()).params(), folder, seed=1, grid="small")
+    return folder
+
+
 class _Stop(Exception):
     """Raised by the test's stand-in once it has recorded the segmentation settings."""
 
 
 @pytest.mark.parametrize("flag, averaged", [((), True), (("--no-revolution-average",), False)])
 def test_revolution_average_option_reaches_the_segmentation(tmp_path, monkeypatch, flag,
-                                                            averaged):
+                                                            averaged, small_folder):
     """``--no-revolution-average`` switches the filter off in both segmentations of the MF
     stages' samples: the session logs' (prepare_trailer) and the other runs with a warm-up
     (sweep_bins.mf_table). The fit is stopped there: only the wiring is under test; what the
@@ -364,7 +375,7 @@ def test_revolution_average_option_reaches_the_segmentation(tmp_path, monkeypatc
 
     monkeypatch.setattr(fit_workflow, "prepare_trailer", record_prepare)
     monkeypatch.setattr(fit_workflow, "mf_table", record_table)
-    result = _fit(tmp_path, ROOT / "measurements" / "sample-225-50R17", "--only", "MF",
+    result = _fit(tmp_path, small_folder, "--only", "MF",
                   "--no-report", *flag)
     assert isinstance(result.exception, _Stop)
     assert seen == {"prepare_trailer": averaged, "mf_table": averaged}
