@@ -199,11 +199,12 @@ def trailer_problems(trailer: pd.DataFrame, tir: dict, ctx: R.Context,
     for name in ("Fx", "Fy", "Mx", "Mz"):
         p = stage_problem(name, frame, base)
         if p is not None:
+            p0 = float(base.get("NOMPRES", 0.0) or 0.0)
+            at_pressure = (None if not p0 > 0 else lambda v, dpi, name=name, p0=p0: stage_problem(
+                name, frame.assign(p=p0 * (1.0 + dpi)), {**base, **v}))
             out.append(_named(p, f"MF/{name}", rebuild=lambda v, name=name: stage_problem(
                 name, frame, {**base, **v}), depends_on=STAGE_INPUTS[name],
-                at_pressure=lambda v, dpi, name=name: stage_problem(
-                    name, frame.assign(p=float(base["NOMPRES"]) * (1.0 + dpi)),
-                    {**base, **v})))
+                at_pressure=at_pressure))
     if with_rr:
         rr = _rr_from_sweeps(frame, ctx)
         if rr is not None:
