@@ -255,17 +255,18 @@ def pooled_score_variance(H: np.ndarray, r: np.ndarray, clusters: Sweeps,
     same size per unit norm, whatever its pressure: the control-group argument of inference
     with few treated clusters. The residuals are those of the base fit, r = M e, so
     E h_c^2 = sigma^2 (a_c - l_c) for independent errors of variance sigma^2: without l_c
-    kappa came short by about the share of the fitted parameters in the sweeps' degrees of
-    freedom, and the test rejected a true null above its level. Controls are the sweeps whose
-    column per unit norm of the shape, G_c^T G_c / a_c, is below :data:`CONTROL_SHARE` of the
-    largest sweep's; the sweeps that carry the candidate are left out, since their h_c would
-    hold the effect itself (a session at two pressures, half its sweeps off the nominal one,
-    lost most of its power with them). Without G every sweep is a control. The shape is not
-    projected on the fitted parameters' complement: at one pressure a pressure coefficient's
-    shape is a base coefficient's column (PPY3's is PDY1's, PPY1's PKY1's), which the
-    projection would remove whole. Degrees of freedom: Satterthwaite's for a sum of squares
-    weighted by a_c - l_c, (sum (a_c - l_c))^2 / sum (a_c - l_c)^2, the number of control
-    sweeps that effectively hold the shape.
+    kappa would come short by about the share of the fitted parameters in the sweeps'
+    degrees of freedom, and the test would reject a true null above its level. Controls are
+    the sweeps whose column per unit norm of the shape, G_c^T G_c / a_c, is below
+    :data:`CONTROL_SHARE` of the largest sweep's; the sweeps that carry the candidate are left
+    out, since their h_c would hold the effect itself (a session at two pressures, half its
+    sweeps off the nominal one, would lose most of its power with them). Without G every sweep
+    is a control. The shape is not projected on the fitted parameters' complement: at one
+    pressure a pressure coefficient's shape is a base coefficient's column (PPY3's is PDY1's,
+    PPY1's PKY1's), which the projection would remove whole. Degrees of freedom:
+    Satterthwaite's for a sum of squares weighted by a_c - l_c,
+    (sum (a_c - l_c))^2 / sum (a_c - l_c)^2, the number of control sweeps that effectively
+    hold the shape.
 
     Parameters
     ----------
