@@ -413,7 +413,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                            "coefficient held)")
             mf = profile_intervals(trailer, mf, progress, pool=pool)
             if settings.pressure_holdout:
-                holdout = pressure_holdout(trailer, mf, progress=progress).to_dict()
+                holdout = pressure_holdout(trailer, mf, progress=progress, pool=pool).to_dict()
             fitted_mf = True
             for r in mf.results:
                 if settings.mcmc:

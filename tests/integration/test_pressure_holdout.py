@@ -150,3 +150,19 @@ def test_the_page_table_and_bars():
     _bars(ax, ph)
     assert ax.get_yscale() == "log"  # 2 % beside 9000 % stays readable
     assert [t.get_text() for t in ax.get_xticklabels()] == ["Fy0", "Mx"]
+
+
+def test_a_worker_process_gives_the_serial_numbers(case):
+    """The levels the pool takes (every other one) are refitted from their own arguments: the
+    record is the serial loop's, to the bit, but for the wall times."""
+    from identify.core.workers import process_pool
+
+    _, table, mf = case
+    serial = pressure_holdout(table, mf).to_dict()
+    with process_pool(1) as pool:
+        pooled = pressure_holdout(table, mf, pool=pool).to_dict()
+    for d in (serial, pooled):
+        d.pop("seconds")
+        for lv in d["levels"]:
+            lv.pop("seconds")
+    assert pooled == serial

@@ -29,6 +29,7 @@ import math
 import re
 import time
 from collections.abc import Mapping, Sequence
+from concurrent.futures import Executor
 from dataclasses import dataclass
 from typing import Any
 
@@ -173,10 +174,24 @@ def refit_without(trailer: pd.DataFrame, mf: MFFit, rows_out: np.ndarray
     return params, converged
 
 
+def _timed_refit(trailer: pd.DataFrame, mf: MFFit, rows_out: np.ndarray
+                 ) -> tuple[dict[str, float], bool, float]:
+    """:func:`refit_without` and its wall time [s] (a worker's job)."""
+    t = time.perf_counter()
+    params, converged = refit_without(trailer, mf, rows_out)
+    return params, converged, time.perf_counter() - t
+
+
 def pressure_holdout(trailer: pd.DataFrame, mf: MFFit, *,
-                     progress: Progress | None = None) -> PressureHoldout:
+                     progress: Progress | None = None,
+                     pool: Executor | None = None) -> PressureHoldout:
     """Refit the MF stages of ``mf`` without each pressure level of ``trailer`` (the table
-    ``mf`` was fitted to) and predict it (see the module notes)."""
+    ``mf`` was fitted to) and predict it (see the module notes).
+
+    ``pool`` (worker processes, identify.core.workers.process_pool) takes every other level's
+    refit while this process solves the rest: the refits do not depend on each other, and
+    each is computed from its own arguments alone, so the numbers are those of the serial
+    loop."""
     t0 = time.perf_counter()
     shown = [r.form for r in mf.results if r.form in FORCE_STAGES]
     groups = pressure_groups(trailer)
@@ -186,12 +201,14 @@ def pressure_holdout(trailer: pd.DataFrame, mf: MFFit, *,
                                            "data: none to hold out", method=METHOD)
     if not shown:
         return PressureHoldout((), skipped="no force or moment stage was fitted", method=METHOD)
+    away = {k: pool.submit(_timed_refit, trailer, mf, groups == level)
+            for k, level in enumerate(levels) if pool is not None and k % 2 == 1}
     out = []
     for k, level in enumerate(levels):
-        t_level = time.perf_counter()
         if progress is not None:
             progress(f"pressure hold-out: MF stages without {level:.2f} bar")
-        params, converged = refit_without(trailer, mf, groups == level)
+        params, converged, seconds = (away[k].result() if k in away
+                                      else _timed_refit(trailer, mf, groups == level))
         points, ins, hout = {}, {}, {}
         for r in mf.results:
             if r.form not in shown:
@@ -205,8 +222,7 @@ def pressure_holdout(trailer: pd.DataFrame, mf: MFFit, *,
             points[r.form] = int(at.sum())
             ins[r.form] = _rms_pct(measured, np.asarray(r.predicted, float)[at])
             hout[r.form] = _rms_pct(measured, stage_prediction(params, r.form, pts))
-        out.append(LevelHoldout(float(level), points, ins, hout,
-                                time.perf_counter() - t_level, converged))
+        out.append(LevelHoldout(float(level), points, ins, hout, seconds, converged))
     return PressureHoldout(tuple(out), method=METHOD, seconds=time.perf_counter() - t0)
 
 
