@@ -14,6 +14,7 @@ import math
 import textwrap
 
 import numpy as np
+from matplotlib.ticker import FuncFormatter, NullFormatter
 
 from identify.fit.mf.pressure_holdout import FORCE_STAGES, PressureHoldout
 from identify.io.fitdir import FitDir
@@ -60,8 +61,9 @@ def pressure_pages(fd: FitDir) -> list[Page]:
     if ph is None or not ph.levels:
         settings = fd.run.settings
         why = (ph.skipped if ph is not None and ph.skipped else
-               "not computed: run mfid fit with --pressure-holdout to refit the force and "
-               "moment stages without each pressure level and predict it" if settings is not None
+               "not computed: the fit ran without it (mfid fit --no-pressure-holdout, or a "
+               "fit.json written before it was on by default); mfid fit refits the force and "
+               "moment stages without each pressure level and predicts it" if settings is not None
                and not settings.pressure_holdout else "not computed for this fit")
         fig = new_page(TITLE, "each measured pressure predicted by the model fitted without it")
         ax = fig.add_axes((0.04, 0.1, 0.92, 0.75))
@@ -112,6 +114,12 @@ def _bars(ax, ph: PressureHoldout) -> None:
                label="in-sample (full fit)" if i == 0 else None)
     ax.set_xticks(x, stages)
     ax.set_yscale("log")
+    # plain numbers (the log axis writes 10^0 and, under a decade, labels its minor ticks
+    # 1.2 x 10^0): the minor ticks labelled only where the bars span less than a decade
+    plain = FuncFormatter(lambda v, _pos: f"{v:g}")
+    lo, hi = ax.get_ylim()
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(plain if hi < 10 * lo else NullFormatter())
     ax.set_ylabel("thesis error at the level [%] (log scale)")
     ax.set_title("held-out (coloured) and in-sample (hatched) error per level", fontsize=9)
     ax.grid(axis="y", which="both", lw=0.3, alpha=0.6)
