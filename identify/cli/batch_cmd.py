@@ -147,7 +147,7 @@ def batch_command(
     no_bin: shared.NoBinOption = False,
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
-    pressure_holdout: shared.PressureHoldoutOption = False,
+    pressure_holdout: shared.PressureHoldoutOption = True,
     no_report: bool = typer.Option(False, "--no-report", help="No PDF (per tyre or summary)."),
 ) -> None:
     """Fit many measurement folders, each as `mfid fit` would, in parallel.

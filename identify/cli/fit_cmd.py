@@ -193,7 +193,7 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
                      no_report, fittyp, mcmc_ar1=False, mcmc_max_steps=None,
                      mcmc_budget=None, forms=(), hold=(), bin_alpha=None, bin_kappa=None,
                      no_bin=False, no_segment=False, no_revolution_average=False,
-                     pressure_holdout=False) -> str:
+                     pressure_holdout=True) -> str:
     args = ["mfid", "fit", str(folder)]
     if str(out) != "fits":
         args += ["--out", str(out)]
@@ -227,8 +227,8 @@ def fit_command_line(folder, out, reports, mcmc, seed, only, nominal_pressure, n
         args.append("--no-bin")
     if no_revolution_average:
         args.append("--no-revolution-average")
-    if pressure_holdout:
-        args.append("--pressure-holdout")
+    if not pressure_holdout:
+        args.append("--no-pressure-holdout")
     if bin_alpha is not None:
         args += ["--bin-alpha", f"{bin_alpha:g}"]
     if bin_kappa is not None:
@@ -266,7 +266,7 @@ def fit_command(
     no_bin: shared.NoBinOption = False,
     no_segment: shared.NoSegmentOption = False,
     no_revolution_average: shared.NoRevolutionAverageOption = False,
-    pressure_holdout: shared.PressureHoldoutOption = False,
+    pressure_holdout: shared.PressureHoldoutOption = True,
     no_report: bool = typer.Option(False, "--no-report", help="Skip the PDF report."),
     workers: int | None = typer.Option(
         None, "--workers", min=1, metavar="N", envvar="MFID_WORKERS",

@@ -95,8 +95,9 @@ class FitSettings(Serial):
                            PASS_GAIN (docs/commands.md, "mfid fit")
     pressure_holdout : bool   predict each pressure level of the MF fit by the stages fitted
                            again without it (identify.fit.mf.pressure_holdout; the report's
-                           pressure page); off by default: a refit per level can cost as
-                           much as the MF fit itself
+                           pressure page; the session's own test of the mission's claim
+                           that the pressure terms carry, so on by default: False saves a
+                           local refit per level)
     """
 
     seed: int = 0
@@ -116,7 +117,7 @@ class FitSettings(Serial):
     segment: bool = True
     revolution_average: bool = True
     mf_passes: int = 2
-    pressure_holdout: bool = False
+    pressure_holdout: bool = True
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> FitSettings:
