@@ -38,6 +38,7 @@ from identify.cli import fit_options as shared
 from identify.cli.app import _STATE, app, err_console, fail, out_console
 from identify.core.errors import FitError, MfidError
 from identify.core.workers import default_workers, process_pool, warm_up
+from identify.fit.every_sample import EverySample
 from identify.fit.mcmc.steps import ChainProgress
 from identify.fit.status import POOR_FIT, POORLY_IDENTIFIED
 from identify.fit.summary import SUMMARY_TITLE, fmt_pct, notes_lines
@@ -364,6 +365,10 @@ def data_lines(run: FitRun) -> list[str]:
     if run.skipped:
         lines.append("MF stages skipped (their coefficients keep their default values):")
         lines += [f"  {stage}: {why}" for stage, why in run.skipped.items()]
+    every = EverySample.from_dict(run.every_sample)
+    if every is not None and every.summary_line():
+        lines.append(every.summary_line())
+        lines += [f"  {note}" for note in every.notes]
     found = (run.data_quality or {}).get("warnings") or []
     if found:
         kinds: dict[str, int] = {}

@@ -196,7 +196,8 @@ class Provenance(Serial):
 def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
     """mfid.fit/1 -> /2: every entry present. A version-1 document may lack the entries
     recorded later (``failed``, ``flags``, ``coverage``, ``data_quality``,
-    ``pressure_holdout``, the .tir's ``key_sources`` and ``forms``) and the provenance's
+    ``pressure_holdout``, ``every_sample``, the .tir's ``key_sources`` and ``forms``) and the
+    provenance's
     fields, or hold them as null: they read as empty (an unknown version and command, seed 0);
     a key source written as a plain string (the ``relation/form`` that supplied it) is a
     fitted one; a null text of the tyre (source, size, description) is its default; the
@@ -205,7 +206,7 @@ def _fit_v1_to_v2(doc: dict[str, Any]) -> dict[str, Any]:
     out["tyre"] = {k: v for k, v in (out.get("tyre") or {}).items()
                    if v is not None or k not in _TYRE_TEXTS}
     for key, empty in (("failed", []), ("flags", []), ("coverage", []), ("data_quality", {}),
-                       ("pressure_holdout", {})):
+                       ("pressure_holdout", {}), ("every_sample", {})):
         out[key] = out.get(key) or empty
     tir = dict(out.get("tir") or {})
     tir["fittyp"] = int(tir.get("fittyp") or 61)
@@ -271,6 +272,10 @@ class FitRun:
                                       fitted again without it (identify.fit.
                                       pressure_holdout.PressureHoldout.to_dict); empty when not
                                       computed
+    every_sample : Mapping            the written .tir against every loaded trailer sample,
+                                      per kind of run, segmentation group and pressure
+                                      (identify.fit.every_sample.EverySample.to_dict); empty
+                                      without trailer data
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known
@@ -288,6 +293,7 @@ class FitRun:
     coverage: tuple[StageCoverage, ...] = ()
     data_quality: Mapping[str, Any] = field(default_factory=dict, repr=False)
     pressure_holdout: Mapping[str, Any] = field(default_factory=dict, repr=False)
+    every_sample: Mapping[str, Any] = field(default_factory=dict, repr=False)
     tir_values: Mapping[str, Any] = field(default_factory=dict, repr=False, compare=False)
     fit_dir: Path | None = field(default=None, compare=False)
     points: Any = field(default=None, repr=False, compare=False)
@@ -435,7 +441,8 @@ class FitRun:
             "flags": [dict(f) for f in self.flags], "failed": list(self.failed),
             "coverage": [c.to_dict() for c in self.coverage],
             "data_quality": dict(self.data_quality),
-            "pressure_holdout": dict(self.pressure_holdout)})
+            "pressure_holdout": dict(self.pressure_holdout),
+            "every_sample": dict(self.every_sample)})
 
     @classmethod
     def from_dict(cls, doc: Any) -> FitRun:
@@ -481,10 +488,12 @@ class FitRun:
             quality = dict(doc["data_quality"])
         with _entry("pressure_holdout"):
             holdout = dict(doc["pressure_holdout"])
+        with _entry("every_sample"):  # a document written before it: empty
+            every = dict(doc.get("every_sample") or {})
         return cls(tyre=tyre, provenance=provenance, results=tuple(results),
                    key_sources=key_sources, fittyp=fittyp, tir_name=tir_name, flags=flags,
                    failed=failed, form_choices=forms, coverage=coverage,
-                   data_quality=quality, pressure_holdout=holdout)
+                   data_quality=quality, pressure_holdout=holdout, every_sample=every)
 
 
 class _entry:

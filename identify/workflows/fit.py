@@ -27,6 +27,7 @@ from identify.core.names import name_problem
 from identify.core.progress import Progress
 from identify.extract import extract_folder
 from identify.fit.coverage import coverage_text, mf_coverage
+from identify.fit.every_sample import every_sample, segment_kinds
 from identify.fit.identifiability import assess
 from identify.fit.mcmc.chains import ChainSession, run_mcmc
 from identify.fit.mcmc.steps import ChainProgress
@@ -378,6 +379,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
 
     coverage: tuple = ()
     holdout: dict = {}  # the pressure page's record (identify.fit.mf.pressure_holdout)
+    seg_kinds = None  # per loaded trailer row, what the segmentation made of it
     fitted_mf = False  # the MF stages ran: the written limits must meet their conditions
     quality: dict = {"warnings": [w.to_dict() for w in mset.warnings]} if mset.warnings else {}
     if mset.trailer is not None and len(mset.trailer) and wanted("MF"):
@@ -390,6 +392,8 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
             _say(progress, f"turn-arounds: Mz of {td.mz_turnaround} samples at slip-angle "
                            "turn-arounds left out (the rig's steering transient)")
         quality["trailer"] = td.to_dict()
+        seg_kinds = segment_kinds(mset.trailer, td.segmentation.segments
+                                  if td.segmentation is not None else None, td.segmented_runs)
         trailer = _mf_trailer(td, float(tyre.nominal_load_N), settings, progress)
         coverage = mf_coverage(trailer, float(tyre.nominal_load_N), unavailable=td.unavailable)
         if any(ef.result.converged for ef in prefit.values()):
@@ -459,6 +463,10 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
     points = pd.concat(rows, ignore_index=True) if rows else pd.DataFrame()
     TA.apply_limits(tir, key_sources, points)
     broken = _broken_validity(tir, points) if fitted_mf else ()
+    every = {}
+    if mset.trailer is not None and len(mset.trailer):
+        _say(progress, "the .tir against every loaded trailer sample")
+        every = every_sample(_numeric(tir), mset.trailer, seg_kinds).to_dict()
     run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,
                                                      settings=settings,
                                                      checksums=mset.checksums,
@@ -468,7 +476,8 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
                  fittyp=settings.fittyp, tir_name=f"{tyre.id}.tir",
                  flags=tuple(dict(f) for f in flags), failed=failures(results) + broken,
                  tir_values=tir, form_choices=tuple(choices), coverage=coverage,
-                 data_quality=quality, pressure_holdout=holdout, points=points,
+                 data_quality=quality, pressure_holdout=holdout, every_sample=every,
+                 points=points,
                  extraction=extraction)
     return dataclasses.replace(run, results=tuple(
         dataclasses.replace(r, points=rows_of(points, r)) for r in run.results))
