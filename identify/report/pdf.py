@@ -38,6 +38,7 @@ from identify.core.version import __version__
 from identify.fit.run import JSON_NAME
 from identify.io.fitdir import FitDir, read_fit_dir
 from identify.report.cover import cover, inputs_appendix
+from identify.report.every_sample_pages import every_sample_pages
 from identify.report.fit_pages import fit_pages
 from identify.report.mcmc_pages import mcmc_pages
 from identify.report.pressure_pages import pressure_pages
@@ -133,6 +134,7 @@ def _last_pages(fd: FitDir, split: int, progress: Progress | None, earlier):
         progress("report: MF slip pages")
     yield from slip_pages(fd, slip)
     yield from pressure_pages(fd)
+    yield from every_sample_pages(fd)
     yield from _per_fit(fd, [f for f in fd.results if f.mcmc is not None], mcmc_pages, "MCMC ",
                         progress, own)
     notes = list(earlier()) + own
