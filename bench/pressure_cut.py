@@ -75,7 +75,7 @@ def judge_cut(mset, table, inputs, ok, level_idx, levels, k, say) -> dict:
     cut = level_idx == k
     t0 = time.perf_counter()
     run = fit_measurements(dataclasses.replace(mset, trailer=table[~cut].reset_index(drop=True)),
-                           settings=FitSettings())
+                           settings=FitSettings(pressure_holdout=False))
     seconds = time.perf_counter() - t0
     params = {n: float(v) for n, v in run.tir_values.items() if isinstance(v, (int, float))}
     model = RD.predict(params, inputs)

@@ -408,9 +408,10 @@ def mfid(*args: str) -> tuple[float, float, int, str]:
 
 
 def variant_settings(name: str):
-    """The FitSettings of a variant (as its ``mfid fit`` flags set them)."""
+    """The FitSettings of a variant (as its ``mfid fit`` flags set them) for the fits made in
+    this process, which judge the .tir alone: without the report's pressure hold-out."""
     from identify.fit.run import FitSettings
-    s = FitSettings()
+    s = FitSettings(pressure_holdout=False)
     if name == "no-segment":
         return dataclasses.replace(s, segment=False)
     if name == "no-bin":

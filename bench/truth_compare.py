@@ -48,7 +48,8 @@ def compare_folder(folder: Path, out: Path, seed: int = 0, only: tuple[str, ...]
     t0 = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
-        run = fit_folder(folder, out_root=out, settings=FitSettings(seed=seed, only=only))
+        run = fit_folder(folder, out_root=out, settings=FitSettings(seed=seed, only=only,
+                                                                  pressure_holdout=False))
     seconds = time.perf_counter() - t0
     truth = json.loads((folder / "truth.json").read_text())["tir"]
     points = pd.read_csv(run.csv_path)

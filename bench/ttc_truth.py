@@ -98,7 +98,7 @@ def trial(seed: int, where: str, binned: bool = True, proposed: bool = False,
                                    "unloaded_radius_m": float(truth["UNLOADED_RADIUS"])}
     imp = import_session(sorted((where / "ttc").glob("*.mat")), where / "folder",
                          overwrite=True, **nominal)
-    settings = FitSettings(revolution_average=revolution_average)
+    settings = FitSettings(revolution_average=revolution_average, pressure_holdout=False)
     if not binned:
         settings = dataclasses.replace(settings, bin_alpha_deg=None, bin_kappa=None)
     stages = {}
