@@ -8,11 +8,12 @@ evaluates each fit's .tir, steady state, on every loaded sample with a positive 
 pooled error 100 RMS(model - measured) / RMS(measured) of Fx, Fy, Mz and Mx over all samples
 and over the samples of each kind of run:
 
-``cornering``    the runs the import classed as cornering (free rolling, slip angle swept);
-``drive/brake``  the other runs' samples at |alpha| < 1 deg (pure longitudinal slip);
-``combined``     the other runs' samples at |alpha| >= 1 deg.
+``free rolling``  the runs without a slip-ratio sweep or a held slip ratio;
+``drive/brake``   the other runs' samples at |alpha| < 1 deg (pure longitudinal slip);
+``combined``      the other runs' samples at |alpha| >= 1 deg
 
-A freely rolling run's slip-ratio channel is taken as 0, as the fit takes it (bench/realdata.py).
+(identify.fit.every_sample, which fit.json's ``every_sample`` records for the fit's own .tir). A
+freely rolling run's slip-ratio channel is taken as 0, as the fit takes it.
 ``--tir SET=FILE`` evaluates another .tir (a published fit) on the same samples.
 
     nice python bench/allsample.py                           # every set, every variant
@@ -35,39 +36,23 @@ import time  # noqa: E402
 from collections.abc import Mapping, Sequence  # noqa: E402
 from pathlib import Path  # noqa: E402
 
-import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import realdata as RD  # noqa: E402
 
-KINDS = ("all", "cornering", "drive/brake", "combined")
 VARIANTS = ("default", "no-segment", "no-bin")
-PURE_ANGLE_DEG = 1.0
-"""[deg] samples of a non-cornering run below this |alpha| are pure longitudinal slip."""
 
 
-def run_kinds(tests: Mapping[str, str], table: pd.DataFrame) -> np.ndarray:
-    """The kind of run of every sample (see the module notes); ``tests``: run id -> the
-    manifest's test of the run."""
-    test = table["run"].astype(str).map(dict(tests)).to_numpy()
-    a = np.abs(np.rad2deg(table["alpha"].to_numpy(float)))
-    return np.where(test == "cornering", "cornering",
-                    np.where(a < PURE_ANGLE_DEG, "drive/brake", "combined"))
-
-
-def kind_errors(inputs: pd.DataFrame, model: Mapping[str, np.ndarray], kinds: np.ndarray,
-                ok: np.ndarray) -> dict[str, dict[str, float]]:
-    """Kind -> channel -> pooled error [%] (and ``n``, the samples)."""
-    out = {}
-    for k in KINDS:
-        rows = ok if k == "all" else ok & (kinds == k)
-        if not rows.any():
-            continue
-        out[k] = {c: RD.rms_pct(inputs[c].to_numpy(float)[rows], model[c][rows])
-                  for c in RD.CHANNELS if c in inputs.columns}
-        out[k]["n"] = int(rows.sum())
-    return out
+def kind_errors(params: Mapping[str, float], table: pd.DataFrame) -> dict[str, dict[str, float]]:
+    """Kind of run -> channel -> pooled error [%] (and ``n``, the samples): the groups ``all``
+    and ``run`` of :func:`identify.fit.every_sample.every_sample`, which the fit records in
+    fit.json for its own .tir."""
+    from identify.fit.every_sample import every_sample
+    es = every_sample(params, table)
+    return {("all" if g.by == "all" else g.name): {
+        **{c: e.pooled_pct for c, e in g.channels.items()}, "n": g.samples}
+        for g in es.groups if g.by in ("all", "run")}
 
 
 def judge_set(folder: Path, work: Path, variants: Sequence[str], tirs: Sequence[Path],
@@ -78,17 +63,15 @@ def judge_set(folder: Path, work: Path, variants: Sequence[str], tirs: Sequence[
     if failed:
         rec["skipped"] = failed
         return rec
-    kinds = run_kinds({r.id: r.test for r in mset.manifest.runs}, table)
     for v in variants:
         say(f"{folder.name}: fit {v}")
         t0 = time.perf_counter()
         run = fit_measurements(mset, settings=RD.variant_settings(v))
         params = {n: float(x) for n, x in run.tir_values.items() if isinstance(x, (int, float))}
         rec["fits"][v] = {"seconds": time.perf_counter() - t0, "failed": list(run.failed),
-                          "errors": kind_errors(inputs, RD.predict(params, inputs), kinds, ok)}
+                          "errors": kind_errors(params, table)}
     for tir in tirs:
-        rec["fits"][f"tir {tir.name}"] = {"errors": kind_errors(
-            inputs, RD.predict(RD._tir_params(tir), inputs), kinds, ok)}
+        rec["fits"][f"tir {tir.name}"] = {"errors": kind_errors(RD._tir_params(tir), table)}
     return rec
 
 
