@@ -44,6 +44,8 @@ __all__ = ["CHANNELS", "ChannelError", "EverySample", "SampleGroup", "every_samp
 
 CHANNELS = ("Fx", "Fy", "Mz", "Mx")
 """The forces and moments judged."""
+INPUTS = ("Fz", "Vx", "alpha", "kappa", "gamma", "p")
+"""The model's inputs: a sample needs them finite (and a positive load) to be judged."""
 UNITS = {"Fx": "N", "Fy": "N", "Mz": "N m", "Mx": "N m"}
 PURE_ANGLE = np.deg2rad(1.0)
 """[rad] a sample of a run that is not freely rolling is pure longitudinal slip below this
@@ -193,10 +195,12 @@ def every_sample(params: Mapping[str, float], trailer: pd.DataFrame,
         Per row what the segmentation made of it (``sweep``, ``transition``, ``warmup``,
         ``steady``, ``partial``, ``not segmented``); None: no segmentation group.
     """
+    if any(c not in trailer.columns for c in ("run", *INPUTS)):
+        return EverySample(0, len(trailer), ())
     table = rolling_kappa(trailer.reset_index(drop=True))
     fz = table["Fz"].to_numpy(float)
     ok = fz > 0
-    for c in ("Vx", "alpha", "kappa", "gamma", "p"):
+    for c in INPUTS:
         ok &= np.isfinite(table[c].to_numpy(float))
     t = table[ok]
     if t.empty:

@@ -94,6 +94,9 @@ def test_rows_the_model_cannot_take_are_left_out(truth):
     t.loc[10:19, "alpha"] = np.nan
     es = every_sample(truth, t)
     assert es.samples == len(t) - 20 and es.loaded == len(t)
+    # a table without an input the model needs has nothing to judge (and no page)
+    none = every_sample(truth, t.drop(columns="p"))
+    assert none.groups == () and none.samples == 0 and none.summary_line() == ""
 
 
 def test_the_segment_kind_of_every_row():
