@@ -119,7 +119,8 @@ def nearest_image(x: np.ndarray, ref: np.ndarray, patterns: np.ndarray,
     if len(patterns) <= 1:
         return x
     unit = np.maximum(np.abs(ref), 1e-3) if scale is None else np.asarray(scale, dtype=float)
-    d = np.sum(((patterns * x - ref) / unit) ** 2, axis=1)
+    with np.errstate(over="ignore"):  # a runaway value is infinitely far: the answer meant
+        d = np.sum(((patterns * x - ref) / unit) ** 2, axis=1)
     return patterns[int(np.argmin(d))] * x
 
 

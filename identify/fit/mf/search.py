@@ -153,8 +153,9 @@ def ladder_sizes(n: int) -> list[int]:
 def _within_merge(J: np.ndarray, dx: np.ndarray, s2: float) -> bool:
     """A step ``dx`` within MERGE_CHI2 in chi^2 in the metric of ``J``: ||J dx||^2 <=
     MERGE_CHI2 s^2."""
-    d = J @ dx
-    return bool(d @ d <= MERGE_CHI2 * s2)
+    with np.errstate(over="ignore", invalid="ignore"):  # a runaway step: not within (inf)
+        d = J @ dx
+        return bool(d @ d <= MERGE_CHI2 * s2)
 
 
 def prune(problem: FitProblem, candidates: list[np.ndarray]) -> list[np.ndarray]:
