@@ -30,6 +30,9 @@ from identify.report.layout import (
 )
 
 TITLE = "Pressure prediction"
+FEW_POINTS = 20
+"""A stage with fewer points at a level is greyed: its errors there rest on a handful of
+points (a few free-rolling points of a slip-ratio stage)."""
 
 
 def _pct(x: float) -> str:
@@ -78,10 +81,14 @@ def pressure_pages(fd: FitDir) -> list[Page]:
     shown = rows if len(rows) <= n_fit else rows[:n_fit - 1] + [
         ["...", f"{len(rows) - n_fit + 1} more rows in fit.json", "", "", "", ""]]
     ax = fig.add_axes((0.04, 0.22, 0.36, 0.64))
+    few = [r[2].isdigit() and int(r[2]) < FEW_POINTS for r in shown]
     draw_table(ax, ["p [bar]", "stage", "points", "in-sample %", "held-out %", "ratio"], shown,
                [0.14, 0.14, 0.15, 0.2, 0.2, 0.14], fontsize=7.5,
-               align=["right", "left", "right", "right", "right", "right"])
+               align=["right", "left", "right", "right", "right", "right"],
+               colours=[GREY if f else "black" for f in few])
     note = (f"How: {ph.method}. {len(ph.levels)} refits, {ph.seconds:.1f} s in all. "
+            + (f"Grey rows: under {FEW_POINTS} points at the level, too few for their ratio "
+               "to say much. " if any(few) else "") +
             "A ratio near 1 says the pressure terms carry to a pressure the model never saw; "
             "with one level left, the pressure terms stay at their defaults and the ratio "
             "shows what the pressure changes.")
@@ -89,8 +96,8 @@ def pressure_pages(fd: FitDir) -> list[Page]:
         note += (" Not converged: the refit without "
                  + ", ".join(f"{lv.pressure_bar:.2f} bar" for lv in ph.levels
                              if not lv.converged) + ".")
-    tx = fig.add_axes((0.04, 0.04, 0.36, 0.15))
-    text_block(tx, textwrap.wrap(note, 80), fontsize=7, colour=GREY)
+    tx = fig.add_axes((0.04, 0.07, 0.38, 0.14))  # its lines run down from the top
+    text_block(tx, textwrap.wrap(note, 92), fontsize=6.5, colour=GREY)
     _bars(fig.add_axes((0.47, 0.12, 0.50, 0.72)), ph)
     footer(fig, fd)
     return [("pressure prediction", fig)]
