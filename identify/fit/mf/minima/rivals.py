@@ -109,6 +109,9 @@ def chi2_scale(problem, xb: np.ndarray, se: np.ndarray, jac: np.ndarray | None =
     r = problem.residuals(xb)
     s2 = residual_variance(0.5 * float(r @ r), r.size, xb.size)
     jac = residual_jacobian(problem, xb) if jac is None else jac
-    iid = np.sqrt(np.diag(covariance(jac, r)))
+    # a rank-deficient J^T J's pseudo-inverse can leave a rounding-negative diagonal entry: no
+    # variance there (NaN, left out below) rather than a RuntimeWarning in the user's console
+    with np.errstate(invalid="ignore"):
+        iid = np.sqrt(np.diag(covariance(jac, r)))
     ok = np.isfinite(iid) & (iid > 0)
     return s2 * (float(np.median((se[ok] / iid[ok]) ** 2)) if ok.any() else 1.0)
