@@ -34,6 +34,7 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
+from identify.core.levels import gap_levels
 from identify.core.serial import Serial, from_data
 from identify.fit.mf.stage_data import rolling_kappa, run_sweeps
 from identify.model.evaluate import evaluate
@@ -152,18 +153,7 @@ def run_kinds(table: pd.DataFrame) -> np.ndarray:
 def pressure_levels(p: np.ndarray) -> np.ndarray:
     """Per sample its pressure level [Pa]: the median of its cluster, clusters being runs of
     sorted pressures without a step over PRESSURE_GAP (NaN stays NaN)."""
-    out = np.full(p.shape, np.nan)
-    ok = np.isfinite(p)
-    if not ok.any():
-        return out
-    order = np.argsort(p[ok])
-    sorted_p = p[ok][order]
-    cluster = np.r_[0, np.cumsum(np.diff(sorted_p) > PRESSURE_GAP)]
-    medians = np.array([np.median(sorted_p[cluster == c]) for c in range(cluster[-1] + 1)])
-    level = np.empty(sorted_p.size)
-    level[order] = medians[cluster]
-    out[ok] = level
-    return out
+    return gap_levels(p, PRESSURE_GAP, np.median)
 
 
 def _error(measured: np.ndarray, model: np.ndarray, level: np.ndarray) -> ChannelError | None:

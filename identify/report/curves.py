@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from identify.core.levels import gap_levels
 from identify.fit.relations.plan import PLAN
 from identify.fit.relations.problems import Context
 from identify.fit.result import FitResult
@@ -57,22 +58,8 @@ def x_column(quantity: str) -> str:
 
 def levels(values: np.ndarray, tol: float) -> np.ndarray:
     """Cluster sorted values into levels closer than ``tol``; return each value's level
-    (the level mean)."""
-    values = np.asarray(values, dtype=float)
-    out = np.full(values.shape, np.nan)
-    ok = np.isfinite(values)
-    if not ok.any():
-        return out
-    order = np.argsort(values[ok])
-    v = values[ok][order]
-    starts = np.r_[0, np.flatnonzero(np.diff(v) > tol) + 1]
-    level = np.empty_like(v)
-    for a, b in zip(starts, np.r_[starts[1:], v.size]):
-        level[a:b] = v[a:b].mean()
-    tmp = np.empty_like(v)
-    tmp[order] = level
-    out[ok] = tmp
-    return out
+    (the level mean: identify.core.levels.gap_levels)."""
+    return gap_levels(values, tol)
 
 
 def secondary_columns(rows: pd.DataFrame, xcol: str) -> list[str]:
