@@ -20,6 +20,7 @@ from identify.io.tydex import TydexChannel, TydexEntry, TydexFile, write_tydex
 from identify.simulate.manifest import toml_value
 
 TIR = Path(__file__).parent / "data" / "tir" / "testA_61.tir"
+SAMPLE = Path(__file__).resolve().parents[1] / "measurements" / "sample-225-50R17"
 TRAILER_NAMES = ("RUNTIME", "LONGVEL", "WHROTSPD", "SLIPANGL", "LONGSLIP", "INCLANGL",
                  "INFLPRES", "FX", "FYW", "FZW", "MXW", "MYW", "MZW")
 FLATPLANK_NAMES = ("time", "Gx1", "Gx2", "Gy", "Gz1", "Gz2", "plank_x", "wheel_angle", "psi",
@@ -155,6 +156,20 @@ def write_good_folder(root: Path) -> Path:
     shutil.copy(TIR, root / "extra" / "tyre.tir")
     (root / PTS).write_text(POINTS)
     return root
+
+
+def sample_trailer_folder(folder: Path) -> Path:
+    """The bundled sample's trailer runs alone, as a measurement folder at ``folder``: its
+    tyre.toml (the [tyre] and [rig] tables, the trailer runs' entries) and trailer files. Its
+    trailer table is the sample's, without reading the sample's 735 Flatplank files."""
+    head, *runs = (SAMPLE / "tyre.toml").read_text().split("[[runs]]")
+    keep = [r for r in runs if 'kind = "trailer"' in r]
+    (folder / "trailer").mkdir(parents=True)
+    (folder / "tyre.toml").write_text(head + "".join("[[runs]]" + r for r in keep))
+    for r in keep:
+        name = r.split('file = "')[1].split('"')[0]
+        shutil.copy(SAMPLE / name, folder / name)
+    return folder
 
 
 def rewrite_lines(rel: str, change):

@@ -36,10 +36,12 @@ def segmented(session) -> tuple[SegmentedTable, pd.DataFrame]:
     return segment_trailer(table), table
 
 
-def check(session) -> SegmentedTable:
+def check(session, result: SegmentedTable | None = None) -> SegmentedTable:
     """Assert the acceptance: levels = set points (all, none extra); every programmed sweep
-    found once at its levels; no warm-up or cold sample kept; transitions < 1 %."""
-    result, _ = segmented(session)
+    found once at its levels; no warm-up or cold sample kept; transitions < 1 %. ``result``:
+    the session's :func:`segmented` table when the caller has it already."""
+    if result is None:
+        result, _ = segmented(session)
     seg = result.segmentation
     for channel, want in set_points(session.truth).items():
         got = seg.level_values(channel)

@@ -426,12 +426,13 @@ def test_no_command_modifies_the_folder(tmp_path):
         ["eval", root / "extra" / "tyre.tir", "--input", root / "extra" / "points.csv",
          "--output", out / "eval.csv"],
     ]
+    before = {folder: _fingerprint(folder) for folder in (root, bad)}
+    for args in commands:  # each command leaves both folders as they were
+        result = runner.invoke(app, [str(a) for a in args])
+        assert result.exit_code in (0, 2), (args, result.output)
+        for folder in (root, bad):
+            assert _fingerprint(folder) == before[folder], (folder, args)
+    load_folder(root)
     for folder in (root, bad):
-        before = _fingerprint(folder)
-        for args in commands:
-            result = runner.invoke(app, [str(a) for a in args])
-            assert result.exit_code in (0, 2), (args, result.output)
-            assert _fingerprint(folder) == before, args
-        load_folder(root)
-        assert _fingerprint(folder) == before
+        assert _fingerprint(folder) == before[folder], folder
     assert (out / "eval.csv").is_file() and (out / "a.h5").is_file()

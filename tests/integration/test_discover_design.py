@@ -191,7 +191,7 @@ def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
     from identify.io.folder import load_folder
     from identify.workflows.discover import sweeps_only
     from identify.workflows.import_session import import_session
-    from tests.discover_cases import ROOT
+    from tests.measurement_cases import sample_trailer_folder
     from tests.ttc_cases import session
 
     s = session(tmp_path / "s", seed=2, cornering_only=True)
@@ -203,7 +203,7 @@ def test_session_log_keeps_its_sweeps_and_test_folders_stay(tmp_path):
     assert notes and "warm-ups" in notes[0]
     assert kept["Fz"].min() > 1000.0  # no stops: the log's Fz near zero is gone
     assert np.isin(kept["t"], trailer["t"]).all()  # samples as logged, not averaged
-    sample = load_folder(ROOT / "measurements" / "sample-225-50R17").trailer
+    sample = load_folder(sample_trailer_folder(tmp_path / "sample")).trailer
     assert sweeps_only(sample, notes) is sample and len(notes) == 1
 
 

@@ -1,8 +1,6 @@
 """Sweep binning before the MF stages (identify.workflows.sweep_bins, ``mfid fit --bin-*``)."""
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 import pandas as pd
 
@@ -11,9 +9,9 @@ from identify.io.folder import load_folder
 from identify.io.trailer.files import read_trailer
 from identify.segment import SegmentSettings
 from identify.workflows.sweep_bins import bin_sweeps, mf_table
+from tests.measurement_cases import sample_trailer_folder
 from tests.ttc_cases import session
 
-SAMPLE = Path(__file__).resolve().parents[2] / "measurements" / "sample-225-50R17"
 RAW = SegmentSettings()  # the segmentation's defaults: not binned
 BINNED = SegmentSettings(bin_alpha_deg=0.25, bin_kappa=0.0025)
 
@@ -103,8 +101,8 @@ def test_logged_runs_are_fitted_on_their_quasi_steady_sweeps(tmp_path):
     assert not np.isin(out["Fz"], table["Fz"]).any()
 
 
-def test_runs_without_a_warmup_are_kept_as_they_are():
-    mset = load_folder(SAMPLE)
+def test_runs_without_a_warmup_are_kept_as_they_are(tmp_path):
+    mset = load_folder(sample_trailer_folder(tmp_path / "sample"))  # the sample's trailer runs
     out, notes = mf_table(mset.trailer, mset.manifest.tyre.nominal_load_N, segment=True,
                           settings=BINNED)
     assert notes == []

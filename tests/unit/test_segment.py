@@ -25,9 +25,17 @@ def sessions(tmp_path_factory):
             for seed in (11, 12)}
 
 
+@pytest.fixture(scope="module")
+def segmentations(sessions):
+    """seed -> (segmented table, loaded table) with the default settings, once per module
+    (segment_trailer leaves its input table as it was: the tests below segment it again with
+    other settings)."""
+    return {seed: segmented(s) for seed, s in sessions.items()}
+
+
 @pytest.mark.parametrize("seed", [11, 12])
-def test_levels_are_the_set_points_and_warmups_are_dropped(sessions, seed):
-    result = check(sessions[seed])
+def test_levels_are_the_set_points_and_warmups_are_dropped(sessions, segmentations, seed):
+    result = check(sessions[seed], segmentations[seed][0])
     seg = result.segmentation
     counts = seg.counts()
     assert counts["sweep"] == 45 + 90 and counts["warmup"] >= 4
@@ -38,8 +46,8 @@ def test_levels_are_the_set_points_and_warmups_are_dropped(sessions, seed):
     assert seg.kept == sum(s.kept for s in seg.segments)
 
 
-def test_segmentation_round_trips_through_json(sessions):
-    result, _ = segmented(sessions[11])
+def test_segmentation_round_trips_through_json(segmentations):
+    result, _ = segmentations[11]
     seg = result.segmentation
     back = Segmentation.from_dict(json.loads(json.dumps(seg.to_dict())))
     assert back.to_dict() == seg.to_dict()
@@ -109,8 +117,8 @@ def test_revolution_average_follows_the_wheel_speed_along_a_slip_sweep():
     assert np.abs(fixed["Fx"]).max() > 5.0
 
 
-def test_binning_gives_one_point_per_bin_and_sweep(sessions):
-    _, table = segmented(sessions[12])
+def test_binning_gives_one_point_per_bin_and_sweep(segmentations):
+    _, table = segmentations[12]
     binned = segment_trailer(table, SegmentSettings(bin_alpha_deg=0.5, bin_kappa=0.005))
     t = binned.table
     count = {f.name: f for f in binned.segmentation.filters}["binning"]
@@ -121,8 +129,8 @@ def test_binning_gives_one_point_per_bin_and_sweep(sessions):
     assert a.groupby("segment").size().between(40, 52).all()  # +-12 deg in 0.5 deg bins
 
 
-def test_binning_per_pass_gives_one_point_per_bin_and_pass(sessions):
-    _, table = segmented(sessions[12])
+def test_binning_per_pass_gives_one_point_per_bin_and_pass(segmentations):
+    _, table = segmentations[12]
     binned = segment_trailer(table, SegmentSettings(bin_alpha_deg=0.5, bin_kappa=0.005,
                                                     bin_passes=True))
     t = binned.table
