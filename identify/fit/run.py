@@ -275,7 +275,7 @@ class FitRun:
     every_sample : Mapping            the written .tir against every loaded trailer sample,
                                       per kind of run, segmentation group and pressure
                                       (identify.fit.every_sample.EverySample.to_dict); empty
-                                      without trailer data
+                                      when the MF stages did not run
     tir_values : Mapping              the written .tir values (not in fit.json: read from the
                                       .tir by :func:`identify.io.fitdir.read_fit_dir`)
     fit_dir : Path or None            the fit directory (fits/<tyre id>), when known

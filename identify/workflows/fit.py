@@ -464,7 +464,7 @@ def _fit_folder(source, settings: FitSettings, progress: Progress | None,
     TA.apply_limits(tir, key_sources, points)
     broken = _broken_validity(tir, points) if fitted_mf else ()
     every = {}
-    if mset.trailer is not None and len(mset.trailer):
+    if fitted_mf:  # the .tir's slip coefficients are the trailer's, not defaults
         _say(progress, "the .tir against every loaded trailer sample")
         every = every_sample(_numeric(tir), mset.trailer, seg_kinds).to_dict()
     run = FitRun(tyre=tyre, provenance=Provenance.now(command=command, seed=settings.seed,

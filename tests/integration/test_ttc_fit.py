@@ -143,6 +143,14 @@ def _check_fit(folder, out, result, before):
     (pdf,) = (out / "reports").glob("*.pdf")
     titles = [o.title for o in PdfReader(pdf).outline]
     assert "data quality: trailer" in titles and "loading warnings" in titles
+    # by default: each pressure level predicted without it, and the .tir judged on every
+    # loaded sample, grouped by kind of run and by what the segmentation made of it
+    assert "pressure prediction" in titles and "every sample" in titles
+    assert len(doc["pressure_holdout"]["levels"]) >= 2
+    every = doc["every_sample"]
+    by = {(g["by"], g["name"]) for g in every["groups"]}
+    assert ("run", "free rolling") in by and ("segmentation", "kept: sweeps") in by
+    assert every["samples"] <= every["loaded"] and "every loaded trailer sample" in result.stdout
     return doc
 
 
