@@ -74,12 +74,18 @@ def every_sample_pages(fd: FitDir) -> list[Page]:
     lines += [f"  - {note}" for note in es.notes] or ["  none"]
     left = [g.name.removeprefix("left out: ") for g in es.groups
             if g.name.startswith("left out: ")]
-    lines += ["", "The stages fit the sweeps the segmentation kept (averaged into bins)"
-              + (f"; the {', '.join(left)} it left out are shown to say how the model meets "
-                 "what it was not fitted to" if left else "") + ". The pure side-slip and Mx "
-              "stages fit the freely rolling runs: the Magic Formula's Mx has no slip-ratio "
-              "term, so an Mx offset on the drive/brake samples is not fitted (a moment zero "
-              "that differs between the runs' files shows the same way)."]
+    segmented = es.group("segmentation", "kept: sweeps") is not None
+    slipping = any(g.by == "run" and g.name != "free rolling" for g in es.groups)
+    how = ("The stages fit the sweeps the segmentation kept (averaged into bins)"
+           + (f"; the {', '.join(left)} it left out are shown to say how the model meets "
+              "what it was not fitted to" if left else "") if segmented else
+           "The stages fit the runs as loaded (dense sweeps averaged into bins)") + "."
+    if slipping:
+        how += (" The pure side-slip and Mx stages fit the freely rolling runs: the Magic "
+                "Formula's Mx has no slip-ratio term, so an Mx offset on the drive/brake "
+                "samples is not fitted (a moment zero that differs between the runs' files "
+                "shows the same way).")
+    lines += ["", how]
     tx = fig.add_axes((0.04, max(0.04, top - used - 0.27), 0.92, 0.24))
     text_block(tx, [w for line in lines for w in (textwrap.wrap(line, 150) or [""])],
                fontsize=7.5, colour=GREY)
