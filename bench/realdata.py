@@ -79,6 +79,9 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+# nearest_level is used here and, as realdata.nearest_level, by bench/pressure_cut.py
+from identify.core.levels import dense_levels, nearest_level  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
 REALDATA = ROOT.parent / "shared" / "realdata"
 RESULTS = ROOT / "bench" / "results"
@@ -147,39 +150,11 @@ def channel_error(measured: np.ndarray, model: np.ndarray, groups: np.ndarray) -
     return ChannelError(rms_pct(measured, model), float(np.mean(per)) if per else math.nan, n)
 
 
-def nearest_level(p: np.ndarray, levels: Sequence[float]) -> np.ndarray:
-    """Index of the level nearest to each pressure ``p`` [Pa] (-1 where p is not finite)."""
-    p = np.asarray(p, float)
-    lv = np.asarray(levels, float)
-    out = np.full(p.shape, -1, dtype=int)
-    ok = np.isfinite(p)
-    if lv.size:
-        out[ok] = np.argmin(np.abs(p[ok, None] - lv[None, :]), axis=1)
-    return out
-
-
 def pressure_levels(p: np.ndarray, gap: float = PRESSURE_GAP, share: float = 0.02,
                     dense: float = 0.005) -> list[float]:
-    """Pressure levels [Pa] of the loaded samples: in a histogram of bins ``gap``/2 wide, each
-    run of bins holding at least ``dense`` of the samples is a level (its median) when it holds
-    at least ``share`` of them. A pressure changed slowly between two levels (a ramp, or the
-    tyre warming) leaves sparse bins between them, which split the levels, where a split at
-    gaps between the sorted values would chain them into one."""
-    x = np.sort(np.asarray(p, float)[np.isfinite(p)])
-    if x.size == 0:
-        return []
-    width = gap / 2
-    edges = x[0] + width * np.arange(int((x[-1] - x[0]) // width) + 2)
-    counts, _ = np.histogram(x, bins=edges)
-    full = np.r_[False, counts >= dense * x.size, False]
-    starts = np.flatnonzero(~full[:-1] & full[1:])  # first dense bin of each run
-    stops = np.flatnonzero(full[:-1] & ~full[1:])  # one past its last
-    levels = []
-    for a, b in zip(starts, stops):
-        sel = x[(x >= edges[a]) & (x <= edges[b])]
-        if sel.size >= share * x.size:
-            levels.append(float(np.median(sel)))
-    return levels
+    """Pressure levels [Pa] of the loaded samples (identify.core.levels.dense_levels, which
+    splits levels a slow ramp joins); fit.json's every-sample record finds them the same way."""
+    return dense_levels(p, gap, share, dense)
 
 
 @dataclass(frozen=True)

@@ -34,9 +34,10 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from identify.core.levels import gap_levels
+from identify.core.levels import dense_levels, nearest_level
 from identify.core.serial import Serial, from_data
 from identify.fit.mf.stage_data import rolling_kappa, run_sweeps
+from identify.fit.solve.metric import thesis_error, thesis_error_by_group
 from identify.model.evaluate import evaluate
 from identify.model.modes import FIT_MODE
 
@@ -52,7 +53,7 @@ PURE_ANGLE = np.deg2rad(1.0)
 """[rad] a sample of a run that is not freely rolling is pure longitudinal slip below this
 |alpha|."""
 PRESSURE_GAP = 5000.0
-"""[Pa] pressures closer than this are one level."""
+"""[Pa] twice the histogram bin the pressure levels are found in (dense_levels)."""
 OFFSET_SHARE = 0.5
 """A group's mean error at least this share of its RMS error is an offset (see the notes)."""
 OFFSET_PCT = 20.0
@@ -151,23 +152,26 @@ def run_kinds(table: pd.DataFrame) -> np.ndarray:
 
 
 def pressure_levels(p: np.ndarray) -> np.ndarray:
-    """Per sample its pressure level [Pa]: the median of its cluster, clusters being runs of
-    sorted pressures without a step over PRESSURE_GAP (NaN stays NaN)."""
-    return gap_levels(p, PRESSURE_GAP, np.median)
+    """Per sample its pressure level [Pa] (NaN where p is not finite or no level is found): the
+    nearest of the levels the session held (identify.core.levels.dense_levels, which a slow
+    pressure ramp between two levels does not join into one)."""
+    levels = np.asarray(dense_levels(p, PRESSURE_GAP), float)
+    idx = nearest_level(p, levels)
+    return np.where(idx >= 0, levels[np.maximum(idx, 0)] if levels.size else np.nan, np.nan)
 
 
 def _error(measured: np.ndarray, model: np.ndarray, level: np.ndarray) -> ChannelError | None:
     ok = np.isfinite(measured) & np.isfinite(model)
     if ok.sum() < MIN_SAMPLES:
         return None
-    m, e, lv = measured[ok], model[ok] - measured[ok], level[ok]
+    m, mod = measured[ok], model[ok]
     rms_m = math.sqrt(float(np.mean(m ** 2)))
     if rms_m == 0.0:
         return None
-    per = [100.0 * math.sqrt(float(np.mean(e[lv == v] ** 2)) / float(np.mean(m[lv == v] ** 2)))
-           for v in np.unique(lv) if np.any(m[lv == v] != 0)]
-    return ChannelError(int(ok.sum()), 100.0 * math.sqrt(float(np.mean(e ** 2))) / rms_m,
-                        float(np.mean(per)) if per else math.nan, float(np.mean(e)), rms_m)
+    groups = np.nan_to_num(level[ok], nan=-1.0)  # no level found: one group
+    per = [v for v in thesis_error_by_group(mod, m, groups).values() if math.isfinite(v)]
+    return ChannelError(int(ok.sum()), thesis_error(mod, m),
+                        float(np.mean(per)) if per else math.nan, float(np.mean(mod - m)), rms_m)
 
 
 def every_sample(params: Mapping[str, float], trailer: pd.DataFrame,
@@ -207,7 +211,8 @@ def every_sample(params: Mapping[str, float], trailer: pd.DataFrame,
     if segment_kind is not None:
         seg = np.asarray(segment_kind, dtype=object)[ok]
         parts += [("segmentation", shown, seg == k) for k, shown in SEGMENT_NAMES.items()]
-    parts += [("pressure", f"{v / 1e5:.2f} bar", level == v) for v in np.unique(level)]
+    parts += [("pressure", f"{v / 1e5:.2f} bar", level == v)
+              for v in np.unique(level[np.isfinite(level)])]
     groups, notes = [], []
     for by, name, rows in parts:
         if rows.sum() < MIN_SAMPLES:

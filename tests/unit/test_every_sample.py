@@ -119,11 +119,19 @@ def test_groups_by_segmentation(truth):
     assert es.group("segmentation", "left out: transitions").channels["Fy"].pooled_pct < 1e-9
 
 
-def test_pressure_levels_cluster_within_the_gap():
-    p = np.array([2.0e5, 2.01e5, 1.99e5, 2.6e5, 2.62e5, np.nan])
+def test_pressure_levels_are_the_held_levels_a_ramp_does_not_join():
+    """A session's pressure held at 2.0 and 2.6 bar, and changed slowly between them (the
+    sorted samples then chain with no step over the gap): two levels, every sample at the
+    nearer one, NaN where the pressure is."""
+    rng = np.random.default_rng(0)
+    held = np.r_[2.0e5 + 300 * rng.standard_normal(500), 2.6e5 + 300 * rng.standard_normal(500)]
+    ramp = np.linspace(2.02e5, 2.58e5, 20)
+    p = np.r_[held, ramp, np.nan]
+    assert np.max(np.diff(np.sort(p[:-1]))) < 5000.0
     lv = pressure_levels(p)
-    assert lv[:3] == pytest.approx([2.0e5] * 3) and lv[3:5] == pytest.approx([2.61e5] * 2)
-    assert math.isnan(lv[5])
+    assert np.unique(lv[:-1]) == pytest.approx([2.0e5, 2.6e5], abs=100)
+    assert np.all(lv[1000:1010] < 2.3e5) and np.all(lv[1010:1020] > 2.3e5)
+    assert math.isnan(lv[-1])
 
 
 def test_kinds_of_run(truth):
